@@ -1,0 +1,1 @@
+"""Coupler: participant protocol, mappings, time windows, acceleration and transports."""

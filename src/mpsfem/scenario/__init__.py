@@ -1,0 +1,1 @@
+"""Scenario files: TOML, validated by one pydantic schema shared by every participant."""

@@ -1,0 +1,1 @@
+"""Structure solver on scikit-fem: Euler-Bernoulli beams, Kirchhoff plates, Newmark-beta."""
