@@ -1,0 +1,336 @@
+"""Neighbour search by a cell-linked list (numba).
+
+The particles are binned into cubic cells of edge ``h >= radius`` (counting sort by cell id; within
+a cell particles keep ascending index), then a two-pass CSR fill runs in parallel over particles:
+pass 1 counts each particle's neighbours, a prefix sum gives ``indptr``, pass 2 writes them. Each
+row is sorted by neighbour index, so the list is a function of (pos, radius) alone (not of the cell
+grid) and identical for any thread count. Self is excluded; a pair is a neighbour when ``|r_ij| <
+radius``.
+
+One list at the largest radius any operator needs is shared by all operators; each operator filters
+by its own kernel radius.
+
+Grid guard: without a ``domain`` the grid spans the particles' bounding box and a particle so far
+away that the grid would exceed ``max_cells`` raises :class:`NeighbourSearchError` naming it. With
+a ``domain=(lo, hi)`` the grid spans that box and particles outside it are clipped into the edge
+cells (still exact: clipping a cell coordinate is monotone and 1-Lipschitz, so neighbours stay in
+adjacent cells), or raise with ``escape="raise"``. Non-finite positions always raise.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit, prange
+
+
+class NeighbourSearchError(RuntimeError):
+    """A particle position that the neighbour search cannot handle (NaN, escaped, grid blow-up)."""
+
+
+@dataclass
+class NeighbourList:
+    """CSR neighbour list: neighbours of i are ``indices[indptr[i]:indptr[i+1]]`` (ascending).
+
+    The arrays are views into the buffers of the :class:`NeighbourSearch` that built them and are
+    overwritten by its next ``build``.
+    """
+
+    indptr: np.ndarray  # int64, (N+1,)
+    indices: np.ndarray  # int32, (nnz,)
+    radius: float
+
+    @property
+    def n(self) -> int:
+        return self.indptr.shape[0] - 1
+
+    @property
+    def nnz(self) -> int:
+        return self.indices.shape[0]
+
+
+@njit(cache=True)
+def _first_nonfinite(pos):
+    n, dim = pos.shape
+    for i in range(n):
+        for d in range(dim):
+            if not np.isfinite(pos[i, d]):
+                return i
+    return -1
+
+
+@njit(cache=True)
+def _bbox(pos, lo, hi):
+    n, dim = pos.shape
+    for d in range(dim):
+        lo[d] = np.inf
+        hi[d] = -np.inf
+    for i in range(n):
+        for d in range(dim):
+            x = pos[i, d]
+            if x < lo[d]:
+                lo[d] = x
+            if x > hi[d]:
+                hi[d] = x
+
+
+@njit(cache=True)
+def _first_outside(pos, lo, hi):
+    n, dim = pos.shape
+    for i in range(n):
+        for d in range(dim):
+            if pos[i, d] < lo[d] or pos[i, d] > hi[d]:
+                return i
+    return -1
+
+
+@njit(cache=True)
+def _bin(pos, lo, h, nc, cell_of, cell_start, order):
+    """Counting sort of particles by cell id (x fastest); stable, so ascending index in a cell.
+
+    On return ``order[cell_start[c]:cell_start[c+1]]`` are the particles of cell c.
+    """
+    n, dim = pos.shape
+    ncell = cell_start.shape[0] - 1
+    cell_start[:] = 0
+    for i in range(n):
+        cid = 0
+        stride = 1
+        for d in range(dim):
+            c = int(np.floor((pos[i, d] - lo[d]) / h))
+            if c < 0:
+                c = 0
+            elif c >= nc[d]:
+                c = nc[d] - 1
+            cid += c * stride
+            stride *= nc[d]
+        cell_of[i] = cid
+        cell_start[cid] += 1
+    for c in range(1, ncell):
+        cell_start[c] += cell_start[c - 1]  # inclusive prefix: end of cell c
+    cell_start[ncell] = n
+    for i in range(n - 1, -1, -1):  # reverse scatter keeps ascending order within a cell
+        c = cell_of[i]
+        cell_start[c] -= 1
+        order[cell_start[c]] = i
+
+
+@njit(cache=True, inline="always")
+def _strip(cid_i, s, nc, dim):
+    """The s-th of the 3**(dim-1) strips of x-adjacent cells around cell cid_i.
+
+    Returns the first and last cell id of the strip (cells are numbered x fastest, so the cells
+    of a strip are consecutive and so are their particles in the sorted order), or (-1, -1) when
+    the strip lies outside the grid.
+    """
+    cx = cid_i % nc[0]
+    rest = cid_i // nc[0]
+    base = 0
+    stride = nc[0]
+    for d in range(1, dim):
+        c = rest % nc[d] + (s % 3) - 1
+        rest //= nc[d]
+        s //= 3
+        if c < 0 or c >= nc[d]:
+            return -1, -1
+        base += c * stride
+        stride *= nc[d]
+    c0 = cx - 1 if cx > 0 else 0
+    c1 = cx + 1 if cx + 1 < nc[0] else nc[0] - 1
+    return base + c0, base + c1
+
+
+@njit(cache=True, parallel=True)
+def _gather_sorted(pos, order, pos_sorted):
+    n, dim = pos.shape
+    for k in prange(n):
+        j = order[k]
+        for d in range(dim):
+            pos_sorted[k, d] = pos[j, d]
+
+
+@njit(cache=True, parallel=True)
+def _count(pos, r2max, nc, cell_of, cell_start, order, pos_sorted, counts):
+    n, dim = pos.shape
+    nstrip = 3 ** (dim - 1)
+    for i in prange(n):
+        cnt = 0
+        for s in range(nstrip):
+            c0, c1 = _strip(cell_of[i], s, nc, dim)
+            if c0 < 0:
+                continue
+            for k in range(cell_start[c0], cell_start[c1 + 1]):
+                r2 = 0.0
+                for d in range(dim):
+                    dx = pos_sorted[k, d] - pos[i, d]
+                    r2 += dx * dx
+                if r2 < r2max:
+                    cnt += 1
+        counts[i] = cnt - 1  # self was counted (r2 = 0)
+
+
+@njit(cache=True)
+def _prefix(counts, indptr):
+    n = counts.shape[0]
+    indptr[0] = 0
+    for i in range(n):
+        indptr[i + 1] = indptr[i] + counts[i]
+
+
+@njit(cache=True, parallel=True)
+def _fill(pos, r2max, nc, cell_of, cell_start, order, pos_sorted, indptr, indices):
+    n, dim = pos.shape
+    nstrip = 3 ** (dim - 1)
+    for i in prange(n):
+        p = indptr[i]
+        for s in range(nstrip):
+            c0, c1 = _strip(cell_of[i], s, nc, dim)
+            if c0 < 0:
+                continue
+            for k in range(cell_start[c0], cell_start[c1 + 1]):
+                r2 = 0.0
+                for d in range(dim):
+                    dx = pos_sorted[k, d] - pos[i, d]
+                    r2 += dx * dx
+                if r2 < r2max:
+                    j = order[k]
+                    if j != i:
+                        indices[p] = j
+                        p += 1
+        # insertion sort of the row (short, mostly sorted rows): the list becomes independent
+        # of the grid
+        a = indptr[i]
+        b = indptr[i + 1]
+        for k in range(a + 1, b):
+            v = indices[k]
+            m = k - 1
+            while m >= a and indices[m] > v:
+                indices[m + 1] = indices[m]
+                m -= 1
+            indices[m + 1] = v
+
+
+class NeighbourSearch:
+    """Reusable cell-linked-list neighbour search; its buffers grow only when needed.
+
+    Parameters
+    ----------
+    dim : 2 or 3.
+    radius : search radius (the largest kernel radius of any operator).
+    domain : optional ``(lo, hi)`` box (each of length ``dim``) the grid spans; see the module
+        docstring.
+    escape : ``"clip"`` (default) or ``"raise"``: what a particle outside ``domain`` does.
+    max_cells : grid size limit without a domain (default ``16 N + 4096``).
+    """
+
+    def __init__(self, dim: int, radius: float, domain=None, escape: str = "clip", max_cells=None):
+        if dim not in (2, 3):
+            raise ValueError(f"dim must be 2 or 3, got {dim!r}")
+        if not radius > 0:
+            raise ValueError(f"radius must be positive, got {radius!r}")
+        if escape not in ("clip", "raise"):
+            raise ValueError(f"escape must be 'clip' or 'raise', got {escape!r}")
+        self.dim = dim
+        self.radius = float(radius)
+        self.escape = escape
+        self.max_cells = max_cells
+        if domain is not None:
+            lo, hi = (np.asarray(a, dtype=np.float64).reshape(dim) for a in domain)
+            if not np.all(hi > lo):
+                raise ValueError(f"domain needs hi > lo, got lo={lo}, hi={hi}")
+            self.domain = (lo.copy(), hi.copy())
+        else:
+            self.domain = None
+        self._n = -1
+        self._cell_of = np.empty(0, np.int64)
+        self._order = np.empty(0, np.int32)
+        self._counts = np.empty(0, np.int64)
+        self._indptr = np.empty(1, np.int64)
+        self._pos_sorted = np.empty((0, dim), np.float64)
+        self._indices = np.empty(0, np.int32)
+        self._cell_start = np.empty(1, np.int64)
+        self._lo = np.empty(dim)
+        self._hi = np.empty(dim)
+
+    def _ensure(self, n):
+        if n != self._n:
+            if self._cell_of.shape[0] < n:
+                self._cell_of = np.empty(n, np.int64)
+                self._order = np.empty(n, np.int32)
+                self._counts = np.empty(n, np.int64)
+                self._indptr = np.empty(n + 1, np.int64)
+                self._pos_sorted = np.empty((n, self.dim), np.float64)
+            self._n = n
+
+    def _grid(self, pos, n):
+        h = self.radius
+        bad = _first_nonfinite(pos)
+        if bad >= 0:
+            raise NeighbourSearchError(
+                f"particle {bad} has a non-finite position {pos[bad].tolist()}"
+            )
+        if self.domain is not None:
+            lo, hi = self.domain
+            if self.escape == "raise":
+                out = _first_outside(pos, lo, hi)
+                if out >= 0:
+                    raise NeighbourSearchError(
+                        f"particle {out} at {pos[out].tolist()} left the domain "
+                        f"[{lo.tolist()}, {hi.tolist()}]"
+                    )
+        else:
+            lo, hi = self._lo, self._hi
+            _bbox(pos, lo, hi)
+        nc = np.maximum(1, np.ceil((hi - lo) / h).astype(np.int64))
+        ncell = int(np.prod(nc.astype(np.float64)))
+        limit = self.max_cells if self.max_cells is not None else 16 * n + 4096
+        if self.domain is None and ncell > limit:
+            ext = hi - lo
+            d = int(np.argmax(ext / h))
+            centre = np.median(pos[:, d])
+            far = int(np.argmax(np.abs(pos[:, d] - centre)))
+            raise NeighbourSearchError(
+                f"neighbour grid of {ncell} cells exceeds {limit}: particle {far} at "
+                f"{pos[far].tolist()} is far from the others (axis {d} spans {lo[d]:.6g} .. "
+                f"{hi[d]:.6g}); pass a domain to clip, or check for an escaped particle"
+            )
+        return lo, nc, ncell
+
+    def build(self, pos: np.ndarray, radius: float | None = None) -> NeighbourList:
+        """Neighbour list of ``pos`` (N, dim) for ``radius`` (default: the search's radius)."""
+        pos = np.ascontiguousarray(pos, dtype=np.float64)
+        if pos.ndim != 2 or pos.shape[1] != self.dim:
+            raise ValueError(f"pos must have shape (N, {self.dim}), got {pos.shape}")
+        r = self.radius if radius is None else float(radius)
+        if r > self.radius:
+            raise ValueError(f"radius {r} exceeds the search's cell size {self.radius}")
+        n = pos.shape[0]
+        self._ensure(n)
+        lo, nc, ncell = self._grid(pos, n)
+        if self._cell_start.shape[0] < ncell + 1:
+            self._cell_start = np.empty(ncell + 1, np.int64)
+        cell_start = self._cell_start[: ncell + 1]
+        cell_of, order, counts = self._cell_of[:n], self._order[:n], self._counts[:n]
+        indptr = self._indptr[: n + 1]
+        pos_sorted = self._pos_sorted[:n]
+        _bin(pos, lo, self.radius, nc, cell_of, cell_start, order)
+        _gather_sorted(pos, order, pos_sorted)
+        r2 = r * r
+        _count(pos, r2, nc, cell_of, cell_start, order, pos_sorted, counts)
+        _prefix(counts, indptr)
+        nnz = int(indptr[n])
+        if self._indices.shape[0] < nnz:
+            self._indices = np.empty(int(nnz * 1.25) + 16, np.int32)
+        indices = self._indices[:nnz]
+        _fill(pos, r2, nc, cell_of, cell_start, order, pos_sorted, indptr, indices)
+        return NeighbourList(indptr=indptr, indices=indices, radius=r)
+
+
+def build_neighbours(pos, radius, domain=None, escape="clip", search=None) -> NeighbourList:
+    """One-shot neighbour list (or reuse ``search``, a :class:`NeighbourSearch`, and its
+    buffers)."""
+    pos = np.asarray(pos, dtype=np.float64)
+    if search is None:
+        search = NeighbourSearch(pos.shape[1], radius, domain=domain, escape=escape)
+    return search.build(pos, radius)

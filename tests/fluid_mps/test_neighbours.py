@@ -1,0 +1,77 @@
+import numpy as np
+import pytest
+from conftest import brute_force_neighbours, square_lattice
+
+from mpsfem.fluid_mps.neighbours import NeighbourSearch, NeighbourSearchError, build_neighbours
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_matches_brute_force_random(dim, rng):
+    n = 400 if dim == 2 else 600
+    pos = rng.uniform(0.0, 10.0, size=(n, dim))
+    radius = 1.7
+    nl = build_neighbours(pos, radius)
+    ref = brute_force_neighbours(pos, radius)
+    assert nl.indptr.shape == (n + 1,)
+    assert nl.indices.dtype == np.int32
+    for i in range(n):
+        got = nl.indices[nl.indptr[i] : nl.indptr[i + 1]]
+        np.testing.assert_array_equal(got, ref[i])  # ascending, self excluded
+
+
+def test_lattice_counts_and_smaller_radius():
+    pos = square_lattice(2, 20, l0=0.1)
+    search = NeighbourSearch(2, 0.401)
+    nl = search.build(pos)
+    counts = np.diff(nl.indptr)
+    assert counts.max() == 48  # |(a, b)| < 4.01 on the integer lattice, self excluded
+    nl2 = search.build(pos, radius=0.21)
+    assert np.diff(nl2.indptr).max() == 12
+    ref = brute_force_neighbours(pos, 0.21)
+    for i in range(len(pos)):
+        np.testing.assert_array_equal(nl2.indices[nl2.indptr[i] : nl2.indptr[i + 1]], ref[i])
+
+
+def test_buffers_reused_and_grow(rng):
+    search = NeighbourSearch(2, 1.0)
+    pos = rng.uniform(0, 5, size=(100, 2))
+    nl = search.build(pos)
+    buf = search._indices
+    nl = search.build(pos + 0.01)
+    assert search._indices is buf
+    big = rng.uniform(0, 5, size=(1000, 2))
+    nl = search.build(big)
+    ref = brute_force_neighbours(big, 1.0)
+    assert nl.nnz == sum(len(r) for r in ref)
+
+
+def test_domain_clipping_is_exact(rng):
+    pos = rng.uniform(0, 4, size=(300, 2))
+    pos[:20] += 7.0  # outside the domain, some close to each other
+    search = NeighbourSearch(2, 1.0, domain=([0, 0], [4, 4]))
+    nl = search.build(pos)
+    ref = brute_force_neighbours(pos, 1.0)
+    for i in range(len(pos)):
+        np.testing.assert_array_equal(nl.indices[nl.indptr[i] : nl.indptr[i + 1]], ref[i])
+
+
+def test_escape_raise_names_particle(rng):
+    pos = rng.uniform(0, 4, size=(50, 2))
+    pos[17] = [9.0, 2.0]
+    search = NeighbourSearch(2, 1.0, domain=([0, 0], [4, 4]), escape="raise")
+    with pytest.raises(NeighbourSearchError, match="particle 17"):
+        search.build(pos)
+
+
+def test_far_particle_without_domain_raises(rng):
+    pos = rng.uniform(0, 4, size=(50, 2))
+    pos[33] = [1e9, 2.0]
+    with pytest.raises(NeighbourSearchError, match="particle 33"):
+        build_neighbours(pos, 0.5)
+
+
+def test_nan_raises(rng):
+    pos = rng.uniform(0, 4, size=(50, 3))
+    pos[5, 2] = np.nan
+    with pytest.raises(NeighbourSearchError, match="particle 5 has a non-finite"):
+        build_neighbours(pos, 0.5)
