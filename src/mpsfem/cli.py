@@ -1,0 +1,157 @@
+"""Command line: ``mpsfem run | structure | modes | validate | docs``.
+
+The ``run`` contract (design brief): ``mpsfem run SCENARIO.toml [--out PATH] [--end-time T]
+[--transport inproc|mpi|zenoh] [--set key=value ...] [--restart CHECKPOINT]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from mpsfem import __version__
+from mpsfem.scenario.base import ScenarioError
+
+
+def _scenario_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("scenario", type=Path, help="scenario TOML file")
+    p.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a scenario value by dotted path; VALUE is a TOML literal "
+        '(--set fluid.spacing=0.004 --set fluid.pressure.solver="pcg_jacobi")',
+    )
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="mpsfem", description="MPS-FEM fluid-structure interaction with particle methods"
+    )
+    parser.add_argument("--version", action="version", version=f"mpsfem {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    run = sub.add_parser("run", help="run a scenario")
+    _scenario_args(run)
+    run.add_argument("--out", type=Path, help="results file (default: <scenario stem>.h5)")
+    run.add_argument(
+        "--end-time", type=float, help="simulated end time, s (overrides run.end_time)"
+    )
+    run.add_argument(
+        "--transport",
+        choices=["inproc", "mpi", "zenoh"],
+        default=None,
+        help="how the participants talk (coupled scenarios)",
+    )
+    run.add_argument(
+        "--participant",
+        choices=["fluid", "structure"],
+        default=None,
+        help="run one participant only (MPMD / zenoh launches)",
+    )
+    run.add_argument("--restart", type=Path, help="resume from this checkpoint file")
+    run.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+    st = sub.add_parser("structure", help="run the structure alone under prescribed loads")
+    _scenario_args(st)
+    st.add_argument("--out", type=Path, help="results file (default: <scenario stem>.h5)")
+    st.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+    modes = sub.add_parser("modes", help="natural frequencies of the structure members")
+    _scenario_args(modes)
+    modes.add_argument("--count", type=int, default=6, help="number of modes")
+
+    val = sub.add_parser("validate", help="check a scenario file and print the resolved values")
+    _scenario_args(val)
+
+    docs = sub.add_parser("docs", help="write docs/scenarios.md from the scenario schema")
+    docs.add_argument("--out", type=Path, default=Path("docs/scenarios.md"))
+    return parser
+
+
+def _set_threads(n: int | None) -> None:
+    if n is None:
+        return
+    import numba
+
+    numba.set_num_threads(min(n, numba.config.NUMBA_NUM_THREADS))
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from mpsfem.scenario.loader import load_scenario
+    from mpsfem.simulation import RunFailed, run_fluid
+
+    loaded = load_scenario(args.scenario, args.overrides)
+    sc = loaded.scenario
+    if args.end_time is not None and not args.end_time > 0:
+        raise ScenarioError([f"--end-time = {args.end_time}: must be > 0"])
+    out = args.out or Path.cwd() / f"{loaded.stem}.h5"
+    _set_threads(sc.run.threads)
+    if getattr(sc, "structure", None) is not None and getattr(sc, "coupling", None) is not None:
+        print("error: coupled runs are not available yet (issue: coupler)", file=sys.stderr)
+        return 2
+    if sc.fluid is None:
+        print(
+            f"error: {args.scenario} has no [fluid] section; use 'mpsfem structure' for a "
+            "structure-only scenario",
+            file=sys.stderr,
+        )
+        return 2
+    try:
+        summary = run_fluid(
+            loaded, out, args.end_time, args.restart, progress=False if args.no_progress else None
+        )
+    except RunFailed as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    print(
+        f"finished t = {summary.t:.6g} s in {summary.steps} steps, {summary.wall_time:.1f} s wall; "
+        f"results {summary.results}, checkpoint {summary.checkpoint}"
+    )
+    return 0
+
+
+def _cmd_validate(args: argparse.Namespace) -> int:
+    from mpsfem.scenario.loader import load_scenario
+
+    loaded = load_scenario(args.scenario, args.overrides)
+    import json
+
+    print(json.dumps(loaded.scenario.model_dump(mode="json"), indent=2))
+    return 0
+
+
+def _cmd_docs(args: argparse.Namespace) -> int:
+    from mpsfem.scenario.docs import write_scenario_docs
+
+    path = write_scenario_docs(args.out)
+    print(f"wrote {path}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        if args.command == "run":
+            return _cmd_run(args)
+        if args.command == "validate":
+            return _cmd_validate(args)
+        if args.command == "docs":
+            return _cmd_docs(args)
+        if args.command in ("structure", "modes"):
+            from mpsfem import structure_cli
+
+            return structure_cli.main(args)
+    except ScenarioError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    parser.error(f"unknown command {args.command}")
+    return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

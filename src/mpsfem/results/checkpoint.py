@@ -1,0 +1,58 @@
+"""Checkpoints: the complete state needed to resume a run bit for bit.
+
+A checkpoint is a small HDF5 file with one dataset per state array and a JSON ``meta`` attribute
+(time, step, next output times, ...). It is written to a temporary name and renamed, so a run
+killed while writing leaves the previous checkpoint intact.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from mpsfem import __version__
+
+FORMAT = 1
+
+
+def default_checkpoint_path(results_path: str | Path) -> Path:
+    """``run.h5`` -> ``run.ckpt.h5`` beside it."""
+    p = Path(results_path)
+    return p.with_name(p.stem + ".ckpt.h5")
+
+
+def write_checkpoint(
+    path: str | Path, arrays: dict[str, dict[str, np.ndarray]], meta: dict, scenario_text: str
+) -> Path:
+    """Write ``arrays`` (participant name -> array name -> array) and ``meta`` atomically."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    with h5py.File(tmp, "w") as h5:
+        h5.attrs["format"] = FORMAT
+        h5.attrs["version"] = __version__
+        h5.attrs["meta"] = json.dumps(meta)
+        h5.attrs["scenario"] = scenario_text
+        for group, items in arrays.items():
+            g = h5.create_group(group)
+            for name, arr in items.items():
+                g.create_dataset(name, data=np.asarray(arr))
+    os.replace(tmp, path)
+    return path
+
+
+def read_checkpoint(path: str | Path) -> tuple[dict[str, dict[str, np.ndarray]], dict, str]:
+    """Read a checkpoint: (arrays, meta, scenario text)."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"checkpoint {str(path)!r} does not exist")
+    with h5py.File(path, "r") as h5:
+        if int(h5.attrs.get("format", -1)) != FORMAT:
+            raise ValueError(f"{path}: not a checkpoint of format {FORMAT}")
+        meta = json.loads(h5.attrs["meta"])
+        text = str(h5.attrs["scenario"])
+        arrays = {g: {k: ds[()] for k, ds in h5[g].items()} for g in h5}
+    return arrays, meta, text

@@ -1,0 +1,236 @@
+"""HDF5 results file of the design-brief contract, written incrementally.
+
+Layout (SI units; in 2D forces are per unit width):
+
+- root attributes: ``scenario`` (TOML text as given), ``overrides`` (the ``--set`` list),
+  ``scenario_resolved`` (JSON of the validated scenario), ``version``, ``wall_time`` (s, updated
+  at every flush), ``status`` ("running", "finished" or "failed: <reason>").
+- ``/probes/<name>/time`` (T,) and ``/probes/<name>/value`` (T, ...); group attributes ``kind``,
+  ``unit``, ``components`` (names of the trailing axis) and ``position`` where the probe has one.
+- ``/particles/<k>`` snapshots (``k`` zero-padded) with ``pos``, ``vel`` (N x dim), ``p``,
+  ``kind`` and attribute ``time``.
+- ``/structure/<name>/time``, ``/structure/<name>/displacement`` (T x nodes x dim) and
+  ``/structure/<name>/nodes``.
+- ``/coupling/{time,iterations,residual}`` per coupling window.
+
+Time series are resizable chunked datasets appended to row by row; :meth:`ResultsFile.flush`
+pushes everything to disk, so a run killed midway leaves a readable file. Only one process
+writes the file (the fluid participant in coupled runs).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from mpsfem import __version__
+
+SNAPSHOT_DIGITS = 6
+
+
+def _append_rows(ds: h5py.Dataset, rows: np.ndarray) -> None:
+    """Append ``rows`` along axis 0 of a resizable dataset."""
+    n = ds.shape[0]
+    ds.resize(n + rows.shape[0], axis=0)
+    ds[n:] = rows
+
+
+def _series(group: h5py.Group, name: str, tail: tuple[int, ...], dtype=np.float64) -> h5py.Dataset:
+    """Create an empty resizable time series with trailing shape ``tail``."""
+    chunk_rows = max(1, min(1024, (1 << 16) // max(1, int(np.prod(tail, dtype=np.int64)) * 8)))
+    return group.create_dataset(
+        name, shape=(0, *tail), maxshape=(None, *tail), chunks=(chunk_rows, *tail), dtype=dtype
+    )
+
+
+class ResultsFile:
+    """Writer of the results-file contract; create with :meth:`create` or :meth:`open_append`."""
+
+    def __init__(self, h5: h5py.File) -> None:
+        self._h5 = h5
+        self._t_start = time.perf_counter()
+        self._wall_offset = float(h5.attrs.get("wall_time", 0.0))
+        self._n_snapshots = len(h5["particles"]) if "particles" in h5 else 0
+
+    # ------------------------------------------------------------------ creation
+    @classmethod
+    def create(
+        cls,
+        path: str | Path,
+        scenario_text: str,
+        overrides: Sequence[str] = (),
+        scenario_resolved: dict | None = None,
+    ) -> ResultsFile:
+        """Create (truncate) ``path`` and write the root attributes."""
+        h5 = h5py.File(path, "w", libver="latest")
+        h5.attrs["scenario"] = scenario_text
+        h5.attrs["overrides"] = json.dumps(list(overrides))
+        h5.attrs["scenario_resolved"] = json.dumps(scenario_resolved or {})
+        h5.attrs["version"] = __version__
+        h5.attrs["wall_time"] = 0.0
+        h5.attrs["status"] = "running"
+        for g in ("probes", "particles", "structure"):
+            h5.require_group(g)
+        out = cls(h5)
+        out.flush()
+        return out
+
+    @classmethod
+    def open_append(cls, path: str | Path, truncate_after: float | None = None) -> ResultsFile:
+        """Reopen an existing file to continue a run (restart).
+
+        Rows and snapshots with time > ``truncate_after`` are removed first, so a restarted run
+        continues the series exactly where its checkpoint was taken.
+        """
+        h5 = h5py.File(path, "a", libver="latest")
+        h5.attrs["status"] = "running"
+        out = cls(h5)
+        if truncate_after is not None:
+            out._truncate_after(truncate_after)
+        return out
+
+    def _truncate_after(self, t: float) -> None:
+        for top in ("probes", "structure"):
+            for g in self._h5[top].values():
+                if "time" not in g:
+                    continue
+                keep = int(np.searchsorted(g["time"][:], t, side="right"))
+                for ds in g.values():
+                    if ds.name.endswith("/nodes"):
+                        continue
+                    ds.resize(keep, axis=0)
+        if "coupling" in self._h5:
+            g = self._h5["coupling"]
+            keep = int(np.searchsorted(g["time"][:], t, side="right"))
+            for ds in g.values():
+                ds.resize(keep, axis=0)
+        for key in list(self._h5["particles"].keys()):
+            if self._h5["particles"][key].attrs["time"] > t:
+                del self._h5["particles"][key]
+        self._n_snapshots = len(self._h5["particles"])
+
+    # ------------------------------------------------------------------ probes
+    def add_probe(
+        self,
+        name: str,
+        kind: str,
+        unit: str,
+        components: Sequence[str] = (),
+        position: Sequence[float] | None = None,
+        attrs: dict | None = None,
+    ) -> None:
+        """Declare probe ``name`` (idempotent for restarts: an existing probe is kept)."""
+        probes = self._h5["probes"]
+        if name in probes:
+            return
+        g = probes.create_group(name)
+        g.attrs["kind"] = kind
+        g.attrs["unit"] = unit
+        g.attrs["components"] = list(components) if components else ["value"]
+        if position is not None:
+            g.attrs["position"] = np.asarray(position, dtype=np.float64)
+        for key, val in (attrs or {}).items():
+            g.attrs[key] = val
+        _series(g, "time", ())
+        _series(g, "value", (len(components),) if components else ())
+
+    def append_probe(self, name: str, t: float, value: float | np.ndarray) -> None:
+        """Append one sample of probe ``name`` at time ``t`` (s)."""
+        g = self._h5["probes"][name]
+        _append_rows(g["time"], np.array([t], dtype=np.float64))
+        _append_rows(
+            g["value"], np.asarray(value, dtype=np.float64).reshape(1, *g["value"].shape[1:])
+        )
+
+    # ------------------------------------------------------------------ particles
+    def write_snapshot(
+        self, t: float, pos: np.ndarray, vel: np.ndarray, p: np.ndarray, kind: np.ndarray
+    ) -> str:
+        """Write particle snapshot ``/particles/<k>``; returns its key."""
+        key = f"{self._n_snapshots:0{SNAPSHOT_DIGITS}d}"
+        g = self._h5["particles"].create_group(key)
+        g.attrs["time"] = float(t)
+        g.create_dataset("pos", data=pos)
+        g.create_dataset("vel", data=vel)
+        g.create_dataset("p", data=p)
+        g.create_dataset("kind", data=kind)
+        self._n_snapshots += 1
+        return key
+
+    @property
+    def n_snapshots(self) -> int:
+        return self._n_snapshots
+
+    # ------------------------------------------------------------------ structure
+    def add_structure(self, name: str, nodes: np.ndarray) -> None:
+        """Declare structure member ``name`` with reference node coordinates (n x dim, m)."""
+        s = self._h5["structure"]
+        if name in s:
+            return
+        g = s.create_group(name)
+        nodes = np.asarray(nodes, dtype=np.float64)
+        g.create_dataset("nodes", data=nodes)
+        _series(g, "time", ())
+        _series(g, "displacement", nodes.shape)
+
+    def append_structure(self, name: str, t: float, displacement: np.ndarray) -> None:
+        """Append the translational nodal displacement (nodes x dim, m) of member ``name``."""
+        g = self._h5["structure"][name]
+        _append_rows(g["time"], np.array([t], dtype=np.float64))
+        _append_rows(g["displacement"], np.asarray(displacement, dtype=np.float64)[None])
+
+    # ------------------------------------------------------------------ coupling
+    def append_coupling(self, t: float, iterations: int, residual: float, **extra: float) -> None:
+        """Append one coupling window record (plus optional named scalars, e.g. energies)."""
+        if "coupling" not in self._h5:
+            g = self._h5.create_group("coupling")
+            _series(g, "time", ())
+            _series(g, "iterations", (), dtype=np.int32)
+            _series(g, "residual", ())
+        g = self._h5["coupling"]
+        _append_rows(g["time"], np.array([t], dtype=np.float64))
+        _append_rows(g["iterations"], np.array([iterations], dtype=np.int32))
+        _append_rows(g["residual"], np.array([residual], dtype=np.float64))
+        for key, val in extra.items():
+            if key not in g:
+                ds = _series(g, key, ())
+                if g["time"].shape[0] > 1:  # a late key: pad earlier windows with NaN
+                    _append_rows(ds, np.full(g["time"].shape[0] - 1, np.nan))
+            _append_rows(g[key], np.array([val], dtype=np.float64))
+
+    # ------------------------------------------------------------------ lifecycle
+    @property
+    def h5(self) -> h5py.File:
+        """The underlying h5py file (for readers and extensions)."""
+        return self._h5
+
+    @property
+    def path(self) -> Path:
+        return Path(self._h5.filename)
+
+    def set_status(self, status: str) -> None:
+        self._h5.attrs["status"] = status
+
+    def flush(self) -> None:
+        """Update the wall time and push all buffers to disk."""
+        self._h5.attrs["wall_time"] = self._wall_offset + time.perf_counter() - self._t_start
+        self._h5.flush()
+
+    def close(self, status: str | None = None) -> None:
+        if not self._h5.id.valid:
+            return
+        if status is not None:
+            self.set_status(status)
+        self.flush()
+        self._h5.close()
+
+    def __enter__(self) -> ResultsFile:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        self.close("finished" if exc is None else f"failed: {exc}")

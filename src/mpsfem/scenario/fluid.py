@@ -1,0 +1,233 @@
+"""Schema of the ``[fluid]`` section: the MPS fluid participant."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import Field, model_validator
+
+from mpsfem.scenario.base import Section
+
+Vector = list[float]
+
+
+class KernelSection(Section):
+    """Kernel function and radii (in units of the particle spacing l0)."""
+
+    weight: Literal["improved", "original"] = Field(
+        "improved",
+        description="weight function: 'improved' w = re/(0.85 r + 0.15 re) - 1 (thesis eq. 2-2) "
+        "or 'original' w = re/r - 1 (Koshizuka & Oka 1996)",
+    )
+    re_density: float = Field(
+        2.1, gt=1.0, le=6.0, description="radius of particle number density, x l0"
+    )
+    re_gradient: float = Field(2.1, gt=1.0, le=6.0, description="radius of the gradient, x l0")
+    re_laplacian: float = Field(
+        4.01, gt=1.0, le=6.0, description="radius of the viscous Laplacian, x l0"
+    )
+    re_pressure: float = Field(
+        4.01,
+        gt=1.0,
+        le=6.0,
+        description="radius of the pressure Poisson equation's Laplacian, x l0",
+    )
+
+
+class PressureSection(Section):
+    """Pressure Poisson equation and its solver."""
+
+    solver: Literal["pcg_amg", "pcg_jacobi", "direct"] = Field(
+        "pcg_amg",
+        description="linear solver: CG preconditioned by pyamg smoothed aggregation (reused "
+        "across steps), CG with a diagonal preconditioner, or a sparse direct solve",
+    )
+    gradient: Literal["tanaka", "pmin"] = Field(
+        "tanaka",
+        description="pressure gradient: Tanaka's momentum-conserving form or the classic "
+        "p_j - p_min form",
+    )
+    gamma: float = Field(
+        0.01,
+        ge=0.0,
+        le=1.0,
+        description="weight of the number-density term in the mixed source term (thesis eq. 2-23); "
+        "0 = divergence only, 1 = number density only",
+    )
+    tol: float = Field(1e-6, gt=0.0, lt=1.0, description="relative residual ||r|| <= tol ||b||")
+    max_iter: int = Field(2000, ge=1, description="CG iteration limit; exceeded = run stops")
+    clamp_negative: bool = Field(True, description="set negative pressures to zero (stability aid)")
+    amg_rebuild_factor: float = Field(
+        1.5,
+        gt=1.0,
+        description="rebuild the AMG hierarchy when CG needs this factor more iterations than "
+        "right after the last rebuild",
+    )
+    compressibility: float = Field(
+        0.0,
+        ge=0.0,
+        description="artificial compressibility (1/Pa) added to the PPE diagonal; 0 = off",
+    )
+
+
+class SurfaceSection(Section):
+    """Free-surface detection."""
+
+    detector: Literal["density_asymmetry", "density"] = Field(
+        "density_asymmetry",
+        description="'density': n < beta n0; 'density_asymmetry': the number-density threshold "
+        "plus the neighbour-asymmetry test (thesis eqs. 2-18 to 2-20)",
+    )
+    beta: float = Field(0.97, gt=0.0, lt=1.0, description="number-density threshold n < beta n0")
+    asymmetry: float = Field(
+        0.2,
+        gt=0.0,
+        lt=1.0,
+        description="neighbour-asymmetry threshold |<r_ij/|r_ij| w>| / (n0-normalised) > value, "
+        "thesis eq. 2-20",
+    )
+
+
+class TimeStepSection(Section):
+    """Adaptive time step of the fluid."""
+
+    courant: float = Field(0.2, gt=0.0, le=1.0, description="Courant number u_max dt / l0")
+    viscous_number: float = Field(
+        0.2, gt=0.0, le=0.5, description="viscous limit nu dt / l0^2 <= value"
+    )
+    dt_max: float = Field(1e-3, gt=0.0, description="largest time step, s")
+    dt_min: float = Field(
+        1e-8, gt=0.0, description="smallest allowed time step, s; needing less stops the run"
+    )
+    dt_initial: float | None = Field(
+        None, gt=0.0, description="first time step, s (default: dt_max)"
+    )
+
+
+class CollisionSection(Section):
+    """Particle collision (anti-penetration) model."""
+
+    enabled: bool = Field(True, description="switch the collision model on")
+    distance: float = Field(
+        0.5, gt=0.0, lt=1.0, description="pairs closer than distance x l0 collide"
+    )
+    restitution: float = Field(0.2, ge=0.0, le=1.0, description="restitution coefficient")
+
+
+class FluidBlock(Section):
+    """A region filled with fluid particles on the square lattice of spacing l0."""
+
+    shape: Literal["box"] = Field("box", description="geometry primitive")
+    lower: Vector = Field(description="lower corner, m")
+    upper: Vector = Field(description="upper corner, m")
+    velocity: Vector | None = Field(None, description="initial velocity, m/s (default 0)")
+
+    @model_validator(mode="after")
+    def _check(self) -> FluidBlock:
+        if len(self.lower) != len(self.upper):
+            raise ValueError(f"lower {self.lower} and upper {self.upper} differ in length")
+        if any(u <= lo for lo, u in zip(self.lower, self.upper, strict=True)):
+            raise ValueError(f"upper {self.upper} must exceed lower {self.lower} in every axis")
+        return self
+
+
+class WallMotion(Section):
+    """Prescribed rigid motion of a wall (displacement added to its initial position)."""
+
+    kind: Literal["none", "harmonic", "table"] = Field(
+        "none",
+        description="'none'; 'harmonic': x(t) = amplitude sin(2 pi t / period + phase) along "
+        "direction; 'table': displacement along direction from a CSV (t, x), linear interpolation",
+    )
+    direction: Vector = Field([1.0, 0.0], description="unit direction of the motion")
+    amplitude: float = Field(0.0, description="harmonic amplitude, m")
+    period: float = Field(1.0, gt=0.0, description="harmonic period, s")
+    phase: float = Field(0.0, description="harmonic phase, rad")
+    file: str | None = Field(None, description="CSV file of (time s, displacement m) rows")
+
+
+class Wall(Section):
+    """Rigid wall particles: one pressure layer plus dummy layers that fill the kernel."""
+
+    shape: Literal["tank", "box"] = Field(
+        description="'tank': walls on the floor and both sides (and the ends in 3D) of the "
+        "box lower..upper, fluid inside, top open; 'box': a solid obstacle, fluid outside"
+    )
+    lower: Vector = Field(description="lower corner of the fluid-side face box, m")
+    upper: Vector = Field(description="upper corner of the fluid-side face box, m")
+    name: str | None = Field(None, description="patch name, for force probes")
+    motion: WallMotion = Field(default_factory=WallMotion, description="prescribed motion")
+
+    @model_validator(mode="after")
+    def _check(self) -> Wall:
+        if len(self.lower) != len(self.upper):
+            raise ValueError(f"lower {self.lower} and upper {self.upper} differ in length")
+        if any(u <= lo for lo, u in zip(self.lower, self.upper, strict=True)):
+            raise ValueError(f"upper {self.upper} must exceed lower {self.lower} in every axis")
+        return self
+
+
+class FluidSection(Section):
+    """The MPS fluid: material, numerics and initial geometry."""
+
+    dim: Literal[2, 3] = Field(2, description="space dimension")
+    spacing: Annotated[float, Field(gt=0.0)] = Field(description="initial particle spacing l0, m")
+    density: float = Field(1000.0, gt=0.0, description="density rho, kg/m^3")
+    viscosity: float = Field(1e-6, ge=0.0, description="kinematic viscosity nu, m^2/s (0 = off)")
+    gravity: Vector = Field([0.0, -9.81], description="gravitational acceleration, m/s^2")
+    hydrostatic_start: bool = Field(True, description="start still water from hydrostatic pressure")
+    dummy_layers: int | None = Field(
+        None,
+        ge=1,
+        le=8,
+        description="dummy wall layers behind the pressure layer (default: enough to fill the "
+        "largest kernel radius)",
+    )
+    domain_lower: Vector | None = Field(
+        None,
+        description="lower corner of the domain, m; a fluid particle leaving it stops the run "
+        "(default: the walls' bounding box grown by 10 l0 sideways and 1 m upwards)",
+    )
+    domain_upper: Vector | None = Field(None, description="upper corner of the domain, m")
+    kernel: KernelSection = Field(default_factory=KernelSection, description="kernel")
+    pressure: PressureSection = Field(default_factory=PressureSection, description="pressure")
+    surface: SurfaceSection = Field(default_factory=SurfaceSection, description="free surface")
+    time_step: TimeStepSection = Field(default_factory=TimeStepSection, description="time step")
+    collision: CollisionSection = Field(default_factory=CollisionSection, description="collision")
+    blocks: list[FluidBlock] = Field(min_length=1, description="fluid regions")
+    walls: list[Wall] = Field(default_factory=list, description="rigid walls and obstacles")
+
+    @model_validator(mode="after")
+    def _check(self) -> FluidSection:
+        d = self.dim
+        if len(self.gravity) != d:
+            raise ValueError(f"gravity {self.gravity} must have {d} components (dim = {d})")
+        for i, b in enumerate(self.blocks):
+            if len(b.lower) != d:
+                raise ValueError(f"blocks[{i}].lower {b.lower} must have {d} components")
+            if any(u - lo < self.spacing for lo, u in zip(b.lower, b.upper, strict=True)):
+                raise ValueError(f"blocks[{i}] is thinner than one spacing {self.spacing}")
+        for i, w in enumerate(self.walls):
+            if len(w.lower) != d:
+                raise ValueError(f"walls[{i}].lower {w.lower} must have {d} components")
+            if len(w.motion.direction) != d:
+                raise ValueError(f"walls[{i}].motion.direction must have {d} components")
+            if w.motion.kind == "table" and not w.motion.file:
+                raise ValueError(f"walls[{i}].motion.kind = 'table' needs motion.file")
+        tanks = [w for w in self.walls if w.shape == "tank"]
+        eps = 1e-9
+        for i, b in enumerate(self.blocks):
+            for t in tanks:
+                inside = (
+                    all(
+                        t.lower[k] - eps <= b.lower[k] and b.upper[k] <= t.upper[k] + eps
+                        for k in range(d - 1)
+                    )
+                    and b.lower[d - 1] >= t.lower[d - 1] - eps
+                )
+                if not inside:
+                    raise ValueError(
+                        f"blocks[{i}] ({b.lower} .. {b.upper}) lies outside the tank "
+                        f"({t.lower} .. {t.upper})"
+                    )
+        return self

@@ -1,0 +1,194 @@
+"""Read a scenario TOML file, apply ``--set key=value`` overrides and validate it.
+
+Every problem is reported before any compute starts, as ``<dotted key> = <value given>: <what is
+allowed>``; unknown keys list the keys that are allowed at that place.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, get_args, get_origin
+
+from pydantic import BaseModel, ValidationError
+
+from mpsfem.scenario.base import ScenarioError
+from mpsfem.scenario.schema import Scenario
+
+
+@dataclass
+class LoadedScenario:
+    """A validated scenario together with its provenance."""
+
+    scenario: Scenario
+    text: str
+    overrides: list[str] = field(default_factory=list)
+    path: Path | None = None
+
+    @property
+    def stem(self) -> str:
+        return self.path.stem if self.path else "scenario"
+
+    def resolve(self, relative: str) -> Path:
+        """Path of a file named in the scenario, relative to the scenario file's folder."""
+        p = Path(relative)
+        if p.is_absolute() or self.path is None:
+            return p
+        return self.path.parent / p
+
+
+def _split_key(key: str) -> list[str | int]:
+    parts: list[str | int] = []
+    for raw in key.split("."):
+        if raw == "":
+            raise ValueError("empty path segment")
+        parts.append(int(raw) if raw.isdigit() else raw)
+    return parts
+
+
+def parse_override(item: str) -> tuple[str, Any]:
+    """Parse ``key=value`` where value is a TOML literal (``0.004``, ``"implicit"``, ``[0, 1]``)."""
+    if "=" not in item:
+        raise ScenarioError([f"--set {item!r}: expected key=value with a TOML literal value"])
+    key, _, raw = item.partition("=")
+    key = key.strip()
+    try:
+        _split_key(key)
+    except ValueError:
+        raise ScenarioError([f"--set {item!r}: key {key!r} is not a dotted path"]) from None
+    try:
+        value = tomllib.loads(f"v = {raw.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        raise ScenarioError(
+            [
+                f"--set {key} = {raw!r}: not a TOML literal (strings need quotes, e.g. "
+                f'{key}="name"; numbers as 0.004; lists as [0.0, 1.0])'
+            ]
+        ) from None
+    return key, value
+
+
+def apply_override(data: dict, key: str, value: Any) -> None:
+    """Set ``value`` at dotted ``key`` (list items by index: ``probes.0.position``)."""
+    parts = _split_key(key)
+    node: Any = data
+    for depth, part in enumerate(parts[:-1]):
+        where = ".".join(str(p) for p in parts[:depth]) or "(top level)"
+        if isinstance(part, int):
+            if not isinstance(node, list) or part >= len(node):
+                n = len(node) if isinstance(node, list) else 0
+                raise ScenarioError([f"--set {key}: {where} has no item {part} (it has {n})"])
+            node = node[part]
+        else:
+            if not isinstance(node, dict):
+                raise ScenarioError([f"--set {key}: {where} is not a table"])
+            node = node.setdefault(part, {})
+    last = parts[-1]
+    if isinstance(last, int):
+        if not isinstance(node, list) or last >= len(node):
+            raise ScenarioError([f"--set {key}: no list item {last} there"])
+        node[last] = value
+    else:
+        if not isinstance(node, dict):
+            raise ScenarioError([f"--set {key}: the parent of {last!r} is not a table"])
+        node[last] = value
+
+
+def _model_at(loc: Sequence[str | int]) -> type[BaseModel] | None:
+    """The model class whose field set applies at ``loc`` (for 'allowed keys' hints)."""
+    model: Any = Scenario
+    for part in loc:
+        if isinstance(part, int) or model is None:
+            continue
+        if not (isinstance(model, type) and issubclass(model, BaseModel)):
+            return None
+        f = model.model_fields.get(part)
+        if f is None:
+            # discriminated-union tags appear in loc (e.g. 'pressure'); keep the current model
+            continue
+        model = _unwrap(f.annotation)
+    return model if isinstance(model, type) and issubclass(model, BaseModel) else None
+
+
+def _unwrap(ann: Any) -> Any:
+    origin = get_origin(ann)
+    if origin is None:
+        return ann
+    for arg in get_args(ann):
+        inner = _unwrap(arg)
+        if isinstance(inner, type) and issubclass(inner, BaseModel):
+            return inner
+    return None
+
+
+def _dotted(loc: Sequence[str | int]) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out or "(top level)"
+
+
+_TAGS = {"pressure", "wave_gauge", "front", "force", "displacement", "energy"}
+
+
+def format_validation_error(err: ValidationError) -> list[str]:
+    """One line per problem: dotted key, value given, what is allowed."""
+    lines = []
+    for e in err.errors(include_url=False):
+        loc = [
+            p
+            for p in e["loc"]
+            if not (isinstance(p, str) and p in _TAGS and e["loc"][0] == "probes")
+        ]
+        key = _dotted(loc)
+        msg = e["msg"]
+        if e["type"] == "extra_forbidden":
+            parent = _model_at(loc[:-1])
+            allowed = sorted(parent.model_fields) if parent else []
+            lines.append(f"{key}: unknown key; allowed here: {', '.join(allowed)}")
+            continue
+        if e["type"] == "missing":
+            lines.append(f"{key}: required key is missing")
+            continue
+        given = e.get("input")
+        msg = msg.removeprefix("Value error, ")
+        lines.append(f"{key} = {given!r}: {msg}")
+    return lines
+
+
+def validate(data: dict, source: str | None = None) -> Scenario:
+    """Validate a scenario dictionary, raising :class:`ScenarioError` with all problems."""
+    try:
+        return Scenario.model_validate(data)
+    except ValidationError as err:
+        raise ScenarioError(format_validation_error(err), source) from None
+
+
+def load_scenario(path: str | Path, overrides: Sequence[str] = ()) -> LoadedScenario:
+    """Read, override and validate the scenario at ``path``."""
+    path = Path(path)
+    if not path.is_file():
+        raise ScenarioError([f"scenario file {str(path)!r} does not exist"])
+    text = path.read_text(encoding="utf-8")
+    return load_scenario_text(text, overrides, path)
+
+
+def load_scenario_text(
+    text: str, overrides: Sequence[str] = (), path: Path | None = None
+) -> LoadedScenario:
+    """Validate scenario TOML ``text`` with ``overrides`` applied."""
+    src = str(path) if path else None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError([f"not valid TOML: {exc}"], src) from None
+    for item in overrides:
+        key, value = parse_override(item)
+        apply_override(data, key, value)
+    scenario = validate(data, src)
+    return LoadedScenario(scenario=scenario, text=text, overrides=list(overrides), path=path)

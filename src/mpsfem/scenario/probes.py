@@ -1,0 +1,87 @@
+"""Schema of ``[[probes]]``: what a run measures and records in ``/probes/<name>``.
+
+The exact definition of each kind (radius, connectivity, offsets) is in docs/probes.md and in the
+docstrings of ``mpsfem.fluid_mps.probes``.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import Field
+
+from mpsfem.scenario.base import Section
+
+Vector = list[float]
+
+
+class _Probe(Section):
+    name: str = Field(
+        min_length=1, pattern=r"^[A-Za-z0-9_.-]+$", description="probe name (HDF5 group)"
+    )
+    interval: float | None = Field(
+        None, ge=0.0, description="sampling interval, s (default: output.probe_interval)"
+    )
+
+
+class PressureProbe(_Probe):
+    """Pressure at a point: mean over fluid and pressure-wall particles within a radius."""
+
+    kind: Literal["pressure"]
+    position: Vector = Field(description="gauge point, m")
+    radius: float | None = Field(None, gt=0.0, description="averaging radius, m (default 1.0 l0)")
+
+
+class WaveGaugeProbe(_Probe):
+    """Free-surface elevation above ``reference_level`` at horizontal position ``position``."""
+
+    kind: Literal["wave_gauge"]
+    position: Vector = Field(description="x (2D) or (x, y) (3D) of the gauge, m")
+    reference_level: float = Field(0.0, description="elevation is measured from this height, m")
+    half_width: float | None = Field(
+        None, gt=0.0, description="horizontal search half-width, m (default 0.5 l0)"
+    )
+
+
+class FrontProbe(_Probe):
+    """Largest coordinate along ``axis`` of fluid connected to the bulk (surge front)."""
+
+    kind: Literal["front"]
+    axis: int = Field(0, ge=0, le=2, description="coordinate axis of the front")
+    link_distance: float = Field(
+        1.5, gt=1.0, le=4.0, description="particles closer than this x l0 are connected"
+    )
+    min_cluster_fraction: float = Field(
+        0.5,
+        gt=0.0,
+        le=1.0,
+        description="only clusters holding at least this fraction of the largest one count",
+    )
+
+
+class ForceProbe(_Probe):
+    """Total pressure force of the fluid on a named wall patch or structure, N (N/m in 2D)."""
+
+    kind: Literal["force"]
+    target: str = Field(description="name of a wall (fluid.walls[].name) or structure member")
+
+
+class DisplacementProbe(_Probe):
+    """Displacement of the structure point nearest ``position``, m."""
+
+    kind: Literal["displacement"]
+    target: str = Field(description="structure member name")
+    position: Vector = Field(description="reference position on the member, m")
+
+
+class EnergyProbe(_Probe):
+    """Energies of a participant, J (J/m in 2D): fluid kinetic and potential, or structure."""
+
+    kind: Literal["energy"]
+    target: str = Field("fluid", description="'fluid' or a structure member name")
+
+
+Probe = Annotated[
+    PressureProbe | WaveGaugeProbe | FrontProbe | ForceProbe | DisplacementProbe | EnergyProbe,
+    Field(discriminator="kind"),
+]

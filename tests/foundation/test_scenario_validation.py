@@ -1,0 +1,115 @@
+"""Scenario validation: every problem names the dotted key, the value given and what is allowed."""
+
+from pathlib import Path
+
+import pytest
+
+from mpsfem.scenario.base import ScenarioError
+from mpsfem.scenario.loader import load_scenario, load_scenario_text
+
+SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
+
+BASE = """
+[run]
+end_time = 1.0
+[fluid]
+spacing = 0.01
+[[fluid.blocks]]
+lower = [0.0, 0.0]
+upper = [0.2, 0.4]
+[[fluid.walls]]
+name = "tank"
+shape = "tank"
+lower = [0.0, 0.0]
+upper = [0.5, 1.0]
+[[probes]]
+name = "g"
+kind = "pressure"
+position = [0.1, 0.05]
+"""
+
+
+def problems(text: str, overrides=()) -> list[str]:
+    with pytest.raises(ScenarioError) as info:
+        load_scenario_text(text, overrides)
+    return info.value.problems
+
+
+@pytest.mark.parametrize("path", sorted(SCENARIOS.glob("*.toml")), ids=lambda p: p.name)
+def test_shipped_scenarios_validate(path):
+    load_scenario(path)
+
+
+def test_base_is_valid():
+    sc = load_scenario_text(BASE).scenario
+    assert sc.fluid.spacing == 0.01
+    assert sc.fluid.pressure.gamma == 0.01  # default within 0.01-0.05
+
+
+def test_negative_spacing_names_key_value_and_rule():
+    (msg,) = problems(BASE, ["fluid.spacing=-0.1"])
+    assert msg.startswith("fluid.spacing = -0.1")
+    assert "greater than 0" in msg
+
+
+def test_gamma_out_of_range():
+    (msg,) = problems(BASE, ["fluid.pressure.gamma=1.5"])
+    assert "fluid.pressure.gamma = 1.5" in msg and "less than or equal to 1" in msg
+
+
+def test_unknown_key_lists_allowed_keys():
+    (msg,) = problems(BASE.replace("spacing = 0.01", "spacing = 0.01\nspaceing = 2"))
+    assert msg.startswith("fluid.spaceing: unknown key")
+    assert "spacing" in msg.split("allowed here:")[1]
+
+
+def test_wrong_type():
+    (msg,) = problems(BASE, ['fluid.spacing="small"'])
+    assert "fluid.spacing = 'small'" in msg and "number" in msg
+
+
+def test_bad_choice_lists_allowed_names():
+    (msg,) = problems(BASE, ['fluid.pressure.solver="amg"'])
+    assert "fluid.pressure.solver = 'amg'" in msg and "'pcg_amg'" in msg
+
+
+def test_fluid_outside_tank():
+    (msg,) = problems(BASE, ["fluid.blocks.0.upper=[0.7, 0.4]"])
+    assert "blocks[0]" in msg and "outside the tank" in msg
+
+
+def test_set_needs_toml_literal():
+    (msg,) = problems(BASE, ["fluid.pressure.solver=amg"])
+    assert "not a TOML literal" in msg and "fluid.pressure.solver" in msg
+
+
+def test_set_bad_index():
+    (msg,) = problems(BASE, ["probes.3.radius=0.1"])
+    assert "probes has no item 3" in msg
+
+
+def test_set_applies_and_validates_lists():
+    sc = load_scenario_text(BASE, ["probes.0.position=[0.15, 0.1]", "run.end_time=2"]).scenario
+    assert sc.probes[0].position == [0.15, 0.1]
+    assert sc.run.end_time == 2.0
+
+
+def test_probe_dimension_checked():
+    (msg,) = problems(BASE, ["probes.0.position=[0.1]"])
+    assert "probes[0].position" in msg and "2 components" in msg
+
+
+def test_probe_error_path_has_no_union_tag():
+    (msg,) = problems(BASE, ["probes.0.radius=-1.0"])
+    assert msg.startswith("probes[0].radius = -1.0")
+
+
+def test_all_problems_reported_at_once():
+    msgs = problems(BASE, ["fluid.spacing=-1", "fluid.density=0", "run.end_time=0"])
+    keys = sorted(m.split(" ")[0] for m in msgs)
+    assert keys == ["fluid.density", "fluid.spacing", "run.end_time"]
+
+
+def test_missing_required_key():
+    (msg,) = problems(BASE.replace("end_time = 1.0", ""))
+    assert msg == "run.end_time: required key is missing"
