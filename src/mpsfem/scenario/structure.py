@@ -1,0 +1,597 @@
+"""Schema of the ``[structure]`` section of a scenario file.
+
+The structure is a set of independent elastic members: Euler-Bernoulli beams in 2D scenes
+(``type = "beam"``, per unit width unless ``width`` says otherwise) and Kirchhoff plates in 3D scenes
+(``type = "plate"``). Every physical and numerical parameter is written in the file; geometry is in
+scene coordinates (metres), loads in SI units. See docs/structure.md for the model and its conventions.
+
+Sign conventions used throughout:
+
+* A beam runs from ``start`` to ``end``; its tangent is ``t = (end - start) / L`` and its normal
+  ``n = (-t_y, t_x)`` (the tangent turned 90 degrees anticlockwise). Transverse deflection, pressure
+  and rotation are positive along ``n`` / anticlockwise.
+* A plate lies in the plane through ``origin`` spanned by ``axis_u`` and ``axis_v``; its normal is
+  ``n = axis_u x axis_v``. Deflection and pressure are positive along ``n``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Literal
+
+from pydantic import Field, field_validator, model_validator
+
+from .base import Section
+
+__all__ = [
+    "BoundaryName",
+    "Material",
+    "StepFunction",
+    "RampFunction",
+    "HarmonicFunction",
+    "TableFunction",
+    "TimeFunction",
+    "PressureLoad",
+    "PointForceLoad",
+    "Load",
+    "BeamMember",
+    "PlateMember",
+    "Member",
+    "StructureTime",
+    "StructureSection",
+]
+
+BoundaryName = Literal["clamped", "simply_supported", "free"]
+"""Support of a beam end or a plate edge."""
+
+NAME_PATTERN = r"^[A-Za-z][A-Za-z0-9_\-]*$"
+_NAME_HELP = "letters, digits, '_' and '-', starting with a letter (it names an HDF5 group)"
+
+#: tolerance (m) within which a probe or point force must lie on its member
+ON_MEMBER_TOL = 1e-6
+
+
+# --------------------------------------------------------------------------- materials
+class Material(Section):
+    """Linear elastic isotropic material of a member."""
+
+    youngs_modulus: float = Field(gt=0, description="Young's modulus E in Pa (> 0).")
+    poisson_ratio: float | None = Field(
+        None,
+        ge=0.0,
+        lt=0.5,
+        description=(
+            "Poisson's ratio nu, 0 <= nu < 0.5. Required for plates (rigidity "
+            "D = E h^3 / (12 (1 - nu^2))) and for beams with `plate_strip = true`; unused otherwise."
+        ),
+    )
+    density: float = Field(gt=0, description="Mass density in kg/m^3 (> 0).")
+
+
+# --------------------------------------------------------------------------- time functions
+class StepFunction(Section):
+    """f(t) = 0 before `start`, 1 from `start` on (a suddenly applied, then constant load)."""
+
+    kind: Literal["step"] = Field("step", description='"step".')
+    start: float = Field(0.0, ge=0, description="Time in s at which the load switches on (>= 0).")
+
+
+class RampFunction(Section):
+    """f(t) rises linearly from 0 at `start` to 1 at `start + duration`, then stays 1."""
+
+    kind: Literal["ramp"] = Field(description='"ramp".')
+    start: float = Field(0.0, ge=0, description="Time in s at which the ramp begins (>= 0).")
+    duration: float = Field(gt=0, description="Rise time in s (> 0).")
+
+
+class HarmonicFunction(Section):
+    """f(t) = sin(2 pi frequency (t - start) + phase) from `start` on, 0 before."""
+
+    kind: Literal["harmonic"] = Field(description='"harmonic".')
+    frequency: float = Field(gt=0, description="Frequency in Hz (> 0).")
+    phase: float = Field(0.0, description="Phase in rad at t = start.")
+    start: float = Field(0.0, ge=0, description="Time in s at which the excitation begins (>= 0).")
+
+
+class TableFunction(Section):
+    """f(t) interpolated linearly in a table of (t, f) pairs, held at the end values outside it.
+
+    Give the table either inline (`points`) or as a CSV file of two columns t, f (`file`, relative
+    to the scenario file's folder; lines starting with '#' and a non-numeric header are skipped).
+    """
+
+    kind: Literal["table"] = Field(description='"table".')
+    file: str | None = Field(
+        None, description="CSV file with columns t [s], f [-]; relative to the scenario's folder."
+    )
+    points: list[list[float]] | None = Field(
+        None, description="Inline table [[t0, f0], [t1, f1], ...], times strictly increasing."
+    )
+
+    @model_validator(mode="after")
+    def _one_source(self) -> TableFunction:
+        if (self.file is None) == (self.points is None):
+            raise ValueError("give exactly one of `file` (a CSV path) or `points` ([[t, f], ...])")
+        if self.points is not None:
+            if len(self.points) < 1 or any(len(p) != 2 for p in self.points):
+                raise ValueError("`points` must be a non-empty list of [t, f] pairs")
+            ts = [p[0] for p in self.points]
+            if any(b <= a for a, b in zip(ts, ts[1:], strict=False)):
+                raise ValueError("`points` times must be strictly increasing")
+        return self
+
+
+TimeFunction = Annotated[
+    StepFunction | RampFunction | HarmonicFunction | TableFunction,
+    Field(discriminator="kind"),
+]
+
+
+# --------------------------------------------------------------------------- loads
+class PressureLoad(Section):
+    """Uniform pressure over a whole member, times a time function (standalone runs only).
+
+    Positive along the member normal (see the module docstring). On a beam it acts over the beam's
+    `width`, i.e. the line load is `value * width` N/m.
+    """
+
+    kind: Literal["pressure"] = Field(description='"pressure".')
+    member: str = Field(description="Name of the loaded member.")
+    value: float = Field(description="Pressure amplitude in Pa, positive along the member normal.")
+    time: TimeFunction = Field(
+        default_factory=StepFunction,
+        description="Time function multiplying `value`; default a step at t = 0.",
+    )
+
+
+class PointForceLoad(Section):
+    """A point force at a point of a member, times a time function (standalone runs only).
+
+    In 2D the force is per unit width (N/m) like every 2D force. The component along a beam's axis
+    loads its axial degrees of freedom (ignored when `axial = false`); on a plate only the normal
+    component acts (plates carry no membrane action).
+    """
+
+    kind: Literal["point_force"] = Field(description='"point_force".')
+    member: str = Field(description="Name of the loaded member.")
+    position: list[float] = Field(
+        min_length=2,
+        max_length=3,
+        description="Point of application in scene coordinates (m); must lie on the member.",
+    )
+    force: list[float] = Field(
+        min_length=2, max_length=3, description="Force vector in scene coordinates (N; N/m in 2D)."
+    )
+    time: TimeFunction = Field(
+        default_factory=StepFunction,
+        description="Time function multiplying `force`; default a step at t = 0.",
+    )
+
+
+Load = Annotated[PressureLoad | PointForceLoad, Field(discriminator="kind")]
+
+
+# --------------------------------------------------------------------------- members
+class _MemberCommon(Section):
+    name: str = Field(pattern=NAME_PATTERN, description=f"Unique member name: {_NAME_HELP}.")
+    material: Material = Field(description="Material of the member.")
+    thickness: float = Field(
+        gt=0,
+        description=(
+            "Structural thickness t in m (> 0): sets stiffness and mass (beam: A = width t, "
+            "I = width t^3 / 12 unless `area` / `second_moment` are given; plate: h = t)."
+        ),
+    )
+    geometric_thickness: float | None = Field(
+        None,
+        gt=0,
+        description=(
+            "Thickness in m the fluid sees (wall particles on both faces at +-1/2 of it); "
+            "defaults to `thickness`. The thesis's 3D plate uses 0.015 m here and 0.001 m above."
+        ),
+    )
+    rayleigh_a1: float = Field(
+        0.0, ge=0, description="Rayleigh mass coefficient a1 in 1/s of C = a1 M + a2 K (>= 0)."
+    )
+    rayleigh_a2: float = Field(
+        0.0, ge=0, description="Rayleigh stiffness coefficient a2 in s of C = a1 M + a2 K (>= 0)."
+    )
+    self_weight: bool = Field(
+        False, description="Load the member with its own weight (density x volume x gravity)."
+    )
+
+    @property
+    def fluid_thickness(self) -> float:
+        """Geometric thickness seen by the fluid (defaults to the structural one)."""
+        return self.thickness if self.geometric_thickness is None else self.geometric_thickness
+
+
+class BeamMember(_MemberCommon):
+    """Euler-Bernoulli beam in a 2D scene (ElementLineHermite), per unit width by default."""
+
+    type: Literal["beam"] = Field(description='"beam" (2D scenes).')
+    start: list[float] = Field(
+        min_length=2, max_length=2, description="First end of the centreline [x, y] in m."
+    )
+    end: list[float] = Field(
+        min_length=2, max_length=2, description="Second end of the centreline [x, y] in m."
+    )
+    elements: int = Field(ge=1, description="Number of beam elements (>= 1), equal lengths.")
+    bc: BoundaryName | list[BoundaryName] = Field(
+        description=(
+            'Supports: one of "clamped", "simply_supported", "free" for both ends, or a list '
+            "[at start, at end]. A simply supported end is pinned (deflection and axial "
+            "displacement fixed, rotation free)."
+        )
+    )
+    width: float = Field(
+        1.0, gt=0, description="Width b in m out of the plane (default 1: per unit width)."
+    )
+    area: float | None = Field(
+        None, gt=0, description="Cross-section area in m^2 overriding width x thickness."
+    )
+    second_moment: float | None = Field(
+        None,
+        gt=0,
+        description="Second moment of area in m^4 overriding width x thickness^3 / 12.",
+    )
+    plate_strip: bool = Field(
+        False,
+        description=(
+            "Use E / (1 - nu^2) instead of E (a plate strip in cylindrical bending, plane "
+            "strain); false is the thesis's beam model."
+        ),
+    )
+    axial: bool = Field(
+        True,
+        description=(
+            "Include axial (bar) degrees of freedom, linear elements; false makes the member "
+            "inextensible and drops the tangential part of applied forces."
+        ),
+    )
+
+    @field_validator("bc")
+    @classmethod
+    def _bc_len(cls, v):
+        if isinstance(v, list) and len(v) != 2:
+            raise ValueError("a list `bc` needs exactly 2 entries: [at start, at end]")
+        return v
+
+    @model_validator(mode="after")
+    def _distinct_ends(self) -> BeamMember:
+        if math.dist(self.start, self.end) <= 0.0:
+            raise ValueError("`start` and `end` must be distinct points")
+        if self.plate_strip and self.material.poisson_ratio is None:
+            raise ValueError("`plate_strip = true` needs `material.poisson_ratio`")
+        return self
+
+    @property
+    def dim(self) -> int:
+        return 2
+
+    @property
+    def edge_bcs(self) -> list[str]:
+        """Supports [at start, at end]."""
+        return list(self.bc) if isinstance(self.bc, list) else [self.bc, self.bc]
+
+    @property
+    def length(self) -> float:
+        return math.dist(self.start, self.end)
+
+
+class PlateMember(_MemberCommon):
+    """Kirchhoff plate in a 3D scene: ElementQuadBFS (rectangles) or ElementTriMorley (any outline)."""
+
+    type: Literal["plate"] = Field(description='"plate" (3D scenes).')
+    element: Literal["bfs", "morley"] = Field(
+        description=(
+            '"bfs" (Bogner-Fox-Schmit, conforming, rectangles only) or "morley" '
+            "(non-conforming triangle, any polygonal outline)."
+        )
+    )
+    origin: list[float] = Field(
+        min_length=3, max_length=3, description="Corner (u, v) = (0, 0) of the plate in m."
+    )
+    axis_u: list[float] = Field(
+        [1.0, 0.0, 0.0],
+        min_length=3,
+        max_length=3,
+        description="Direction of the local u axis in scene coordinates (normalised).",
+    )
+    axis_v: list[float] = Field(
+        [0.0, 1.0, 0.0],
+        min_length=3,
+        max_length=3,
+        description="Direction of the local v axis, perpendicular to `axis_u` (normalised).",
+    )
+    shape: Literal["rectangle", "polygon"] = Field(
+        "rectangle", description='"rectangle" (0..a x 0..b) or "polygon" (`outline`, morley only).'
+    )
+    size: list[float] | None = Field(
+        None,
+        min_length=2,
+        max_length=2,
+        description="Rectangle side lengths [a along u, b along v] in m.",
+    )
+    outline: list[list[float]] | None = Field(
+        None,
+        description=(
+            "Polygon vertices [[u, v], ...] in local coordinates (m), anticlockwise, not closed "
+            "(the last vertex connects to the first)."
+        ),
+    )
+    mesh_size: float | None = Field(
+        None,
+        gt=0,
+        description=(
+            "Target element edge length in m; a rectangle gets ceil(a / mesh_size) x "
+            "ceil(b / mesh_size) cells. Give this or `divisions`."
+        ),
+    )
+    divisions: list[int] | None = Field(
+        None,
+        min_length=2,
+        max_length=2,
+        description="Rectangle cells [along u, along v] (each >= 1); give this or `mesh_size`.",
+    )
+    bc: BoundaryName | list[BoundaryName] = Field(
+        description=(
+            'Supports: one of "clamped", "simply_supported", "free" for every edge, or a list '
+            "with one entry per edge: a rectangle's edges in the order v = 0, u = a, v = b, u = 0 "
+            "(anticlockwise from the origin); a polygon's edges from vertex i to i + 1."
+        )
+    )
+
+    @model_validator(mode="after")
+    def _geometry(self) -> PlateMember:
+        if self.material.poisson_ratio is None:
+            raise ValueError("a plate needs `material.poisson_ratio`")
+        nu = math.sqrt(sum(c * c for c in self.axis_u))
+        nv = math.sqrt(sum(c * c for c in self.axis_v))
+        if nu == 0 or nv == 0:
+            raise ValueError("`axis_u` and `axis_v` must be non-zero vectors")
+        cos = sum(a * b for a, b in zip(self.axis_u, self.axis_v, strict=True)) / (nu * nv)
+        if abs(cos) > 1e-9:
+            raise ValueError("`axis_u` and `axis_v` must be perpendicular")
+        if self.shape == "rectangle":
+            if self.size is None or self.outline is not None:
+                raise ValueError('shape = "rectangle" needs `size = [a, b]` and no `outline`')
+            if min(self.size) <= 0:
+                raise ValueError("`size` entries must be > 0")
+        else:
+            if self.outline is None or self.size is not None:
+                raise ValueError('shape = "polygon" needs `outline = [[u, v], ...]` and no `size`')
+            if len(self.outline) < 3 or any(len(p) != 2 for p in self.outline):
+                raise ValueError("`outline` needs at least 3 vertices [u, v]")
+            if _polygon_area(self.outline) <= 0:
+                raise ValueError("`outline` must be anticlockwise with positive area")
+            if self.element != "morley":
+                raise ValueError(
+                    'a polygonal plate needs element = "morley" (BFS needs rectangles)'
+                )
+            if self.mesh_size is None or self.divisions is not None:
+                raise ValueError("a polygonal plate needs `mesh_size` (and no `divisions`)")
+        if (self.mesh_size is None) == (self.divisions is None):
+            raise ValueError("give exactly one of `mesh_size` or `divisions`")
+        if self.divisions is not None and min(self.divisions) < 1:
+            raise ValueError("`divisions` entries must be >= 1")
+        if isinstance(self.bc, list) and len(self.bc) != self.n_edges:
+            raise ValueError(
+                f"a list `bc` needs one entry per edge ({self.n_edges} for this {self.shape})"
+            )
+        return self
+
+    @property
+    def dim(self) -> int:
+        return 3
+
+    @property
+    def n_edges(self) -> int:
+        return 4 if self.shape == "rectangle" else len(self.outline or [])
+
+    @property
+    def edge_bcs(self) -> list[str]:
+        """Support of every edge, in the order documented for `bc`."""
+        return list(self.bc) if isinstance(self.bc, list) else [self.bc] * self.n_edges
+
+    @property
+    def local_outline(self) -> list[list[float]]:
+        """Polygon of the planform in local (u, v) coordinates, anticlockwise."""
+        if self.shape == "rectangle":
+            a, b = self.size  # type: ignore[misc]
+            return [[0.0, 0.0], [a, 0.0], [a, b], [0.0, b]]
+        return [list(p) for p in self.outline]  # type: ignore[union-attr]
+
+
+Member = Annotated[BeamMember | PlateMember, Field(discriminator="type")]
+
+
+# --------------------------------------------------------------------------- time
+class StructureTime(Section):
+    """Time integration of the structure (Newmark-beta)."""
+
+    dt: float = Field(
+        gt=0,
+        description=(
+            "Structure time step in s (> 0). In coupled runs a coupling window longer than this "
+            "is split into equal sub-steps no longer than `dt`."
+        ),
+    )
+    newmark_beta: float = Field(
+        0.25,
+        gt=0,
+        le=0.5,
+        description=(
+            "Newmark beta, 0 < beta <= 0.5 (0.25 with gamma 0.5: average acceleration, "
+            "unconditionally stable, no numerical damping). Not the pressure equation's gamma."
+        ),
+    )
+    newmark_gamma: float = Field(
+        0.5,
+        ge=0.5,
+        le=1.0,
+        description=(
+            "Newmark gamma, 0.5 <= gamma <= 1 (above 0.5 adds numerical damping). Unconditional "
+            "stability needs beta >= (gamma + 1/2)^2 / 4; below that (e.g. linear acceleration, "
+            "beta = 1/6) the run checks dt against the stability limit of the highest mode."
+        ),
+    )
+
+
+# --------------------------------------------------------------------------- the section
+class StructureSection(Section):
+    """The ``[structure]`` section: elastic members, their time integration and prescribed loads.
+
+    Displacement probes of structure points are ``[[probes]]`` of kind "displacement" at the top
+    level of the scenario (``target`` = member name); the run's end time is ``run.end_time``.
+    """
+
+    members: list[Member] = Field(
+        min_length=1,
+        description="The elastic members, [[structure.members]] tables; all beams (2D) or plates (3D).",
+    )
+    time: StructureTime = Field(description="Time integration, [structure.time].")
+    gravity: list[float] | None = Field(
+        None,
+        min_length=2,
+        max_length=3,
+        description=(
+            "Gravity vector in m/s^2 used for self-weight; default [0, -9.81] in 2D and "
+            "[0, 0, -9.81] in 3D."
+        ),
+    )
+    initial_state: Literal["rest", "static"] = Field(
+        "rest",
+        description=(
+            '"rest": zero displacement and velocity at t = 0; "static": start from the static '
+            "equilibrium under self-weight and the prescribed loads' values at t = 0 (no start-up "
+            "transient)."
+        ),
+    )
+    loads: list[Load] = Field(
+        default_factory=list,
+        description=(
+            "Prescribed loads, [[structure.loads]]; they act in standalone runs (`mpsfem "
+            "structure`) only, in coupled runs the fluid forces take their place."
+        ),
+    )
+    record_interval: float | None = Field(
+        None,
+        ge=0,
+        description=(
+            "Interval in s between records of the members' nodal displacements in "
+            "/structure/<member> (0: every structure step; default: output.probe_interval)."
+        ),
+    )
+
+    @property
+    def dim(self) -> int:
+        """Dimension of the scene: 2 for beams, 3 for plates."""
+        return self.members[0].dim
+
+    @property
+    def gravity_vector(self) -> list[float]:
+        if self.gravity is not None:
+            return list(self.gravity)
+        return [0.0, -9.81] if self.dim == 2 else [0.0, 0.0, -9.81]
+
+    def member(self, name: str) -> BeamMember | PlateMember:
+        for m in self.members:
+            if m.name == name:
+                return m
+        raise KeyError(f"no structure member named {name!r}")
+
+    @model_validator(mode="after")
+    def _consistency(self) -> StructureSection:
+        names = [m.name for m in self.members]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"member names must be unique; repeated: {dup}")
+        dims = {m.dim for m in self.members}
+        if len(dims) > 1:
+            raise ValueError("members must be all beams (2D scene) or all plates (3D scene)")
+        dim = dims.pop()
+        if self.gravity is not None and len(self.gravity) != dim:
+            raise ValueError(f"`gravity` needs {dim} components in a {dim}D scene")
+        by_name = {m.name: m for m in self.members}
+        for i, load in enumerate(self.loads):
+            where = f"loads[{i}]"
+            if load.member not in by_name:
+                raise ValueError(f"{where}.member = {load.member!r}: not one of {names}")
+            if isinstance(load, PointForceLoad):
+                if len(load.position) != dim or len(load.force) != dim:
+                    raise ValueError(f"{where}: `position` and `force` need {dim} components")
+                _check_on_member(by_name[load.member], load.position, f"{where}.position")
+        return self
+
+
+# --------------------------------------------------------------------------- geometry helpers
+def _polygon_area(poly: list[list[float]]) -> float:
+    s = 0.0
+    for (x0, y0), (x1, y1) in zip(poly, poly[1:] + poly[:1], strict=True):
+        s += x0 * y1 - x1 * y0
+    return 0.5 * s
+
+
+def _point_in_polygon(u: float, v: float, poly: list[list[float]], tol: float) -> bool:
+    # on an edge (within tol) counts as inside
+    for (x0, y0), (x1, y1) in zip(poly, poly[1:] + poly[:1], strict=True):
+        dx, dy = x1 - x0, y1 - y0
+        L2 = dx * dx + dy * dy
+        s = min(1.0, max(0.0, ((u - x0) * dx + (v - y0) * dy) / L2))
+        if math.hypot(u - x0 - s * dx, v - y0 - s * dy) <= tol:
+            return True
+    inside = False
+    for (x0, y0), (x1, y1) in zip(poly, poly[1:] + poly[:1], strict=True):
+        if (y0 > v) != (y1 > v):
+            xc = x0 + (v - y0) * (x1 - x0) / (y1 - y0)
+            if u < xc:
+                inside = not inside
+    return inside
+
+
+def local_coordinates(
+    member: BeamMember | PlateMember, point: list[float]
+) -> tuple[list[float], float]:
+    """Local coordinates of a scene point and its distance from the member's line / plane.
+
+    Beam: ([s], distance) with s the arc length from `start`. Plate: ([u, v], distance).
+    """
+    if isinstance(member, BeamMember):
+        L = member.length
+        tx = (member.end[0] - member.start[0]) / L
+        ty = (member.end[1] - member.start[1]) / L
+        dx, dy = point[0] - member.start[0], point[1] - member.start[1]
+        return [dx * tx + dy * ty], abs(-dx * ty + dy * tx)
+    eu = _unit(member.axis_u)
+    ev = _unit(member.axis_v)
+    n = _unit(_cross(eu, ev))
+    d = [p - o for p, o in zip(point, member.origin, strict=True)]
+    return [_dot(d, eu), _dot(d, ev)], abs(_dot(d, n))
+
+
+def _check_on_member(member: BeamMember | PlateMember, point: list[float], where: str) -> None:
+    loc, dist = local_coordinates(member, point)
+    if dist > ON_MEMBER_TOL:
+        raise ValueError(
+            f"{where} = {point}: {dist:.3g} m off member {member.name!r} (allowed {ON_MEMBER_TOL} m)"
+        )
+    if isinstance(member, BeamMember):
+        s = loc[0]
+        if s < -ON_MEMBER_TOL or s > member.length + ON_MEMBER_TOL:
+            raise ValueError(f"{where} = {point}: beyond the ends of member {member.name!r}")
+    elif not _point_in_polygon(loc[0], loc[1], member.local_outline, ON_MEMBER_TOL):
+        raise ValueError(f"{where} = {point}: outside the planform of member {member.name!r}")
+
+
+def _unit(a: list[float]) -> list[float]:
+    n = math.sqrt(sum(c * c for c in a))
+    return [c / n for c in a]
+
+
+def _cross(a: list[float], b: list[float]) -> list[float]:
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def _dot(a: list[float], b: list[float]) -> float:
+    return sum(x * y for x, y in zip(a, b, strict=True))

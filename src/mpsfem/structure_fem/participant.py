@@ -1,0 +1,315 @@
+"""The structure participant of the coupler protocol (design brief): interface, write, read,
+advance, max_dt, checkpoint and restore.
+
+The coupler sees one set of interface points: the nodes of every member, concatenated in the
+order of ``[[structure.members]]`` (beam: centreline nodes from start to end; plate: mid-surface
+mesh vertices). Data exchanged (SI units; in 2D per unit width):
+
+* written: ``"forces"``, nodal forces at the interface points, shape (n_points, dim), in N (N/m in
+  2D). Each is applied at its node as a point load (consistent with the nodal translation map, so
+  no moment). A plate takes only the component along its normal, an inextensible beam
+  (`axial = false`) only the one along its normal.
+* read: ``"displacement"``, ``"velocity"``, ``"acceleration"`` (n_points, dim), translational;
+  ``"rotation"`` (n_points, r): beams r = 1 (anticlockwise angle, rad), plates r = 2 (slopes
+  dw/du, dw/dv along the plate axes; NaN for Morley members, which have no nodal slopes).
+
+``advance(dt)`` integrates exactly `dt`: in ceil(dt / max_dt()) equal Newmark sub-steps, the
+interface force rising linearly from the value of the previous window's end to the value just
+written (one sub-step: the written value at the end of the step, as Newmark wants F(t + dt)).
+Self-weight acts always; the scenario's prescribed loads only when the participant is built with
+``prescribed_loads=True`` (standalone runs).
+
+The full state (u, v, a over the free dofs, the time, the step count, the interface force of the
+window start and the last written forces) is what :meth:`checkpoint` copies and :meth:`restore`
+puts back; a restored participant repeats its steps bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as sla
+
+from .linsolve import factorize
+from .newmark import Newmark, NewmarkState
+from .system import StructureSystem
+
+__all__ = ["Interface", "StructureParticipant"]
+
+READABLE = ("displacement", "velocity", "acceleration", "rotation")
+WRITABLE = ("forces",)
+
+
+@dataclass(frozen=True)
+class Interface:
+    """Interface mesh of the structure participant (reference configuration).
+
+    points, normals: (n_points, dim); thickness, geometric_thickness: (n_points,) structural and
+    fluid-visible thickness of the member each point belongs to; member: (n_points,) index into
+    member_names; cells: per member, its elements as rows of global point indices (beam: 2-node
+    segments; BFS plate: 4-node quadrilaterals, anticlockwise about the normal; Morley plate:
+    3-node triangles); slices: per member name, its range of points.
+    """
+
+    dim: int
+    points: np.ndarray
+    normals: np.ndarray
+    thickness: np.ndarray
+    geometric_thickness: np.ndarray
+    member: np.ndarray
+    member_names: tuple[str, ...]
+    cells: tuple[np.ndarray, ...]
+    slices: dict[str, slice] = field(default_factory=dict)
+
+    @property
+    def n_points(self) -> int:
+        return self.points.shape[0]
+
+
+class StructureParticipant:
+    """Structure participant for the coupler; also the engine of standalone runs.
+
+    Parameters
+    ----------
+    structure:
+        The ``[structure]`` section (:class:`~mpsfem.scenario.structure.StructureSection`) or a
+        root scenario with a ``structure`` attribute.
+    prescribed_loads:
+        Apply the section's ``[[structure.loads]]`` (standalone runs); default False.
+    base_dir:
+        Folder against which relative CSV paths of table loads resolve (the scenario's folder).
+    probes:
+        Displacement probes: objects with ``name``, ``target`` (member) and ``position`` (the
+        scenario's ``[[probes]]`` of kind "displacement"); each reads the displacement of the
+        member point nearest ``position``. See :meth:`probe_values`.
+    """
+
+    name = "structure"
+
+    def __init__(
+        self,
+        structure,
+        *,
+        prescribed_loads: bool = False,
+        base_dir: str | Path | None = None,
+        probes=(),
+    ) -> None:
+        section = getattr(structure, "structure", structure)
+        if section is None:
+            raise ValueError("the scenario has no [structure] section")
+        self.section = section
+        self.system = StructureSystem(section, base_dir=base_dir)
+        self.dim = self.system.dim
+        self.use_prescribed = bool(prescribed_loads)
+        t = section.time
+        self.dt = float(t.dt)
+        sysm = self.system
+        self.integrator = Newmark(
+            sysm.M, sysm.K, sysm.C, beta=t.newmark_beta, gamma=t.newmark_gamma
+        )
+        if t.newmark_beta < (t.newmark_gamma + 0.5) ** 2 / 4.0 - 1e-12:
+            self._check_conditional_stability()
+        self.probe_names: list[str] = []
+        rows = []
+        for pr in probes:
+            if pr.target not in sysm.names:
+                raise ValueError(
+                    f"probe {pr.name!r}: target {pr.target!r} is not a structure member "
+                    f"(members: {sysm.names})"
+                )
+            self.probe_names.append(pr.name)
+            rows.append(sysm.point_matrix(pr.target, pr.position))
+        self._P = sp.vstack(rows, format="csr") if rows else sp.csr_matrix((0, sysm.n))
+        self._forces = np.zeros((sysm.n_points, self.dim))
+        self._f_start = np.zeros(sysm.n)  # interface load at the start of the window
+        self._f_new = np.zeros(sysm.n)  # interface load of the forces last written
+        F0 = self.external_load(0.0)
+        if section.initial_state == "static":
+            try:
+                u0 = factorize(sysm.K.tocsc()).solve(F0)
+            except np.linalg.LinAlgError as exc:
+                raise ValueError(
+                    'initial_state = "static" needs every member supported against rigid motion'
+                ) from exc
+            self.integrator.initialize(F0, u0=u0)
+        else:
+            self.integrator.initialize(F0)
+        self._checkpoint: dict | None = None
+        self._interface = self._build_interface()
+
+    # ------------------------------------------------------------------ protocol
+    def interface(self) -> Interface:
+        """Interface points, normals, thicknesses and cells (reference configuration)."""
+        return self._interface
+
+    def write(self, name: str, array: np.ndarray) -> None:
+        """Hand data to the structure: ``"forces"`` (n_points, dim) nodal forces in N (N/m in 2D)."""
+        if name not in WRITABLE:
+            raise KeyError(f"structure participant cannot take {name!r}; it takes {WRITABLE}")
+        arr = np.asarray(array, dtype=float)
+        if arr.shape != self._forces.shape:
+            raise ValueError(f"forces of shape {arr.shape}, expected {self._forces.shape}")
+        if not np.isfinite(arr).all():
+            bad = np.argwhere(~np.isfinite(arr))[0, 0]
+            raise FloatingPointError(f"non-finite force written at interface point {bad}")
+        self._forces = arr.copy()
+        self._f_new = self.system.nodal_load(self._forces)
+
+    def read(self, name: str) -> np.ndarray:
+        """Interface data at the current time: see the module docstring for names and shapes."""
+        s = self.integrator.state
+        if name == "displacement":
+            return self.system.nodal(s.u)
+        if name == "velocity":
+            return self.system.nodal(s.v)
+        if name == "acceleration":
+            return self.system.nodal(s.a)
+        if name == "rotation":
+            rot = self.system.rotation(s.u)
+            r = 1 if self.dim == 2 else 2
+            out = np.full((self.system.n_points, r), np.nan)
+            for k, sl in self.system.node_slices.items():
+                if k in rot:
+                    out[sl] = rot[k]
+            return out
+        raise KeyError(f"structure participant has no {name!r}; readable: {READABLE}")
+
+    def advance(self, dt: float) -> float:
+        """Integrate over `dt` (sub-stepped to at most ``max_dt()``); returns the time advanced."""
+        if not dt > 0 or not math.isfinite(dt):
+            raise ValueError(f"advance(dt = {dt}): dt must be a positive finite number")
+        n_sub = max(1, math.ceil(dt / self.dt - 1e-9))
+        h = dt / n_sub
+        t0 = self.integrator.state.t
+        f0, f1 = self._f_start, self._f_new
+        for j in range(1, n_sub + 1):
+            frac = j / n_sub
+            f_if = f1 if j == n_sub else f0 + frac * (f1 - f0)
+            t = t0 + frac * dt
+            self.integrator.step(h, self.external_load(t) + f_if)
+        self.integrator.state.t = t0 + dt
+        self._f_start = f1
+        return dt
+
+    def max_dt(self) -> float:
+        """Longest step the structure takes in one go (the scenario's ``structure.time.dt``)."""
+        return self.dt
+
+    def checkpoint(self) -> dict:
+        """Copy of the full state (also kept for :meth:`restore`); a dict of arrays and numbers."""
+        s = self.integrator.state
+        state = {
+            "t": s.t,
+            "steps": s.steps,
+            "u": s.u.copy(),
+            "v": s.v.copy(),
+            "a": s.a.copy(),
+            "f_start": self._f_start.copy(),
+            "forces": self._forces.copy(),
+        }
+        self._checkpoint = state
+        return {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in state.items()}
+
+    def restore(self, state: dict | None = None) -> None:
+        """Put back a state from :meth:`checkpoint` (default: the last one taken)."""
+        state = self._checkpoint if state is None else state
+        if state is None:
+            raise RuntimeError("restore() before any checkpoint()")
+        self.integrator.state = NewmarkState(
+            np.array(state["u"], dtype=float),
+            np.array(state["v"], dtype=float),
+            np.array(state["a"], dtype=float),
+            float(state["t"]),
+            int(state["steps"]),
+        )
+        self._f_start = np.array(state["f_start"], dtype=float)
+        self.write("forces", state["forces"])
+
+    # ------------------------------------------------------------------ extras
+    @property
+    def time(self) -> float:
+        return self.integrator.state.t
+
+    def external_load(self, t: float) -> np.ndarray:
+        """Self-weight plus (standalone) prescribed loads at time t, over the free dofs."""
+        if self.use_prescribed and len(self.system.prescribed):
+            return self.system.constant_load + self.system.prescribed(t)
+        return self.system.constant_load
+
+    def member_displacements(self) -> dict[str, np.ndarray]:
+        """Translational displacement of every member's nodes, name -> (n_nodes, dim)."""
+        d = self.read("displacement")
+        return {k: d[sl] for k, sl in self.system.node_slices.items()}
+
+    def member_nodes(self) -> dict[str, np.ndarray]:
+        """Reference coordinates of every member's nodes, name -> (n_nodes, dim)."""
+        return {m.name: m.nodes for m in self.system.models}
+
+    def probe_values(self) -> dict[str, np.ndarray]:
+        """Displacement (m) at every displacement probe, name -> (dim,)."""
+        vals = (self._P @ self.integrator.state.u).reshape(-1, self.dim)
+        return {n: vals[i] for i, n in enumerate(self.probe_names)}
+
+    def energy(self, member: str | None = None) -> tuple[float, float]:
+        """(kinetic, strain) energy of one member or of the whole structure (J; J/m in 2D)."""
+        s = self.integrator.state
+        names = self.system.names if member is None else [member]
+        parts = [self.system.member_energy(k, s.u, s.v) for k in names]
+        return sum(p[0] for p in parts), sum(p[1] for p in parts)
+
+    def _check_conditional_stability(self) -> None:
+        """For beta < (gamma + 1/2)^2 / 4: dt must satisfy omega_max dt <= Omega_crit."""
+        b, g = self.integrator.beta, self.integrator.gamma
+        lam = (
+            sla.eigsh(
+                self.system.K.tocsc(),
+                k=1,
+                M=self.system.M.tocsc(),
+                which="LA",
+                v0=np.ones(self.system.n),
+                return_eigenvectors=False,
+            )[0]
+            if self.system.n > 1
+            else float(self.system.K[0, 0] / self.system.M[0, 0])
+        )
+        omega_max = math.sqrt(max(lam, 0.0))
+        crit = 1.0 / math.sqrt(g / 2.0 - b) if g / 2.0 > b else math.inf
+        if omega_max * self.dt > crit:
+            raise ValueError(
+                f"structure.time.dt = {self.dt:g} s exceeds the stability limit "
+                f"{crit / omega_max:.3g} s of newmark_beta = {b:g}, newmark_gamma = {g:g} "
+                f"(highest natural frequency {omega_max / (2 * math.pi):.4g} Hz); reduce dt or "
+                "use newmark_beta = 0.25"
+            )
+
+    def _build_interface(self) -> Interface:
+        sysm = self.system
+        pts, nrm, th, gth, mem, cells = [], [], [], [], [], []
+        for k, m in enumerate(sysm.models):
+            off = sysm.node_slices[m.name].start
+            pts.append(m.nodes)
+            nrm.append(m.normals)
+            th.append(np.full(m.n_nodes, m.thickness))
+            gth.append(np.full(m.n_nodes, m.geometric_thickness))
+            mem.append(np.full(m.n_nodes, k, dtype=np.int64))
+            cells.append(m.connectivity + off)
+        arrays = {
+            "points": np.vstack(pts),
+            "normals": np.vstack(nrm),
+            "thickness": np.concatenate(th),
+            "geometric_thickness": np.concatenate(gth),
+            "member": np.concatenate(mem),
+        }
+        for a in list(arrays.values()) + cells:
+            a.setflags(write=False)
+        return Interface(
+            dim=self.dim,
+            member_names=tuple(sysm.names),
+            cells=tuple(cells),
+            slices=dict(sysm.node_slices),
+            **arrays,
+        )

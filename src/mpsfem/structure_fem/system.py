@@ -1,0 +1,132 @@
+"""All members of a ``[structure]`` section as one block-diagonal system over their free dofs.
+
+Members do not interact, so the global matrices are block diagonal; one factorisation and one
+solve per step serve every member. The reduced vector of generalised coordinates is the
+concatenation of each member's free dofs (``dof_slices``); the interface points are the
+concatenation of each member's nodes (``node_slices``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+
+from .loads import PrescribedLoads, time_function
+from .model import MemberModel, build_member
+
+__all__ = ["StructureSystem"]
+
+
+def _reduce(A: sp.spmatrix, free: np.ndarray) -> sp.csr_matrix:
+    return sp.csr_matrix(A)[free][:, free].tocsr()
+
+
+class StructureSystem:
+    """Assembled, constrained system of a :class:`~mpsfem.scenario.structure.StructureSection`."""
+
+    def __init__(self, section, *, base_dir: str | Path | None = None) -> None:
+        self.section = section
+        self.dim = section.dim
+        self.models: list[MemberModel] = [build_member(cfg) for cfg in section.members]
+        self.names = [m.name for m in self.models]
+        self.frees = [m.free for m in self.models]
+        nd = np.cumsum([0] + [len(f) for f in self.frees])
+        nn = np.cumsum([0] + [m.n_nodes for m in self.models])
+        self.dof_slices = {
+            m.name: slice(int(nd[k]), int(nd[k + 1])) for k, m in enumerate(self.models)
+        }
+        self.node_slices = {
+            m.name: slice(int(nn[k]), int(nn[k + 1])) for k, m in enumerate(self.models)
+        }
+        self.n = int(nd[-1])
+        self.n_points = int(nn[-1])
+        self.M = sp.block_diag(
+            [_reduce(m.M, f) for m, f in zip(self.models, self.frees, strict=True)], format="csr"
+        )
+        self.K = sp.block_diag(
+            [_reduce(m.K, f) for m, f in zip(self.models, self.frees, strict=True)], format="csr"
+        )
+        self.C = sp.block_diag(
+            [_reduce(m.C, f) for m, f in zip(self.models, self.frees, strict=True)], format="csr"
+        )
+        self.T = sp.block_diag(
+            [
+                sp.csr_matrix(m.translation)[:, f]
+                for m, f in zip(self.models, self.frees, strict=True)
+            ],
+            format="csr",
+        )
+        self.TT = self.T.T.tocsr()
+        # constant loads: self-weight
+        g = np.asarray(section.gravity_vector, dtype=float)
+        self.constant_load = np.zeros(self.n)
+        for cfg, m in zip(section.members, self.models, strict=True):
+            if cfg.self_weight:
+                self.constant_load[self.dof_slices[m.name]] += m.gravity_load(g)[
+                    self.free_of(m.name)
+                ]
+        # prescribed loads (standalone runs)
+        self.prescribed = PrescribedLoads(self.n)
+        for load in section.loads:
+            m = self.model(load.member)
+            if load.kind == "pressure":
+                vec = m.pressure_load(load.value)
+            else:
+                vec = m.point_force_load(np.asarray(load.position), np.asarray(load.force))
+            full = np.zeros(self.n)
+            full[self.dof_slices[m.name]] = vec[self.free_of(m.name)]
+            self.prescribed.add(full, time_function(load.time, base_dir))
+
+    # ------------------------------------------------------------------ lookup
+    def model(self, name: str) -> MemberModel:
+        for m in self.models:
+            if m.name == name:
+                return m
+        raise KeyError(f"no structure member named {name!r}; members: {self.names}")
+
+    def free_of(self, name: str) -> np.ndarray:
+        return self.frees[self.names.index(name)]
+
+    # ------------------------------------------------------------------ maps
+    def expand(self, q: np.ndarray, name: str) -> np.ndarray:
+        """Full dof vector of member `name` (zeros at constrained dofs) from the reduced vector."""
+        m = self.model(name)
+        full = np.zeros(m.n_dof)
+        full[self.free_of(name)] = q[self.dof_slices[name]]
+        return full
+
+    def nodal(self, q: np.ndarray) -> np.ndarray:
+        """Translational displacement (or velocity, ...) of every interface point, (n_points, dim)."""
+        return (self.T @ q).reshape(self.n_points, self.dim)
+
+    def nodal_load(self, forces: np.ndarray) -> np.ndarray:
+        """Generalised forces of nodal forces (n_points, dim) at the interface points."""
+        return self.TT @ forces.reshape(-1)
+
+    def rotation(self, q: np.ndarray) -> dict[str, np.ndarray]:
+        """Rotations per member: beams (n, 1) anticlockwise angle, BFS plates (n, 2) slopes."""
+        out = {}
+        for m in self.models:
+            if m.rotation is None:
+                continue
+            r = sp.csr_matrix(m.rotation)[:, self.free_of(m.name)] @ q[self.dof_slices[m.name]]
+            out[m.name] = r.reshape(m.n_nodes, len(m.rotation_components))
+        return out
+
+    def point_matrix(self, name: str, position) -> sp.csr_matrix:
+        """``dim x n`` matrix: displacement of member `name` at the point nearest `position`."""
+        m = self.model(name)
+        P = sp.csr_matrix(m.point_matrix(np.asarray(position, dtype=float)))[:, self.free_of(name)]
+        blocks = [
+            P if k == name else sp.csr_matrix((self.dim, len(f)))
+            for k, f in zip(self.names, self.frees, strict=True)
+        ]
+        return sp.hstack(blocks, format="csr")
+
+    def member_energy(self, name: str, u: np.ndarray, v: np.ndarray) -> tuple[float, float]:
+        """(kinetic, strain) energy of member `name` (J; J/m in 2D)."""
+        sl = self.dof_slices[name]
+        Mk, Kk = self.M[sl, sl], self.K[sl, sl]
+        return 0.5 * float(v[sl] @ (Mk @ v[sl])), 0.5 * float(u[sl] @ (Kk @ u[sl]))
