@@ -27,10 +27,21 @@ def read_table_csv(path: str | Path) -> np.ndarray:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"load table {path} not found")
-    try:
-        data = np.loadtxt(path, delimiter=",", comments="#", ndmin=2)
-    except ValueError:
-        data = np.loadtxt(path, delimiter=",", comments="#", ndmin=2, skiprows=1)
+    rows = []
+    for lineno, line in enumerate(path.read_text().splitlines(), start=1):
+        line = line.split("#", 1)[0].strip()
+        if not line:
+            continue
+        cells = [c.strip() for c in line.split(",")]
+        try:
+            rows.append([float(c) for c in cells])
+        except ValueError:
+            if rows:
+                raise ValueError(
+                    f"load table {path}, line {lineno}: not numbers: {line!r}"
+                ) from None
+            continue  # a header before the first data row
+    data = np.array(rows, dtype=float) if rows else np.zeros((0, 2))
     if data.shape[1] != 2 or data.shape[0] < 1:
         raise ValueError(f"load table {path}: need two columns t, f; got shape {data.shape}")
     if np.any(np.diff(data[:, 0]) <= 0):

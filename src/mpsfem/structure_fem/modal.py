@@ -1,9 +1,11 @@
 """Natural frequencies and mode shapes: K phi = omega^2 M phi over the free dofs of a member.
 
-Small systems (``n <= DENSE_EIG_LIMIT``) use LAPACK's generalised symmetric eigensolver on the
-dense matrices (the lowest modes only); larger ones ARPACK in shift-invert mode
-(``scipy.sparse.linalg.eigsh``) about a small negative shift, which also copes with rigid-body
-modes of unsupported members. Mode shapes are mass-normalised (phi.M phi = 1).
+ARPACK in shift-invert mode (``scipy.sparse.linalg.eigsh``) about a small negative shift, which
+also copes with rigid-body modes of unsupported members. Shift-invert keeps the lowest
+eigenvalues accurate to near machine precision relative to themselves; a dense generalised solver
+(used only for tiny systems, ``n <= 2 k + DENSE_EIG_EXTRA``) loses ``eps * lambda_max / lambda``
+of relative accuracy, about 1e-7 for the first mode of an 80-element cantilever. Mode shapes are
+mass-normalised (phi.M phi = 1).
 
 Each mode also gets a label: the dof family holding most of its kinetic energy ("bending" or, for
 beams with axial dofs, "axial"), and the Rayleigh damping ratio a1 / (2 omega) + a2 omega / 2.
@@ -20,9 +22,9 @@ import scipy.sparse.linalg as sla
 
 from .model import MemberModel
 
-__all__ = ["DENSE_EIG_LIMIT", "ModalResult", "natural_modes", "format_modes"]
+__all__ = ["DENSE_EIG_EXTRA", "ModalResult", "natural_modes", "format_modes"]
 
-DENSE_EIG_LIMIT = 1500
+DENSE_EIG_EXTRA = 20
 
 
 @dataclass
@@ -60,7 +62,7 @@ class ModalResult:
 def _eig(K: sp.spmatrix, M: sp.spmatrix, k: int) -> tuple[np.ndarray, np.ndarray]:
     n = K.shape[0]
     k = min(k, n)
-    if n <= DENSE_EIG_LIMIT:
+    if n <= 2 * k + DENSE_EIG_EXTRA:
         lam, phi = sl.eigh(K.toarray(), M.toarray(), subset_by_index=[0, k - 1])
     else:
         scale = float(K.diagonal().mean() / M.diagonal().mean())

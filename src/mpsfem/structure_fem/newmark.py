@@ -15,7 +15,8 @@ gamma)::
 
 then ``a1 = c0 (u1 - u) - c2 v - c3 a`` and ``v1`` as above. ``K_eff`` is factorised once per
 step size and reused; a new ``dt`` factorises again (the last two factorisations are kept, so a
-final shorter step does not evict the regular one). Average acceleration (beta = 1/4,
+final shorter step does not evict the regular one; a ``dt`` within 1e-12 relative of a cached
+one counts as that one, so round-off in ``t_end - t`` does not refactorise). Average acceleration (beta = 1/4,
 gamma = 1/2) is unconditionally stable, second-order accurate and conserves the energy
 ``1/2 v.M v + 1/2 u.K u`` of undamped free vibration exactly.
 
@@ -107,6 +108,14 @@ class Newmark:
             dt * (g / (2.0 * b) - 1.0),
         )
 
+    def snap(self, dt: float) -> float:
+        """`dt`, or a cached step size within 1e-12 relative of it (round-off in t_end - t)."""
+        dt = float(dt)
+        for key in self._factors:
+            if abs(key - dt) <= 1e-12 * key:
+                return key
+        return dt
+
     def factor(self, dt: float) -> tuple[Factor, tuple[float, ...]]:
         """Factorised K_eff for `dt` (cached; the two most recent step sizes are kept)."""
         key = float(dt)
@@ -127,7 +136,11 @@ class Newmark:
 
     # ------------------------------------------------------------------ stepping
     def step(self, dt: float, F1: np.ndarray) -> NewmarkState:
-        """Advance the state by `dt` under the load F1 = F(t + dt); returns the new state."""
+        """Advance the state by `dt` under the load F1 = F(t + dt); returns the new state.
+
+        A `dt` within 1e-12 relative of a cached step size is taken as that step size.
+        """
+        dt = self.snap(dt)
         fac, (c0, c1, c2, c3, c4, c5) = self.factor(dt)
         s = self.state
         u, v, a = s.u, s.v, s.a

@@ -46,6 +46,39 @@ class StructureRunSummary:
     factorizations: int
 
 
+class _ProbeBuffer:
+    """Probe samples kept in memory between flushes and appended in blocks (one HDF5 resize per
+    probe and flush instead of one per sample)."""
+
+    def __init__(self, rf) -> None:
+        self.rf = rf
+        self.rows: dict[str, tuple[list[float], list[np.ndarray]]] = {}
+        self.n = 0
+
+    def __len__(self) -> int:
+        return self.n
+
+    def add(self, name: str, t: float, value: np.ndarray) -> None:
+        ts, vs = self.rows.setdefault(name, ([], []))
+        ts.append(t)
+        vs.append(np.asarray(value, dtype=np.float64))
+        self.n += 1
+
+    def write(self) -> None:
+        many = getattr(self.rf, "append_probe_rows", None)
+        for name, (ts, vs) in self.rows.items():
+            if not ts:
+                continue
+            if many is not None:
+                many(name, np.asarray(ts), np.stack(vs))
+            else:
+                for t, v in zip(ts, vs, strict=True):
+                    self.rf.append_probe(name, t, v)
+            ts.clear()
+            vs.clear()
+        self.n = 0
+
+
 def _unpack(scenario):
     """(root scenario, text, overrides, base_dir) from a LoadedScenario or a root Scenario."""
     if hasattr(scenario, "scenario") and hasattr(scenario, "text"):
@@ -119,17 +152,20 @@ def run_structure(
         for p in energy_probes:
             rf.add_probe(p.name, "energy", "J", ("kinetic", "strain"), attrs={"target": p.target})
 
+        buffer = _ProbeBuffer(rf)
+
         def record(step: int, t: float, force: bool) -> None:
             if force or step % rec_every == 0:
                 for name, d in part.member_displacements().items():
                     rf.append_structure(name, t, d)
-            vals = part.probe_values() if probes else {}
-            for p in probes:
-                if force or step % probe_every[p.name] == 0:
-                    rf.append_probe(p.name, t, vals[p.name])
+            due = [p for p in probes if force or step % probe_every[p.name] == 0]
+            if due:
+                vals = part.probe_values()
+                for p in due:
+                    buffer.add(p.name, t, vals[p.name])
             for p in energy_probes:
                 if force or step % probe_every[p.name] == 0:
-                    rf.append_probe(p.name, t, np.array(part.energy(p.target)))
+                    buffer.add(p.name, t, np.array(part.energy(p.target)))
 
         record(0, 0.0, True)
         bar = None
@@ -143,20 +179,26 @@ def run_structure(
         last_flush = _time.perf_counter()
         t = 0.0
         for k in range(1, n_steps + 1):
-            t_next = T if k == n_steps else k * dt
-            part.advance(t_next - t)
-            t = t_next
+            # every step is dt exactly, the last one what is left to T
+            h = dt if k < n_steps else T - (n_steps - 1) * dt
+            part.advance(h)
+            t = T if k == n_steps else k * dt
             record(k, t, k == n_steps)
             if bar is not None:
                 bar.update(1)
             now = _time.perf_counter()
-            if now - last_flush > flush_interval:
+            if now - last_flush > flush_interval or len(buffer) > 100_000:
+                buffer.write()
                 rf.flush()
                 last_flush = now
+        buffer.write()
         if bar is not None:
             bar.close()
     except BaseException as exc:
-        rf.close(f"failed: {exc}")
+        try:
+            buffer.write()
+        finally:
+            rf.close(f"failed: {exc}")
         raise
     rf.close("finished")
     return StructureRunSummary(

@@ -59,6 +59,7 @@ class StructureSystem:
             format="csr",
         )
         self.TT = self.T.T.tocsr()
+        self._blocks: dict[str, tuple[sp.csr_matrix, sp.csr_matrix]] = {}
         # constant loads: self-weight
         g = np.asarray(section.gravity_vector, dtype=float)
         self.constant_load = np.zeros(self.n)
@@ -128,5 +129,7 @@ class StructureSystem:
     def member_energy(self, name: str, u: np.ndarray, v: np.ndarray) -> tuple[float, float]:
         """(kinetic, strain) energy of member `name` (J; J/m in 2D)."""
         sl = self.dof_slices[name]
-        Mk, Kk = self.M[sl, sl], self.K[sl, sl]
+        if name not in self._blocks:
+            self._blocks[name] = (self.M[sl, sl].tocsr(), self.K[sl, sl].tocsr())
+        Mk, Kk = self._blocks[name]
         return 0.5 * float(v[sl] @ (Mk @ v[sl])), 0.5 * float(u[sl] @ (Kk @ u[sl]))
