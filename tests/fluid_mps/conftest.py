@@ -28,3 +28,35 @@ def brute_force_neighbours(pos: np.ndarray, radius: float) -> list[np.ndarray]:
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+def tank(shape, l0=1.0, layers=3, air_rows=3):
+    """Fluid block of ``shape`` lattice sites (last axis vertical) in an open tank.
+
+    Walls on the floor and on every side: the layer touching the fluid is WALL (1), the
+    ``layers - 1`` behind it DUMMY (2). The walls rise ``air_rows`` rows above the water. Returns
+    (pos, kind) with the fluid first, in lattice order (x fastest).
+    """
+    dim = len(shape)
+    lo = [-layers] * dim
+    hi = [s + layers for s in shape[:-1]] + [shape[-1] + air_rows]
+    extent = [h - l for l, h in zip(lo, hi, strict=True)]
+    idx = np.indices(extent[::-1]).reshape(dim, -1).T[:, ::-1] + np.array(lo)  # x fastest
+    out = np.zeros(len(idx), dtype=np.int64)  # layers outside the fluid block
+    for d in range(dim):
+        below = -idx[:, d]
+        above = idx[:, d] - (shape[d] - 1)
+        if d == dim - 1:
+            above = np.zeros_like(above)  # open top
+        out = np.maximum(out, np.maximum(below, above))
+    inside = np.all(idx >= 0, axis=1) & np.all(idx < np.array(shape), axis=1)
+    fluid = inside
+    wall = (out >= 1) & (out <= layers)
+    kind = np.full(len(idx), -1, dtype=np.int8)
+    kind[fluid] = 0
+    kind[wall & (out == 1)] = 1
+    kind[wall & (out > 1)] = 2
+    keep = kind >= 0
+    pos, kind = idx[keep].astype(np.float64) * l0, kind[keep]
+    order = np.argsort(kind, kind="stable")
+    return pos[order], kind[order]

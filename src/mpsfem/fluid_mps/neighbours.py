@@ -145,7 +145,7 @@ def _strip(cid_i, s, nc, dim):
 def _gather_sorted(pos, order, pos_sorted):
     n, dim = pos.shape
     for k in prange(n):
-        j = order[k]
+        j = np.uint32(order[k])
         for d in range(dim):
             pos_sorted[k, d] = pos[j, d]
 
@@ -160,7 +160,7 @@ def _count(pos, r2max, nc, cell_of, cell_start, order, pos_sorted, counts):
             c0, c1 = _strip(cell_of[i], s, nc, dim)
             if c0 < 0:
                 continue
-            for k in range(cell_start[c0], cell_start[c1 + 1]):
+            for k in range(np.uint64(cell_start[c0]), np.uint64(cell_start[c1 + 1])):
                 r2 = 0.0
                 for d in range(dim):
                     dx = pos_sorted[k, d] - pos[i, d]
@@ -188,13 +188,13 @@ def _fill(pos, r2max, nc, cell_of, cell_start, order, pos_sorted, indptr, indice
             c0, c1 = _strip(cell_of[i], s, nc, dim)
             if c0 < 0:
                 continue
-            for k in range(cell_start[c0], cell_start[c1 + 1]):
+            for k in range(np.uint64(cell_start[c0]), np.uint64(cell_start[c1 + 1])):
                 r2 = 0.0
                 for d in range(dim):
                     dx = pos_sorted[k, d] - pos[i, d]
                     r2 += dx * dx
                 if r2 < r2max:
-                    j = order[k]
+                    j = np.uint32(order[k])
                     if j != i:
                         indices[p] = j
                         p += 1

@@ -65,8 +65,8 @@ def number_density(pos, indptr, indices, re, wcode, out):
     n, dim = pos.shape
     for i in prange(n):
         s = 0.0
-        for k in range(indptr[i], indptr[i + 1]):
-            j = indices[k]
+        for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
+            j = np.uint32(indices[k])
             r2 = 0.0
             for d in range(dim):
                 dx = pos[j, d] - pos[i, d]
@@ -91,8 +91,8 @@ def laplacian(pos, f, kind, indptr, indices, re, wcode, coef, out):
             out[i, c] = 0.0
         if kind[i] != 0:
             continue
-        for k in range(indptr[i], indptr[i + 1]):
-            j = indices[k]
+        for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
+            j = np.uint32(indices[k])
             r2 = 0.0
             for d in range(dim):
                 dx = pos[j, d] - pos[i, d]
@@ -118,8 +118,8 @@ def divergence(pos, u, kind, indptr, indices, re, wcode, n0, out):
         if ki == 2 or ki == 4:
             continue
         s = 0.0
-        for k in range(indptr[i], indptr[i + 1]):
-            j = indices[k]
+        for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
+            j = np.uint32(indices[k])
             r2 = 0.0
             dot = 0.0
             for d in range(dim):
@@ -149,8 +149,8 @@ def pressure_gradient(pos, p, kind, indptr, indices, re, wcode, n0, form, skip_d
             continue
         if form == 1:
             pref = p[i]
-            for k in range(indptr[i], indptr[i + 1]):
-                j = indices[k]
+            for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
+                j = np.uint32(indices[k])
                 kj = kind[j]
                 if skip_dummy and (kj == 2 or kj == 4):
                     continue
@@ -165,8 +165,8 @@ def pressure_gradient(pos, p, kind, indptr, indices, re, wcode, n0, form, skip_d
         else:
             pref = p[i]
             sgn = 1.0
-        for k in range(indptr[i], indptr[i + 1]):
-            j = indices[k]
+        for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
+            j = np.uint32(indices[k])
             kj = kind[j]
             if skip_dummy and (kj == 2 or kj == 4):
                 continue
