@@ -1,9 +1,10 @@
 """Factorisation of the symmetric positive definite matrices of the structure, reused per solve.
 
 Small systems (``n <= DENSE_LIMIT``) are factorised densely by LAPACK Cholesky (``dpotrf``) and
-solved with ``dpotrs`` called directly, which costs a few microseconds per solve. Larger ones use
-SuperLU (``scipy.sparse.linalg.splu``) with a symmetric minimum-degree ordering and no pivoting
-beyond what stability needs (the matrices are SPD). Both are deterministic.
+solved with ``dpotrs`` called directly. Larger ones use SuperLU (``scipy.sparse.linalg.splu``)
+with a symmetric minimum-degree ordering and no pivoting (the matrices are SPD). For banded beam
+systems the two cost the same per Newmark step at n ~ 150; at n = 450 SuperLU is 2.5x faster.
+Both are deterministic.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from scipy.linalg import lapack
 __all__ = ["DENSE_LIMIT", "Factor", "factorize"]
 
 #: largest system factorised densely
-DENSE_LIMIT = 600
+DENSE_LIMIT = 128
 
 
 class Factor:

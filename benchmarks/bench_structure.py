@@ -1,0 +1,123 @@
+"""Structure solver timings: Newmark step and factorisation of the thesis members.
+
+    .venv/bin/python benchmarks/bench_structure.py [--steps N] [--repeats R]
+
+Cases: the green-water vertical plate (50 Hermite beam elements with axial dofs) and the 3D
+bottom-slamming plate (800 BFS elements, 40 x 20), from scenarios/structure_*.toml. For each:
+model build (assembly with scikit-fem), factorisation of the effective stiffness, and the time per
+step of the participant's ``write("forces") + advance(dt)`` path (nodal-force mapping, effective
+load, triangular solves, state update) and of the bare Newmark step. Targets (issue 3): at most
+0.2 ms per beam step and 2 ms per plate step. Prints a table and writes
+benchmarks/results/structure.csv (median of the repeats).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import platform
+import statistics
+import sys
+import time
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "src"))
+
+from mpsfem.scenario.structure import StructureSection  # noqa: E402
+from mpsfem.structure_fem.participant import StructureParticipant  # noqa: E402
+
+CASES = [
+    ("beam_50", "structure_green_water_plate.toml", 0.2),
+    ("plate_800", "structure_bottom_slamming_3d.toml", 2.0),
+]
+
+
+def section_of(name: str) -> StructureSection:
+    data = tomllib.loads((ROOT / "scenarios" / name).read_text())
+    return StructureSection.model_validate(data["structure"])
+
+
+def bench_case(label: str, scenario: str, target_ms: float, steps: int, repeats: int) -> dict:
+    sec = section_of(scenario)
+    t0 = time.perf_counter()
+    part = StructureParticipant(sec)
+    build = time.perf_counter() - t0
+    dt = sec.time.dt
+    n_pts = part.interface().n_points
+    rng = np.random.default_rng(0)
+    forces = 1e-3 * rng.standard_normal((n_pts, part.dim))
+    # factorisation of K_eff (a fresh dt forces one)
+    fac = []
+    for k in range(repeats):
+        t0 = time.perf_counter()
+        part.integrator.factor(dt * (1.0 + 1e-6 * (k + 1)))
+        fac.append(time.perf_counter() - t0)
+    part.integrator.factor(dt)
+    # participant step: write + advance
+    per_step = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            part.write("forces", forces)
+            part.advance(dt)
+        per_step.append((time.perf_counter() - t0) / steps)
+    # bare Newmark step
+    nm = part.integrator
+    F = nm.M @ np.ones(nm.n) * 1e-6
+    bare = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            nm.step(dt, F)
+        bare.append((time.perf_counter() - t0) / steps)
+    step_ms = statistics.median(per_step) * 1e3
+    return {
+        "case": label,
+        "scenario": scenario,
+        "elements": sum(
+            m.elements if m.type == "beam" else m.divisions[0] * m.divisions[1] for m in sec.members
+        ),
+        "dofs_free": part.system.n,
+        "interface_points": n_pts,
+        "solver": "dense Cholesky" if part.integrator.factor(dt)[0].dense else "SuperLU",
+        "build_s": round(build, 4),
+        "factorisation_ms": round(statistics.median(fac) * 1e3, 3),
+        "step_ms": round(step_ms, 4),
+        "newmark_step_ms": round(statistics.median(bare) * 1e3, 4),
+        "target_ms": target_ms,
+        "meets_target": step_ms <= target_ms,
+    }
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--steps", type=int, default=2000)
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "structure.csv")
+    args = ap.parse_args(argv)
+    rows = [bench_case(*c, steps=args.steps, repeats=args.repeats) for c in CASES]
+    host = f"{platform.node()} {platform.processor() or platform.machine()}, {os.cpu_count()} cpus"
+    print(f"structure solver, {host}, python {platform.python_version()}")
+    cols = ["case", "elements", "dofs_free", "solver", "build_s", "factorisation_ms", "step_ms",
+            "newmark_step_ms", "target_ms", "meets_target"]  # fmt: skip
+    widths = [max(len(c), *(len(str(r[c])) for r in rows)) for c in cols]
+    print("  ".join(c.ljust(w) for c, w in zip(cols, widths, strict=True)))
+    for r in rows:
+        print("  ".join(str(r[c]).ljust(w) for c, w in zip(cols, widths, strict=True)))
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    with args.out.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=[*rows[0].keys(), "host"])
+        w.writeheader()
+        for r in rows:
+            w.writerow({**r, "host": host})
+    print(f"wrote {args.out}")
+    return 0 if all(r["meets_target"] for r in rows) else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
