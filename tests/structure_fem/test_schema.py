@@ -81,7 +81,12 @@ def test_section_errors():
     beyond = [{"kind": "point_force", "member": "wall", "position": [0.0, 0.3], "force": [1, 0]}]
     assert "beyond the ends" in errors([BEAM], loads=beyond)
     outside = [
-        {"kind": "point_force", "member": "deck", "position": [0.5, 0.1, 0.1254], "force": [0, 0, 1]}
+        {
+            "kind": "point_force",
+            "member": "deck",
+            "position": [0.5, 0.1, 0.1254],
+            "force": [0, 0, 1],
+        }
     ]
     assert "outside the planform" in errors([PLATE], loads=outside)
     assert "newmark_gamma" in errors([BEAM], time={"dt": 1e-4, "newmark_gamma": 0.4})

@@ -128,3 +128,25 @@ def test_scenario_files_run(name, tmp_path):
         for g in h5["structure"].values():
             assert np.isfinite(g["displacement"][:]).all()
     print(f"{name}: {summary.steps} steps in {summary.wall_time:.2f} s")
+
+
+def test_cli_main_structure_and_modes(tmp_path, monkeypatch, capsys):
+    """cli_main implements `mpsfem structure` and `mpsfem modes` (argparse namespace)."""
+    from types import SimpleNamespace
+
+    import mpsfem.scenario.loader as loader
+    from mpsfem.structure_fem.standalone import cli_main
+
+    monkeypatch.setattr(loader, "load_scenario", lambda path, overrides=(): load(path, overrides))
+    rc = cli_main(SimpleNamespace(command="modes", scenario=CANTILEVER, overrides=[], count=3))
+    out = capsys.readouterr().out
+    assert rc == 0 and "cantilever" in out and "8.3819" in out and len(out.splitlines()) == 4
+    h5 = tmp_path / "c.h5"
+    rc = cli_main(
+        SimpleNamespace(
+            command="structure", scenario=CANTILEVER, overrides=["run.end_time=0.01"], out=h5,
+            no_progress=True,
+        )
+    )  # fmt: skip
+    assert rc == 0 and h5.is_file()
+    assert "finished t = 0.01 s in 20 steps" in capsys.readouterr().out

@@ -290,7 +290,12 @@ class PlateMember(_MemberCommon):
         )
     )
     origin: list[float] = Field(
-        min_length=3, max_length=3, description="Corner (u, v) = (0, 0) of the plate in m."
+        min_length=3,
+        max_length=3,
+        description=(
+            "Scene position (m) of the local origin (u, v) = (0, 0): a rectangle's corner, the "
+            "reference point of a polygon's `outline`."
+        ),
     )
     axis_u: list[float] = Field(
         [1.0, 0.0, 0.0],
