@@ -30,23 +30,24 @@ def rng():
     return np.random.default_rng(12345)
 
 
-def tank(shape, l0=1.0, layers=3, air_rows=3):
+def tank(shape, l0=1.0, layers=3, air_rows=3, closed=False):
     """Fluid block of ``shape`` lattice sites (last axis vertical) in an open tank.
 
     Walls on the floor and on every side: the layer touching the fluid is WALL (1), the
-    ``layers - 1`` behind it DUMMY (2). The walls rise ``air_rows`` rows above the water. Returns
+    ``layers - 1`` behind it DUMMY (2). The walls rise ``air_rows`` rows above the water; with
+    ``closed`` a lid closes the box right above the fluid instead (no free surface). Returns
     (pos, kind) with the fluid first, in lattice order (x fastest).
     """
     dim = len(shape)
     lo = [-layers] * dim
-    hi = [s + layers for s in shape[:-1]] + [shape[-1] + air_rows]
+    hi = [s + layers for s in shape[:-1]] + [shape[-1] + (layers if closed else air_rows)]
     extent = [h - l for l, h in zip(lo, hi, strict=True)]
     idx = np.indices(extent[::-1]).reshape(dim, -1).T[:, ::-1] + np.array(lo)  # x fastest
     out = np.zeros(len(idx), dtype=np.int64)  # layers outside the fluid block
     for d in range(dim):
         below = -idx[:, d]
         above = idx[:, d] - (shape[d] - 1)
-        if d == dim - 1:
+        if d == dim - 1 and not closed:
             above = np.zeros_like(above)  # open top
         out = np.maximum(out, np.maximum(below, above))
     inside = np.all(idx >= 0, axis=1) & np.all(idx < np.array(shape), axis=1)

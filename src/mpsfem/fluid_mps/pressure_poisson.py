@@ -1,0 +1,870 @@
+"""Pressure Poisson equation (PPE) of the semi-implicit MPS step, assembled in CSR and solved by PCG.
+
+Equation (thesis eq. 2-23, mixed source term of Lee et al. / Tanaka & Masunaga)::
+
+    <lap p>_i = (1 - gamma) rho / dt  <div u*>_i  -  gamma rho / dt^2 (n*_i - n0) / n0
+
+with the MPS Laplacian ``<lap p>_i = 2 d / (lambda0 n0) sum_j (p_j - p_i) w_ij`` (eq. 2-16) on the
+PPE's own kernel radius (default 4.01 l0) with the constants n0, lambda0 of the initial lattice, the
+velocity divergence (eq. 2-15) and the number density n* (eq. 2-5) on the density radius (2.1 l0)
+with that radius' n0. Multiplying by -1 gives ``A p = b`` with A symmetric positive definite:
+
+- Unknowns: FLUID particles and pressure-carrying walls (WALL, STRUCTURE) that are not free-surface
+  particles; a pressure wall without a FLUID neighbour within the PPE radius is not an unknown.
+- Neighbours j in row i: DUMMY / STRUCTURE_DUMMY never enter (no pressure; their absence is a
+  zero-normal-gradient condition, as in MPS-Basic), nor do pressure walls that are not unknowns and
+  not free surface (too far from the fluid). Free-surface neighbours are Dirichlet p = 0: their
+  weight stays on the diagonal, the column is eliminated (symmetry is kept).
+- A_ij = -c w_ij (j an unknown), A_ii = c sum_j w_ij + rho kappa / dt^2, c = 2 d / (lambda0 n0),
+  b_i = -(right-hand side above). kappa is the optional artificial compressibility (1/Pa,
+  MPS-Basic style, default 0).
+- SPD: every connected set of unknowns that touches a free-surface particle is strictly diagonally
+  dominant somewhere and hence SPD. A set with no free-surface contact (fluid enclosed by walls) is
+  singular (pure Neumann); such sets are found each step (breadth-first search over the matrix
+  graph, O(nnz)) and get the compressibility term with ``floating_compressibility`` (default
+  4.5e-10 1/Pa, water's 1/(rho c^2)) when ``compressibility`` is smaller.
+
+Index space: the matrix has one row per pressure-carrying particle (FLUID, WALL, STRUCTURE), in
+particle order, whether or not it is an unknown this step; rows that are not unknowns are decoupled
+identity-like rows (``A_ii = c n0``, ``b_i = 0``, solution 0). Its size therefore stays fixed while
+particles move and the free surface changes, so an AMG hierarchy built at one step stays a valid
+(symmetric positive definite) preconditioner of later matrices; on the finest level the V-cycle
+smooths with the current matrix. The hierarchy is rebuilt when CG needs more than
+``rebuild_factor`` times the iterations of the first solve after the last rebuild, when the row
+count changes, or when a solve with an old hierarchy fails to converge (then the solve is retried
+once with a fresh hierarchy).
+
+Solvers by name (:data:`SOLVERS`, :func:`make_pressure_solver`): ``"pcg_amg"`` (CG preconditioned
+by a pyamg smoothed-aggregation V-cycle, seeded for determinism), ``"pcg_jacobi"`` (diagonal
+preconditioner) and ``"direct"`` (scipy's sparse LU; small problems). The CG is numba (parallel
+matrix-vector product, dot products summed in fixed-size chunks in a fixed order, so bit-identical
+for a given thread count), warm-started from the previous pressure and stopped at
+``||b - A p|| <= tol ||b||``. Failing that within ``max_iter`` raises :class:`PressureSolveError`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from numba import njit, prange
+
+from .kernels import weight, weight_code
+from .lattice import lattice_constants
+from .operators import divergence
+
+WATER_COMPRESSIBILITY = 4.5e-10  # 1/Pa, 1 / (rho c^2) for water
+
+
+class PressureSolveError(RuntimeError):
+    """The pressure Poisson equation did not reach its tolerance."""
+
+
+@dataclass
+class SolveInfo:
+    """What one pressure solve did."""
+
+    iterations: int = 0
+    residual: float = 0.0  # ||b - A p|| / ||b|| reached
+    n_unknowns: int = 0
+    n_rows: int = 0
+    nnz: int = 0
+    assembly_time: float = 0.0  # s, source term + matrix
+    solve_time: float = 0.0  # s, including any AMG rebuild
+    rebuilt: bool = False  # the AMG hierarchy was (re)built in this solve
+    floating: int = 0  # unknowns in sets without free-surface contact (given compressibility)
+
+
+# ----------------------------------------------------------------------------- source term
+@njit(cache=True, parallel=True)
+def mixed_source_term(div_u, number_density, kind, rho, dt, gamma, n0, out):
+    """Right-hand side of eq. 2-23 per particle (0 on dummies):
+    (1 - gamma) rho / dt div_u - gamma rho / dt^2 (n - n0) / n0."""
+    a = (1.0 - gamma) * rho / dt
+    c = gamma * rho / (dt * dt * n0)
+    for i in prange(kind.shape[0]):
+        k = kind[i]
+        if k == 2 or k == 4:
+            out[i] = 0.0
+        else:
+            out[i] = a * div_u[i] - c * (number_density[i] - n0)
+    return out
+
+
+@njit(cache=True, parallel=True)
+def clamp_negative(p, mask):
+    """p_i = max(p_i, 0) where mask_i is true (negative-pressure clamp)."""
+    for i in prange(p.shape[0]):
+        if mask[i] and p[i] < 0.0:
+            p[i] = 0.0
+    return p
+
+
+# ----------------------------------------------------------------------------- assembly
+@njit(cache=True)
+def _row_map(kind, row_of):
+    """Row of each pressure-carrying particle (FLUID, WALL, STRUCTURE) in particle order; -1 else."""
+    m = 0
+    for i in range(kind.shape[0]):
+        k = kind[i]
+        if k == 0 or k == 1 or k == 3:
+            row_of[i] = m
+            m += 1
+        else:
+            row_of[i] = -1
+    return m
+
+
+@njit(cache=True, parallel=True)
+def _classify(pos, kind, free_surface, indptr, indices, re2, unknown):
+    """unknown[i] = 1 for non-surface FLUID, and non-surface WALL/STRUCTURE with a FLUID neighbour."""
+    n, dim = pos.shape
+    for i in prange(n):
+        k = kind[i]
+        u = 0
+        if free_surface[i] == 0:
+            if k == 0:
+                u = 1
+            elif k == 1 or k == 3:
+                for kk in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
+                    j = np.uint32(indices[kk])
+                    if kind[j] == 0:
+                        r2 = 0.0
+                        for d in range(dim):
+                            dx = pos[j, d] - pos[i, d]
+                            r2 += dx * dx
+                        if r2 < re2:
+                            u = 1
+                            break
+        unknown[i] = u
+
+
+@njit(cache=True, parallel=True)
+def _count(pos, unknown, row_of, indptr, indices, re2, counts):
+    n, dim = pos.shape
+    for i in prange(n):
+        r = row_of[i]
+        if r < 0:
+            continue
+        c = 1
+        if unknown[i]:
+            for kk in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
+                j = np.uint32(indices[kk])
+                if unknown[j]:
+                    r2 = 0.0
+                    for d in range(dim):
+                        dx = pos[j, d] - pos[i, d]
+                        r2 += dx * dx
+                    if r2 < re2:
+                        c += 1
+        counts[r] = c
+
+
+@njit(cache=True)
+def _prefix(counts, m, out):
+    out[0] = 0
+    for r in range(m):
+        out[r + 1] = out[r] + counts[r]
+
+
+@njit(cache=True, parallel=True)
+def _fill(
+    pos,
+    kind,
+    free_surface,
+    unknown,
+    row_of,
+    indptr,
+    indices,
+    re,
+    wcode,
+    coef,
+    diag_shift,
+    decoupled,
+    src,
+    a_ptr,
+    a_idx,
+    a_val,
+    b,
+    dirichlet,
+):
+    """Second pass: CSR rows (columns ascending, diagonal in place), right-hand side, and whether
+    a row touches a Dirichlet (free-surface) neighbour."""
+    n, dim = pos.shape
+    re2 = re * re
+    for i in prange(n):
+        r = row_of[i]
+        if r < 0:
+            continue
+        p = a_ptr[r]
+        if unknown[i] == 0:
+            a_idx[p] = r
+            a_val[p] = decoupled
+            b[r] = 0.0
+            dirichlet[r] = 1
+            continue
+        diag = 0.0
+        dpos = -1
+        touch = 0
+        for kk in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
+            j = np.uint32(indices[kk])
+            uj = unknown[j]
+            if uj == 0 and free_surface[j] == 0:
+                continue  # dummy, or a wall too far from the fluid: no pressure coupling
+            kj = kind[j]
+            if kj == 2 or kj == 4:
+                continue
+            r2 = 0.0
+            for d in range(dim):
+                dx = pos[j, d] - pos[i, d]
+                r2 += dx * dx
+            if r2 >= re2:
+                continue
+            w = coef * weight(np.sqrt(r2), re, wcode)
+            diag += w
+            if uj:
+                if dpos < 0 and j > i:
+                    dpos = p
+                    p += 1
+                a_idx[p] = row_of[j]
+                a_val[p] = -w
+                p += 1
+            else:
+                touch = 1
+        if dpos < 0:
+            dpos = p
+        a_idx[dpos] = r
+        a_val[dpos] = diag + diag_shift
+        b[r] = -src[i]
+        dirichlet[r] = touch
+
+
+@njit(cache=True)
+def _floating_rows(a_ptr, a_idx, dirichlet, m, mark, queue):
+    """Mark (mark[r] = 0) rows not connected to any Dirichlet-touching row; return their count.
+
+    Breadth-first search from all rows that touch a free-surface particle (decoupled rows count as
+    grounded). O(nnz), serial."""
+    head = 0
+    tail = 0
+    for r in range(m):
+        if dirichlet[r]:
+            mark[r] = 1
+            queue[tail] = r
+            tail += 1
+        else:
+            mark[r] = 0
+    while head < tail:
+        r = queue[head]
+        head += 1
+        for k in range(np.uint64(a_ptr[r]), np.uint64(a_ptr[r + 1])):
+            c = a_idx[k]
+            if mark[c] == 0:
+                mark[c] = 1
+                queue[tail] = c
+                tail += 1
+    return m - tail
+
+
+@njit(cache=True)
+def _shift_floating(a_ptr, a_idx, a_val, mark, m, shift):
+    for r in range(m):
+        if mark[r] == 0:
+            for k in range(np.uint64(a_ptr[r]), np.uint64(a_ptr[r + 1])):
+                if a_idx[k] == r:
+                    a_val[k] += shift
+
+
+@njit(cache=True, parallel=True)
+def _gather(p, row_of, unknown, x):
+    for i in prange(p.shape[0]):
+        r = row_of[i]
+        if r >= 0:
+            x[r] = p[i] if unknown[i] else 0.0
+
+
+@njit(cache=True, parallel=True)
+def _scatter(x, row_of, unknown, p):
+    for i in prange(p.shape[0]):
+        r = row_of[i]
+        p[i] = x[r] if (r >= 0 and unknown[i]) else 0.0
+
+
+# ----------------------------------------------------------------------------- CG kernels
+_NCHUNK = 128  # dot products: fixed chunks summed in a fixed order (thread-count independent)
+
+
+@njit(cache=True, parallel=True)
+def _spmv(a_ptr, a_idx, a_val, x, y):
+    for r in prange(y.shape[0]):
+        s = 0.0
+        for k in range(np.uint64(a_ptr[r]), np.uint64(a_ptr[r + 1])):
+            s += a_val[k] * x[np.uint32(a_idx[k])]
+        y[r] = s
+
+
+@njit(cache=True, parallel=True)
+def _dot(x, y, part):
+    n = x.shape[0]
+    for c in prange(_NCHUNK):
+        lo = c * n // _NCHUNK
+        hi = (c + 1) * n // _NCHUNK
+        s = 0.0
+        for k in range(lo, hi):
+            s += x[k] * y[k]
+        part[c] = s
+    s = 0.0
+    for c in range(_NCHUNK):
+        s += part[c]
+    return s
+
+
+@njit(cache=True, parallel=True)
+def _residual(a_ptr, a_idx, a_val, x, b, r, part):
+    """r = b - A x; returns ||r||^2."""
+    m = b.shape[0]
+    for c in prange(_NCHUNK):
+        lo = c * m // _NCHUNK
+        hi = (c + 1) * m // _NCHUNK
+        acc = 0.0
+        for i in range(lo, hi):
+            s = 0.0
+            for k in range(np.uint64(a_ptr[i]), np.uint64(a_ptr[i + 1])):
+                s += a_val[k] * x[np.uint32(a_idx[k])]
+            v = b[i] - s
+            r[i] = v
+            acc += v * v
+        part[c] = acc
+    s = 0.0
+    for c in range(_NCHUNK):
+        s += part[c]
+    return s
+
+
+@njit(cache=True, parallel=True)
+def _direction_and_product(a_ptr, a_idx, a_val, z, d, beta, q, part):
+    """d = z + beta d (all rows first), then q = A d; returns d.q."""
+    m = z.shape[0]
+    for i in prange(m):
+        d[i] = z[i] + beta * d[i]
+    for c in prange(_NCHUNK):
+        lo = c * m // _NCHUNK
+        hi = (c + 1) * m // _NCHUNK
+        acc = 0.0
+        for i in range(lo, hi):
+            s = 0.0
+            for k in range(np.uint64(a_ptr[i]), np.uint64(a_ptr[i + 1])):
+                s += a_val[k] * d[np.uint32(a_idx[k])]
+            q[i] = s
+            acc += d[i] * s
+        part[c] = acc
+    s = 0.0
+    for c in range(_NCHUNK):
+        s += part[c]
+    return s
+
+
+@njit(cache=True, parallel=True)
+def _update(x, r, d, q, alpha, part):
+    """x += alpha d, r -= alpha q; returns ||r||^2."""
+    m = x.shape[0]
+    for c in prange(_NCHUNK):
+        lo = c * m // _NCHUNK
+        hi = (c + 1) * m // _NCHUNK
+        acc = 0.0
+        for i in range(lo, hi):
+            x[i] += alpha * d[i]
+            v = r[i] - alpha * q[i]
+            r[i] = v
+            acc += v * v
+        part[c] = acc
+    s = 0.0
+    for c in range(_NCHUNK):
+        s += part[c]
+    return s
+
+
+@njit(cache=True, parallel=True)
+def _jacobi_apply(a_ptr, a_idx, a_val, r, z, part):
+    """z = D^-1 r; returns r.z."""
+    m = r.shape[0]
+    for c in prange(_NCHUNK):
+        lo = c * m // _NCHUNK
+        hi = (c + 1) * m // _NCHUNK
+        acc = 0.0
+        for i in range(lo, hi):
+            dg = 1.0
+            for k in range(np.uint64(a_ptr[i]), np.uint64(a_ptr[i + 1])):
+                if a_idx[k] == i:
+                    dg = a_val[k]
+            v = r[i] / dg
+            z[i] = v
+            acc += r[i] * v
+        part[c] = acc
+    s = 0.0
+    for c in range(_NCHUNK):
+        s += part[c]
+    return s
+
+
+@njit(cache=True, parallel=True)
+def _hybrid_gs(a_ptr, a_idx, a_val, x, b, xold, nblocks, backward):
+    """One l1 hybrid Gauss-Seidel sweep (Baker, Falgout, Kolev & Yang 2011) in place on x.
+
+    The rows are cut into ``nblocks`` fixed contiguous blocks, swept in parallel; inside a block
+    it is Gauss-Seidel (forward or backward), across blocks Jacobi on the values from before the
+    sweep, with the off-block absolute row sum added to the diagonal, which makes the sweep
+    convergent for any SPD matrix. The result depends on nblocks, not on the thread count. A
+    forward sweep as pre-smoother and a backward one as post-smoother keep the V-cycle symmetric.
+    """
+    m = x.shape[0]
+    for i in prange(m):
+        xold[i] = x[i]
+    for c in prange(nblocks):
+        lo = c * m // nblocks
+        hi = (c + 1) * m // nblocks
+        width = np.uint64(hi - lo)
+        for t in range(hi - lo):
+            i = hi - 1 - t if backward else lo + t
+            s = b[i]
+            dg = 0.0
+            l1 = 0.0
+            for k in range(np.uint64(a_ptr[i]), np.uint64(a_ptr[i + 1])):
+                j = np.uint32(a_idx[k])
+                v = a_val[k]
+                if np.uint64(np.int64(j) - lo) < width:  # in block (diagonal included)
+                    s -= v * x[j]
+                    if j == i:
+                        dg = v
+                else:
+                    s -= v * xold[j]
+                    l1 += abs(v)
+            x[i] += s / (dg + l1)
+
+
+@njit(cache=True, parallel=True)
+def _residual_only(a_ptr, a_idx, a_val, x, b, r):
+    for i in prange(b.shape[0]):
+        s = 0.0
+        for k in range(np.uint64(a_ptr[i]), np.uint64(a_ptr[i + 1])):
+            s += a_val[k] * x[np.uint32(a_idx[k])]
+        r[i] = b[i] - s
+
+
+@njit(cache=True, parallel=True)
+def _spmv_add(a_ptr, a_idx, a_val, x, y):
+    """y += A x."""
+    for i in prange(y.shape[0]):
+        s = 0.0
+        for k in range(np.uint64(a_ptr[i]), np.uint64(a_ptr[i + 1])):
+            s += a_val[k] * x[np.uint32(a_idx[k])]
+        y[i] += s
+
+
+def _csr32(M):
+    """CSR copy with int32 indices and sorted columns (for the numba kernels)."""
+    M = sp.csr_matrix(M)
+    M.sort_indices()
+    return (
+        np.ascontiguousarray(M.indptr, dtype=np.int32),
+        np.ascontiguousarray(M.indices, dtype=np.int32),
+        np.ascontiguousarray(M.data, dtype=np.float64),
+    )
+
+
+# ----------------------------------------------------------------------------- solvers
+class PressureSolver:
+    """Assembles and solves the PPE; subclasses supply the linear solve.
+
+    Parameters (keywords)
+    ---------------------
+    dim, l0 : dimension and initial particle spacing.
+    re : PPE Laplacian kernel radius (absolute, e.g. 4.01 l0).
+    re_density : radius of the number density and the divergence (absolute, e.g. 2.1 l0).
+    weight : kernel name ("improved" / "original").
+    rho : fluid density. gamma : number-density weight of the mixed source term, in [0, 1].
+    tol : relative residual. max_iter : CG iteration limit.
+    compressibility : artificial compressibility kappa (1/Pa) on every unknown's diagonal (0 = off).
+    floating_compressibility : kappa given to unknown sets with no free-surface contact.
+    """
+
+    name = "base"
+
+    def __init__(
+        self,
+        *,
+        dim,
+        l0,
+        re,
+        re_density,
+        weight="improved",
+        rho=1000.0,
+        gamma=0.01,
+        tol=1e-6,
+        max_iter=2000,
+        compressibility=0.0,
+        floating_compressibility=WATER_COMPRESSIBILITY,
+        **_ignored,
+    ):
+        if dim not in (2, 3):
+            raise ValueError(f"dim must be 2 or 3, got {dim!r}")
+        if not 0.0 <= gamma <= 1.0:
+            raise ValueError(f"gamma must be in [0, 1], got {gamma!r}")
+        if not 0.0 < tol < 1.0:
+            raise ValueError(f"tol must be in (0, 1), got {tol!r}")
+        if not (re > 0 and re_density > 0 and rho > 0 and l0 > 0):
+            raise ValueError("l0, re, re_density and rho must be positive")
+        if compressibility < 0 or floating_compressibility <= 0:
+            raise ValueError("compressibility must be >= 0 and floating_compressibility > 0")
+        self.dim = dim
+        self.l0 = float(l0)
+        self.re = float(re)
+        self.re_density = float(re_density)
+        self.wcode = weight_code(weight)
+        self.rho = float(rho)
+        self.gamma = float(gamma)
+        self.tol = float(tol)
+        self.max_iter = int(max_iter)
+        self.compressibility = float(compressibility)
+        self.floating_compressibility = float(floating_compressibility)
+        n0, lam = lattice_constants(dim, l0, re, weight)
+        self.n0_ppe, self.lambda0 = n0, lam
+        self.coef = 2.0 * dim / (lam * n0)
+        self.n0_density, _ = lattice_constants(dim, l0, re_density, weight)
+        self.decoupled = self.coef * n0  # diagonal of rows that are not unknowns
+        self._n = -1
+        self._nnz_cap = 0
+        self.history: list[int] = []  # iterations per solve
+        self.last_info = SolveInfo()
+
+    # -- buffers --------------------------------------------------------------------------
+    def _buffers(self, n):
+        if n != self._n:
+            self.row_of = np.empty(n, np.int64)
+            self.unknown = np.empty(n, np.int8)
+            self.div = np.empty(n)
+            self.src = np.empty(n)
+            self.counts = np.empty(n, np.int64)
+            self.a_ptr = np.empty(n + 1, np.int32)
+            self.b = np.empty(n)
+            self.x = np.empty(n)
+            self.dirichlet = np.empty(n, np.int8)
+            self.mark = np.empty(n, np.int8)
+            self.queue = np.empty(n, np.int64)
+            self.work = np.empty((5, n))
+            self.part = np.empty(_NCHUNK)
+            self._n = n
+
+    def assemble(self, pos, vel, kind, number_density, free_surface, nb, dt):
+        """Build A (scipy CSR wrapping internal buffers, valid until the next call) and b.
+
+        Returns (A, b, m) with m the number of rows. ``nb`` is the shared neighbour list (its
+        radius must be >= re and >= re_density)."""
+        if nb.radius < max(self.re, self.re_density) * (1 - 1e-12):
+            raise ValueError(
+                f"neighbour list radius {nb.radius} is smaller than the PPE radius {self.re} or "
+                f"the density radius {self.re_density}"
+            )
+        n = pos.shape[0]
+        self._buffers(n)
+        divergence(
+            pos,
+            vel,
+            kind,
+            nb.indptr,
+            nb.indices,
+            self.re_density,
+            self.wcode,
+            self.n0_density,
+            self.div,
+        )
+        mixed_source_term(
+            self.div, number_density, kind, self.rho, dt, self.gamma, self.n0_density, self.src
+        )
+        m = _row_map(kind, self.row_of)
+        re2 = self.re * self.re
+        _classify(pos, kind, free_surface, nb.indptr, nb.indices, re2, self.unknown)
+        _count(pos, self.unknown, self.row_of, nb.indptr, nb.indices, re2, self.counts)
+        a_ptr = self.a_ptr[: m + 1]
+        _prefix(self.counts, m, a_ptr)
+        nnz = int(a_ptr[m])
+        if nnz > self._nnz_cap:
+            self._nnz_cap = int(nnz * 1.25) + 64
+            self.a_idx = np.empty(self._nnz_cap, np.int32)
+            self.a_val = np.empty(self._nnz_cap)
+        a_idx, a_val = self.a_idx[:nnz], self.a_val[:nnz]
+        b = self.b[:m]
+        shift = self.rho * self.compressibility / (dt * dt)
+        _fill(
+            pos,
+            kind,
+            free_surface,
+            self.unknown,
+            self.row_of,
+            nb.indptr,
+            nb.indices,
+            self.re,
+            self.wcode,
+            self.coef,
+            shift,
+            self.decoupled,
+            self.src,
+            a_ptr,
+            a_idx,
+            a_val,
+            b,
+            self.dirichlet,
+        )
+        self.n_floating = _floating_rows(a_ptr, a_idx, self.dirichlet, m, self.mark, self.queue)
+        if self.n_floating and self.floating_compressibility > self.compressibility:
+            extra = self.rho * (self.floating_compressibility - self.compressibility) / (dt * dt)
+            _shift_floating(a_ptr, a_idx, a_val, self.mark, m, extra)
+        A = sp.csr_matrix((a_val, a_idx, a_ptr), shape=(m, m), copy=False)
+        A.has_sorted_indices = True
+        return A, b, m
+
+    # -- solve ------------------------------------------------------------------------------
+    def solve(self, pos, vel, kind, number_density, free_surface, nb, dt, p) -> SolveInfo:
+        """Solve the PPE for the pressure ``p`` (N,), updated in place and used as warm start.
+
+        On return p = 0 on every particle that is not an unknown (free surface, dummies, walls
+        away from the fluid). Raises PressureSolveError if the tolerance is not reached."""
+        t0 = time.perf_counter()
+        A, b, m = self.assemble(pos, vel, kind, number_density, free_surface, nb, dt)
+        x = self.x[:m]
+        _gather(p, self.row_of, self.unknown, x)
+        t1 = time.perf_counter()
+        info = SolveInfo(
+            n_rows=m,
+            n_unknowns=int(np.count_nonzero(self.unknown)),
+            nnz=A.nnz,
+            assembly_time=t1 - t0,
+            floating=int(self.n_floating),
+        )
+        self._solve(A, b, x, info)
+        _scatter(x, self.row_of, self.unknown, p)
+        info.solve_time = time.perf_counter() - t1
+        self.history.append(info.iterations)
+        self.last_info = info
+        return info
+
+    def _solve(self, A, b, x, info):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _pcg(self, A, b, x, precond, info, raise_on_fail=True):
+        """Preconditioned CG from the initial guess x (in place). ``precond(r, z) -> r.z``."""
+        m = b.shape[0]
+        r, z, d, q = (w[:m] for w in self.work[:4])
+        part = self.part
+        a_ptr, a_idx, a_val = A.indptr, A.indices, A.data
+        bnorm = np.sqrt(_dot(b, b, part))
+        if bnorm == 0.0:
+            x[:] = 0.0
+            info.iterations, info.residual = 0, 0.0
+            return True
+        target = (self.tol * bnorm) ** 2
+        rr = _residual(a_ptr, a_idx, a_val, x, b, r, part)
+        it = 0
+        restarts = 0
+        while True:
+            if rr <= target:
+                # confirm with the true residual (guards against drift of the recursive one)
+                rr = _residual(a_ptr, a_idx, a_val, x, b, r, part)
+                if rr <= target or restarts >= 3:
+                    break
+                restarts += 1
+            if it >= self.max_iter:
+                break
+            rz = precond(r, z)
+            beta = 0.0
+            d[:] = 0.0
+            while it < self.max_iter:
+                dq = _direction_and_product(a_ptr, a_idx, a_val, z, d, beta, q, part)
+                alpha = rz / dq
+                rr = _update(x, r, d, q, alpha, part)
+                it += 1
+                if rr <= target:
+                    break
+                rz_new = precond(r, z)
+                beta = rz_new / rz
+                rz = rz_new
+        info.iterations = it
+        info.residual = float(np.sqrt(rr) / bnorm)
+        ok = rr <= target
+        if not ok and raise_on_fail:
+            raise PressureSolveError(
+                f"pressure Poisson equation ({self.name}, {m} rows, {info.n_unknowns} unknowns) "
+                f"did not converge in {it} iterations: relative residual {info.residual:.3e} > "
+                f"tol {self.tol:.1e} (raise fluid.pressure.max_iter, shorten dt, or check the "
+                "particle configuration)"
+            )
+        return ok
+
+
+class JacobiPCG(PressureSolver):
+    """CG with the diagonal (Jacobi) preconditioner."""
+
+    name = "pcg_jacobi"
+
+    def _solve(self, A, b, x, info):
+        a_ptr, a_idx, a_val, part = A.indptr, A.indices, A.data, self.part
+
+        def precond(r, z):
+            return _jacobi_apply(a_ptr, a_idx, a_val, r, z, part)
+
+        self._pcg(A, b, x, precond, info)
+
+
+class DirectSolver(PressureSolver):
+    """Sparse LU (scipy ``spsolve``); for small problems and as a reference."""
+
+    name = "direct"
+
+    def _solve(self, A, b, x, info):
+        from scipy.sparse.linalg import spsolve
+
+        x[:] = spsolve(A.tocsc(), b)
+        rr = _residual(A.indptr, A.indices, A.data, x, b, self.work[0][: b.shape[0]], self.part)
+        bnorm = np.sqrt(_dot(b, b, self.part))
+        info.iterations = 1
+        info.residual = float(np.sqrt(rr) / bnorm) if bnorm > 0 else 0.0
+
+
+class AMGPCG(PressureSolver):
+    """CG preconditioned by one smoothed-aggregation V-cycle, hierarchy reused across steps.
+
+    The hierarchy (aggregates, prolongation P, R = P^T, coarse matrices) comes from
+    ``pyamg.smoothed_aggregation_solver`` (its random spectral-radius estimates seeded with
+    ``seed``; the global NumPy random state is saved and restored). The V-cycle itself runs in
+    numba: l1 hybrid Gauss-Seidel smoothing (forward before, backward after the coarse
+    correction, so the preconditioner is symmetric) with ``smoother_blocks`` fixed row blocks
+    swept in parallel, the finest level smoothing with the current matrix, a dense
+    pseudo-inverse on the coarsest level.
+
+    Extra parameters: ``rebuild_factor`` (default 1.5), ``seed`` (0), ``smoother_blocks`` (16),
+    ``amg_options`` (dict passed on to ``pyamg.smoothed_aggregation_solver``)."""
+
+    name = "pcg_amg"
+
+    def __init__(self, *, rebuild_factor=1.5, seed=0, smoother_blocks=16, amg_options=None, **kw):
+        super().__init__(**kw)
+        if not rebuild_factor > 1.0:
+            raise ValueError(f"rebuild_factor must be > 1, got {rebuild_factor!r}")
+        if int(smoother_blocks) < 1:
+            raise ValueError(f"smoother_blocks must be >= 1, got {smoother_blocks!r}")
+        self.rebuild_factor = float(rebuild_factor)
+        self.seed = int(seed)
+        self.smoother_blocks = int(smoother_blocks)
+        self.amg_options = dict(amg_options or {})
+        self.levels = None  # [(A, P, R) as int32 CSR triples]; A of level 0 is replaced per solve
+        self.coarse_inv = None
+        self.base_iterations = None
+        self.rebuilds = 0
+        self._rebuild_next = False
+
+    def _build(self, A):
+        import pyamg
+
+        # at least two levels whenever possible (small problems: coarse size m / 8)
+        max_coarse = max(10, min(500, A.shape[0] // 8))
+        opts = dict(
+            strength="symmetric",
+            smooth=("jacobi", {"omega": 4.0 / 3.0}),
+            max_coarse=max_coarse,
+            keep=False,
+        )
+        opts.update(self.amg_options)
+        state = np.random.get_state()  # noqa: NPY002 (pyamg draws from the legacy global RNG)
+        try:
+            np.random.seed(self.seed)  # noqa: NPY002
+            ml = pyamg.smoothed_aggregation_solver(A, **opts)
+        finally:
+            np.random.set_state(state)  # noqa: NPY002
+        levels = []
+        for lvl in ml.levels[:-1]:
+            levels.append([_csr32(lvl.A), _csr32(lvl.P), _csr32(lvl.R)])
+        self.levels = levels
+        self.coarse_inv = np.linalg.pinv(ml.levels[-1].A.toarray())
+        self.sizes = [lv.A.shape[0] for lv in ml.levels]
+        # work vectors per level: x, b, residual, old copy
+        self.vecs = [np.zeros((4, m)) for m in self.sizes]
+        self.blocks = [max(1, min(self.smoother_blocks, m // 256)) for m in self.sizes]
+        self.rebuilds += 1
+        self.base_iterations = None
+
+    def _vcycle(self, lvl, x, b):
+        """x = V-cycle(b) from x = 0 on level lvl."""
+        if lvl == len(self.levels):
+            x[:] = self.coarse_inv @ b
+            return
+        (ap, ai, av), (pp_, pi, pv), (rp, ri, rv) = self.levels[lvl]
+        w = self.vecs[lvl]
+        res, old = w[2], w[3]
+        nb = self.blocks[lvl]
+        x[:] = 0.0
+        _hybrid_gs(ap, ai, av, x, b, old, nb, False)
+        _residual_only(ap, ai, av, x, b, res)
+        wc = self.vecs[lvl + 1]
+        cx, cb = wc[0], wc[1]
+        _spmv(rp, ri, rv, res, cb)
+        self._vcycle(lvl + 1, cx, cb)
+        _spmv_add(pp_, pi, pv, cx, x)
+        _hybrid_gs(ap, ai, av, x, b, old, nb, True)
+
+    def _solve(self, A, b, x, info):
+        part = self.part
+        if self.levels is None or self.sizes[0] != A.shape[0] or self._rebuild_next:
+            self._build(A)
+            info.rebuilt = True
+            self._rebuild_next = False
+        if self.levels:
+            self.levels[0][0] = (A.indptr, A.indices, A.data)  # finest level: current matrix
+        else:  # one level only (tiny system): exact solve with the current matrix
+            self.coarse_inv = np.linalg.pinv(A.toarray())
+
+        def precond(r, z):
+            if not self.levels:
+                z[:] = self.coarse_inv @ r
+            else:
+                self._vcycle(0, z, r)
+            return _dot(r, z, part)
+
+        x_start = self.work[4][: x.shape[0]]
+        x_start[:] = x  # warm start, kept for a retry with a fresh hierarchy
+        ok = self._pcg(A, b, x, precond, info, raise_on_fail=info.rebuilt)
+        if not ok:  # old hierarchy: rebuild and retry once from the same warm start
+            first = info.iterations
+            x[:] = x_start
+            self._build(A)
+            info.rebuilt = True
+            if self.levels:
+                self.levels[0][0] = (A.indptr, A.indices, A.data)
+            self._pcg(A, b, x, precond, info, raise_on_fail=True)
+            self.base_iterations = max(info.iterations, 1)
+            info.iterations += first
+            return
+        if info.rebuilt or self.base_iterations is None:
+            self.base_iterations = max(info.iterations, 1)
+        elif info.iterations > self.rebuild_factor * self.base_iterations + 1:
+            self._rebuild_next = True
+
+
+SOLVERS: dict[str, type[PressureSolver]] = {
+    "pcg_amg": AMGPCG,
+    "pcg_jacobi": JacobiPCG,
+    "direct": DirectSolver,
+}
+
+
+def make_pressure_solver(name: str, **kwargs) -> PressureSolver:
+    """Pressure solver by name (see :data:`SOLVERS`) with the keyword parameters of
+    :class:`PressureSolver` (and :class:`AMGPCG`)."""
+    try:
+        cls = SOLVERS[name]
+    except (KeyError, TypeError):
+        raise ValueError(
+            f"unknown pressure solver {name!r}; allowed: {', '.join(sorted(SOLVERS))}"
+        ) from None
+    return cls(**kwargs)
