@@ -109,6 +109,14 @@ def test_morley_polygon_fast():
         polygon=(outline, 0.1),
     )  # fmt: skip
     assert all(len(e) > 0 for e in m.edge_facets)
+    # the mesh covers the outline exactly: area, and every boundary facet on one outline edge
+    p, t = m.mesh.p, m.mesh.t
+    area = 0.5 * np.abs(
+        (p[0, t[1]] - p[0, t[0]]) * (p[1, t[2]] - p[1, t[0]])
+        - (p[1, t[1]] - p[1, t[0]]) * (p[0, t[2]] - p[0, t[0]])
+    )
+    assert abs(area.sum() - 0.75) < 1e-12
+    assert sum(len(e) for e in m.edge_facets) == len(m.mesh.boundary_facets())
     f = m.free
     u = np.zeros(m.n_dof)
     u[f] = sla.spsolve(m.K[f][:, f].tocsc(), m.pressure_load(1.0)[f])

@@ -89,7 +89,7 @@ def polygon_mesh(outline, h: float):
     used = np.unique(tri)
     remap = -np.ones(len(pts), dtype=np.int64)
     remap[used] = np.arange(len(used))
-    mesh = MeshTri1(pts[used].T, remap[tri].T)
+    mesh = MeshTri1(np.ascontiguousarray(pts[used].T), np.ascontiguousarray(remap[tri].T))
     return mesh, edge_facets(mesh, poly, tol=1e-6 * size)
 
 
