@@ -143,9 +143,9 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "docs":
             return _cmd_docs(args)
         if args.command in ("structure", "modes"):
-            from mpsfem import structure_cli
+            from mpsfem.structure_fem.standalone import cli_main
 
-            return structure_cli.main(args)
+            return cli_main(args)
     except ScenarioError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -13,8 +13,10 @@ Layout (SI units; in 2D forces are per unit width):
   ``/structure/<name>/nodes``.
 - ``/coupling/{time,iterations,residual}`` per coupling window.
 
-Time series are resizable chunked datasets appended to row by row; :meth:`ResultsFile.flush`
-pushes everything to disk, so a run killed midway leaves a readable file. Only one process
+Time series are resizable chunked datasets. Probe and structure samples are buffered in memory
+(one HDF5 append per sample costs about a millisecond) and written in blocks by
+:meth:`ResultsFile.flush`, which the run loop calls on a wall-clock cadence, so a run killed midway
+leaves a readable file holding everything up to the last flush. Only one process
 writes the file (the fluid participant in coupled runs).
 """
 
@@ -56,6 +58,7 @@ class ResultsFile:
         self._t_start = time.perf_counter()
         self._wall_offset = float(h5.attrs.get("wall_time", 0.0))
         self._n_snapshots = len(h5["particles"]) if "particles" in h5 else 0
+        self._pending: dict[str, tuple[list[float], list[np.ndarray]]] = {}
 
     # ------------------------------------------------------------------ creation
     @classmethod
@@ -95,6 +98,7 @@ class ResultsFile:
         return out
 
     def _truncate_after(self, t: float) -> None:
+        self._flush_series()
         for top in ("probes", "structure"):
             for g in self._h5[top].values():
                 if "time" not in g:
@@ -140,12 +144,39 @@ class ResultsFile:
         _series(g, "value", (len(components),) if components else ())
 
     def append_probe(self, name: str, t: float, value: float | np.ndarray) -> None:
-        """Append one sample of probe ``name`` at time ``t`` (s)."""
+        """Append one sample of probe ``name`` at time ``t`` (s); buffered until the next flush."""
+        self._buffer(f"probes/{name}", "value", t, value)
+
+    def append_probe_rows(self, name: str, times: np.ndarray, values: np.ndarray) -> None:
+        """Append many samples of probe ``name`` at once (first axis time)."""
+        self._flush_series(f"probes/{name}")
         g = self._h5["probes"][name]
-        _append_rows(g["time"], np.array([t], dtype=np.float64))
-        _append_rows(
-            g["value"], np.asarray(value, dtype=np.float64).reshape(1, *g["value"].shape[1:])
-        )
+        tail = g["value"].shape[1:]
+        _append_rows(g["time"], np.asarray(times, dtype=np.float64).reshape(-1))
+        _append_rows(g["value"], np.asarray(values, dtype=np.float64).reshape(-1, *tail))
+
+    def _buffer(self, group: str, dataset: str, t: float, value) -> None:
+        key = f"{group}/{dataset}"
+        if key not in self._pending:
+            if group not in self._h5:
+                raise KeyError(f"{group} was not declared")
+            self._pending[key] = ([], [])
+        times, values = self._pending[key]
+        times.append(float(t))
+        values.append(np.array(value, dtype=np.float64))
+
+    def _flush_series(self, group: str | None = None) -> None:
+        for key in list(self._pending):
+            grp, _, dataset = key.rpartition("/")
+            if group is not None and grp != group:
+                continue
+            times, values = self._pending.pop(key)
+            if not times:
+                continue
+            g = self._h5[grp]
+            tail = g[dataset].shape[1:]
+            _append_rows(g["time"], np.asarray(times))
+            _append_rows(g[dataset], np.stack(values).reshape(len(times), *tail))
 
     # ------------------------------------------------------------------ particles
     def write_snapshot(
@@ -179,10 +210,9 @@ class ResultsFile:
         _series(g, "displacement", nodes.shape)
 
     def append_structure(self, name: str, t: float, displacement: np.ndarray) -> None:
-        """Append the translational nodal displacement (nodes x dim, m) of member ``name``."""
-        g = self._h5["structure"][name]
-        _append_rows(g["time"], np.array([t], dtype=np.float64))
-        _append_rows(g["displacement"], np.asarray(displacement, dtype=np.float64)[None])
+        """Append the translational nodal displacement (nodes x dim, m) of member ``name``;
+        buffered until the next flush."""
+        self._buffer(f"structure/{name}", "displacement", t, displacement)
 
     # ------------------------------------------------------------------ coupling
     def append_coupling(self, t: float, iterations: int, residual: float, **extra: float) -> None:
@@ -217,7 +247,8 @@ class ResultsFile:
         self._h5.attrs["status"] = status
 
     def flush(self) -> None:
-        """Update the wall time and push all buffers to disk."""
+        """Write buffered samples, update the wall time and push everything to disk."""
+        self._flush_series()
         self._h5.attrs["wall_time"] = self._wall_offset + time.perf_counter() - self._t_start
         self._h5.flush()
 

@@ -101,9 +101,11 @@ def _section(model: type[BaseModel], prefix: str, lines: list[str], seen: set) -
         key = (m, p)
         if key not in seen:
             seen.add(key)
-            kind = getattr(m.model_fields.get("kind"), "annotation", None)
-            if get_origin(kind) is Literal:
-                p = f"{p} (kind = {get_args(kind)[0]!r})"
+            for tag in ("kind", "type"):
+                ann = getattr(m.model_fields.get(tag), "annotation", None)
+                if get_origin(ann) is Literal and len(get_args(ann)) == 1:
+                    p = f"{p} ({tag} = {get_args(ann)[0]!r})"
+                    break
             _section(m, p, lines, seen)
 
 

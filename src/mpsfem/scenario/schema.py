@@ -8,6 +8,7 @@ from mpsfem.scenario.base import Section
 from mpsfem.scenario.fluid import FluidSection
 from mpsfem.scenario.output import OutputSection, RunSection
 from mpsfem.scenario.probes import Probe
+from mpsfem.scenario.structure import StructureSection
 
 
 class Scenario(Section):
@@ -18,6 +19,7 @@ class Scenario(Section):
     run: RunSection = Field(description="run control")
     output: OutputSection = Field(default_factory=OutputSection, description="results output")
     fluid: FluidSection | None = Field(None, description="MPS fluid participant")
+    structure: StructureSection | None = Field(None, description="FEM structure participant")
     probes: list[Probe] = Field(default_factory=list, description="measurements")
 
     @model_validator(mode="after")
@@ -36,9 +38,25 @@ class Scenario(Section):
                 if p.kind == "front" and p.axis >= d:
                     raise ValueError(f"probes[{i}].axis {p.axis} must be < dim = {d}")
             walls = {w.name for w in self.fluid.walls if w.name}
+            if self.structure is not None:
+                walls |= {m.name for m in self.structure.members}
             for i, p in enumerate(self.probes):
                 if p.kind == "force" and p.target not in walls:
                     raise ValueError(
                         f"probes[{i}].target '{p.target}' names no wall patch; have {sorted(walls)}"
                     )
+        members = {m.name for m in self.structure.members} if self.structure else set()
+        for i, p in enumerate(self.probes):
+            if p.kind == "displacement" and p.target not in members:
+                raise ValueError(
+                    f"probes[{i}].target '{p.target}' names no structure member; have "
+                    f"{sorted(members)}"
+                )
+            if p.kind == "energy" and p.target != "fluid" and p.target not in members:
+                raise ValueError(
+                    f"probes[{i}].target '{p.target}' must be 'fluid' or a structure member "
+                    f"{sorted(members)}"
+                )
+        if self.fluid is None and self.structure is None:
+            raise ValueError("a scenario needs a [fluid] or a [structure] section (or both)")
         return self
