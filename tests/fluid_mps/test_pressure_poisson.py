@@ -73,6 +73,10 @@ def test_matrix_is_symmetric_with_positive_diagonal(column):
     off = np.asarray(abs(A).sum(axis=1)).ravel() - A.diagonal()
     assert np.all(A.diagonal() >= off * (1 - 1e-12))
     assert np.linalg.eigvalsh(A.toarray()).min() > 0  # SPD (small problem: dense check)
+    P = s.A_pre  # the preconditioner's matrix on the density radius: same rows, also SPD
+    assert P.shape == A.shape and P.nnz < A.nnz
+    assert (P - P.T).count_nonzero() == 0
+    assert np.linalg.eigvalsh(P.toarray()).min() > 0
 
 
 def test_hydrostatic_column_one_projection(column):
