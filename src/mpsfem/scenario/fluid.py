@@ -78,14 +78,29 @@ class SurfaceSection(Section):
         description="'density': n < beta n0; 'density_asymmetry': the number-density threshold "
         "plus the neighbour-asymmetry test (thesis eqs. 2-18 to 2-20)",
     )
-    beta: float = Field(0.97, gt=0.0, lt=1.0, description="number-density threshold n < beta n0")
-    asymmetry: float = Field(
-        0.2,
+    beta: float = Field(
+        0.97, gt=0.0, lt=1.0, description="n >= beta n0 is never surface (thesis eq. 2-18)"
+    )
+    beta_low: float = Field(
+        0.8,
         gt=0.0,
         lt=1.0,
-        description="neighbour-asymmetry threshold |<r_ij/|r_ij| w>| / (n0-normalised) > value, "
-        "thesis eq. 2-20",
+        description="density_asymmetry only: n <= beta_low n0 is always surface; in between the "
+        "asymmetry test decides",
     )
+    asymmetry: float = Field(
+        0.9,
+        gt=0.0,
+        description="density_asymmetry only: surface when |F_i| > asymmetry |F|0, F the "
+        "neighbour-asymmetry vector (thesis eqs. 2-19, 2-20) and |F|0 its value on a flat free "
+        "surface of the initial lattice",
+    )
+
+    @model_validator(mode="after")
+    def _check(self) -> SurfaceSection:
+        if self.beta_low >= self.beta:
+            raise ValueError(f"beta_low = {self.beta_low} must be below beta = {self.beta}")
+        return self
 
 
 class TimeStepSection(Section):
