@@ -149,13 +149,16 @@ def _classify(pos, kind, free_surface, indptr, indices, re2, unknown):
 
 
 @njit(cache=True, parallel=True)
-def _count(pos, unknown, row_of, indptr, indices, re2, counts):
+def _count(pos, unknown, row_of, indptr, indices, re2, re2_pre, counts, counts_pre):
+    """First pass: nonzeros per row of the PPE matrix (radius^2 re2) and of the preconditioner's
+    matrix (re2_pre <= re2; ignored when re2_pre <= 0)."""
     n, dim = pos.shape
     for i in prange(n):
         r = row_of[i]
         if r < 0:
             continue
         c = 1
+        cp = 1
         if unknown[i]:
             for kk in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
                 j = np.uint32(indices[kk])
@@ -166,7 +169,10 @@ def _count(pos, unknown, row_of, indptr, indices, re2, counts):
                         r2 += dx * dx
                     if r2 < re2:
                         c += 1
+                        if r2 < re2_pre:
+                            cp += 1
         counts[r] = c
+        counts_pre[r] = cp
 
 
 @njit(cache=True)
@@ -174,6 +180,15 @@ def _prefix(counts, m, out):
     out[0] = 0
     for r in range(m):
         out[r + 1] = out[r] + counts[r]
+
+
+@njit(cache=True, inline="always")
+def _put_diagonal(a_idx, a_val, p, dpos, r, diag):
+    """Close a row: the diagonal goes to its reserved slot, or to the end of the row."""
+    if dpos < 0:
+        dpos = p
+    a_idx[dpos] = r
+    a_val[dpos] = diag
 
 
 @njit(cache=True, parallel=True)
@@ -188,7 +203,7 @@ def _fill(
     re,
     wcode,
     coef,
-    diag_shift,
+    shift,
     decoupled,
     src,
     a_ptr,
@@ -196,25 +211,44 @@ def _fill(
     a_val,
     b,
     dirichlet,
+    re_pre,
+    coef_pre,
+    decoupled_pre,
+    p_ptr,
+    p_idx,
+    p_val,
+    p_dirichlet,
 ):
-    """Second pass: CSR rows (columns ascending, diagonal in place), right-hand side, and whether
-    a row touches a Dirichlet (free-surface) neighbour."""
+    """Second pass: the CSR rows (columns ascending, diagonal in place) of the PPE matrix and,
+    when ``re_pre > 0``, of the preconditioner's matrix on radius re_pre, in one sweep over the
+    neighbours; the right-hand side; whether each row touches a Dirichlet (free-surface)
+    neighbour."""
     n, dim = pos.shape
     re2 = re * re
+    re2p = re_pre * re_pre if re_pre > 0.0 else -1.0
+    two = re_pre > 0.0
     for i in prange(n):
         r = row_of[i]
         if r < 0:
             continue
         p = a_ptr[r]
+        q = p_ptr[r] if two else 0
         if unknown[i] == 0:
             a_idx[p] = r
             a_val[p] = decoupled
             b[r] = 0.0
             dirichlet[r] = 1
+            if two:
+                p_idx[q] = r
+                p_val[q] = decoupled_pre
+                p_dirichlet[r] = 1
             continue
         diag = 0.0
         dpos = -1
         touch = 0
+        diag_p = 0.0
+        dpos_p = -1
+        touch_p = 0
         for kk in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
             j = np.uint32(indices[kk])
             uj = unknown[j]
@@ -229,8 +263,13 @@ def _fill(
                 r2 += dx * dx
             if r2 >= re2:
                 continue
-            w = coef * weight(np.sqrt(r2), re, wcode)
+            rr = np.sqrt(r2)
+            w = coef * weight(rr, re, wcode)
             diag += w
+            inner = r2 < re2p
+            if inner:
+                wp = coef_pre * weight(rr, re_pre, wcode)
+                diag_p += wp
             if uj:
                 if dpos < 0 and j > i:
                     dpos = p
@@ -238,14 +277,23 @@ def _fill(
                 a_idx[p] = row_of[j]
                 a_val[p] = -w
                 p += 1
+                if inner:
+                    if dpos_p < 0 and j > i:
+                        dpos_p = q
+                        q += 1
+                    p_idx[q] = row_of[j]
+                    p_val[q] = -wp
+                    q += 1
             else:
                 touch = 1
-        if dpos < 0:
-            dpos = p
-        a_idx[dpos] = r
-        a_val[dpos] = diag + diag_shift
-        b[r] = -src[i]
+                if inner:
+                    touch_p = 1
+        _put_diagonal(a_idx, a_val, p, dpos, r, diag + shift)
         dirichlet[r] = touch
+        if two:
+            _put_diagonal(p_idx, p_val, q, dpos_p, r, diag_p + shift)
+            p_dirichlet[r] = touch_p
+        b[r] = -src[i]
 
 
 @njit(cache=True)
@@ -597,16 +645,30 @@ class PressureSolver:
             self.part = np.empty(_NCHUNK)
             self._n = n
 
-    def _matrix(self, mat, pos, kind, free_surface, nb, m, re, coef, shift, decoupled):
-        """Assemble one matrix (rows of the pressure-carrying particles) into ``mat``."""
-        re2 = re * re
-        mat.ensure(pos.shape[0])
-        _count(pos, self.unknown, self.row_of, nb.indptr, nb.indices, re2, mat.counts)
-        a_ptr = mat.a_ptr[: m + 1]
-        _prefix(mat.counts, m, a_ptr)
-        nnz = int(a_ptr[m])
-        mat.ensure_nnz(nnz)
-        a_idx, a_val = mat.a_idx[:nnz], mat.a_val[:nnz]
+    def _matrices(self, pos, kind, free_surface, nb, m, shift):
+        """Assemble the PPE matrix (and the preconditioner's, if separate) in one sweep.
+
+        Returns the list of scipy CSR matrices wrapping the buffers (no copy)."""
+        two = self.precond_separate
+        mats = (self._main, self._pre)
+        for mat in mats:
+            mat.ensure(pos.shape[0])
+        re2p = self.precond_re**2 if two else -1.0
+        _count(
+            pos,
+            self.unknown,
+            self.row_of,
+            nb.indptr,
+            nb.indices,
+            self.re**2,
+            re2p,
+            mats[0].counts,
+            mats[1].counts,
+        )
+        for mat in mats:
+            _prefix(mat.counts, m, mat.a_ptr[: m + 1])  # (unused for the second if not two)
+            mat.ensure_nnz(int(mat.a_ptr[m]))
+        main, pre = mats
         _fill(
             pos,
             kind,
@@ -615,21 +677,34 @@ class PressureSolver:
             self.row_of,
             nb.indptr,
             nb.indices,
-            re,
+            self.re,
             self.wcode,
-            coef,
+            self.coef,
             shift,
-            decoupled,
+            self.decoupled,
             self.src,
-            a_ptr,
-            a_idx,
-            a_val,
-            mat.b[:m],
-            mat.dirichlet,
+            main.a_ptr,
+            main.a_idx,
+            main.a_val,
+            main.b,
+            main.dirichlet,
+            self.precond_re if two else 0.0,
+            self.coef_pre if two else 0.0,
+            self.decoupled_pre if two else 0.0,
+            pre.a_ptr,
+            pre.a_idx,
+            pre.a_val,
+            pre.dirichlet,
         )
-        A = sp.csr_matrix((a_val, a_idx, a_ptr), shape=(m, m), copy=False)
-        A.has_sorted_indices = True
-        return A
+        out = []
+        for mat in mats[: 2 if two else 1]:
+            k = int(mat.a_ptr[m])
+            A = sp.csr_matrix(
+                (mat.a_val[:k], mat.a_idx[:k], mat.a_ptr[: m + 1]), shape=(m, m), copy=False
+            )
+            A.has_sorted_indices = True
+            out.append(A)
+        return out
 
     def _ground(self, A, mat, m, dt):
         """Give unknown sets without free-surface contact the floating compressibility."""
@@ -669,23 +744,11 @@ class PressureSolver:
         m = _row_map(kind, self.row_of)
         _classify(pos, kind, free_surface, nb.indptr, nb.indices, self.re * self.re, self.unknown)
         shift = self.rho * self.compressibility / (dt * dt)
-        A = self._matrix(
-            self._main, pos, kind, free_surface, nb, m, self.re, self.coef, shift, self.decoupled
-        )
+        mats = self._matrices(pos, kind, free_surface, nb, m, shift)
+        A = mats[0]
         self.A_pre = None
         if self.precond_separate:
-            Ap = self._matrix(
-                self._pre,
-                pos,
-                kind,
-                free_surface,
-                nb,
-                m,
-                self.precond_re,
-                self.coef_pre,
-                shift,
-                self.decoupled_pre,
-            )
+            Ap = mats[1]
             # the small-radius graph has fewer edges: grounded there implies grounded in A
             nfp = self._ground(Ap, self._pre, m, dt)
             self.n_floating = self._ground(A, self._main, m, dt) if nfp else 0
