@@ -75,3 +75,15 @@ def test_nan_raises(rng):
     pos[5, 2] = np.nan
     with pytest.raises(NeighbourSearchError, match="particle 5 has a non-finite"):
         build_neighbours(pos, 0.5)
+
+
+def test_within_filters_the_last_build(rng):
+    pos = rng.uniform(0.0, 6.0, size=(500, 2))
+    search = NeighbourSearch(2, 1.5)
+    search.build(pos)
+    small = search.within(pos, 0.7)
+    ref = brute_force_neighbours(pos, 0.7)
+    for i in range(len(pos)):
+        np.testing.assert_array_equal(small.indices[small.indptr[i] : small.indptr[i + 1]], ref[i])
+    with pytest.raises(ValueError, match="exceeds"):
+        search.within(pos, 2.0)

@@ -211,6 +211,38 @@ def _fill(pos, r2max, nc, cell_of, cell_start, order, pos_sorted, indptr, indice
             indices[m + 1] = v
 
 
+@njit(cache=True, parallel=True)
+def _count_within(pos, indptr, indices, r2max, counts):
+    n, dim = pos.shape
+    for i in prange(n):
+        c = 0
+        for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
+            j = np.uint32(indices[k])
+            r2 = 0.0
+            for d in range(dim):
+                dx = pos[j, d] - pos[i, d]
+                r2 += dx * dx
+            if r2 < r2max:
+                c += 1
+        counts[i] = c
+
+
+@njit(cache=True, parallel=True)
+def _fill_within(pos, indptr, indices, r2max, out_ptr, out_idx):
+    n, dim = pos.shape
+    for i in prange(n):
+        p = out_ptr[i]
+        for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
+            j = np.uint32(indices[k])
+            r2 = 0.0
+            for d in range(dim):
+                dx = pos[j, d] - pos[i, d]
+                r2 += dx * dx
+            if r2 < r2max:
+                out_idx[p] = j
+                p += 1
+
+
 class NeighbourSearch:
     """Reusable cell-linked-list neighbour search; its buffers grow only when needed.
 
@@ -243,6 +275,7 @@ class NeighbourSearch:
         else:
             self.domain = None
         self._n = -1
+        self._sub: dict[float, list[np.ndarray]] = {}
         self._cell_of = np.empty(0, np.int64)
         self._order = np.empty(0, np.int32)
         self._counts = np.empty(0, np.int64)
@@ -324,7 +357,38 @@ class NeighbourSearch:
             self._indices = np.empty(int(nnz * 1.25) + 16, np.int32)
         indices = self._indices[:nnz]
         _fill(pos, r2, nc, cell_of, cell_start, order, pos_sorted, indptr, indices)
-        return NeighbourList(indptr=indptr, indices=indices, radius=r)
+        self._last = NeighbourList(indptr=indptr, indices=indices, radius=r)
+        return self._last
+
+    def within(self, pos: np.ndarray, radius: float) -> NeighbourList:
+        """The pairs of the last ``build`` closer than ``radius`` (<= the built radius).
+
+        A smaller-radius list for operators with a small kernel (2.1 l0 vs a 4.01 l0 list): one
+        filtering pass, after which those operators scan ~3.6 times fewer pairs in 2D. Rows stay
+        ascending. Buffers are kept per radius: the result stays valid until the next ``within``
+        with the same radius (and, like the arrays, describes the positions of the last build).
+        """
+        last = getattr(self, "_last", None)
+        if last is None or last.n != pos.shape[0]:
+            raise ValueError("within() needs a build() of the same particles first")
+        r = float(radius)
+        if r > last.radius:
+            raise ValueError(f"radius {r} exceeds the radius {last.radius} of the last build")
+        n = pos.shape[0]
+        bufs = self._sub.get(r)
+        if bufs is None or bufs[0].shape[0] < n + 1:
+            bufs = [np.empty(n + 1, np.int64), np.empty(0, np.int32)]
+            self._sub[r] = bufs
+        ptr = bufs[0][: n + 1]
+        counts = self._counts[:n]
+        _count_within(pos, last.indptr, last.indices, r * r, counts)
+        _prefix(counts, ptr)
+        nnz = int(ptr[n])
+        if bufs[1].shape[0] < nnz:
+            bufs[1] = np.empty(int(nnz * 1.25) + 16, np.int32)
+        idx = bufs[1][:nnz]
+        _fill_within(pos, last.indptr, last.indices, r * r, ptr, idx)
+        return NeighbourList(indptr=ptr, indices=idx, radius=r)
 
 
 def build_neighbours(pos, radius, domain=None, escape="clip", search=None) -> NeighbourList:
