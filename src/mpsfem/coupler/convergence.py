@@ -1,0 +1,127 @@
+"""Convergence measure of implicit coupling and divergence detection.
+
+Residual of iteration k: r = x_tilde - x, the difference between the structure's answer and the
+interface displacement the fluid was driven with (structure nodes, all components). Norms are
+root-mean-square over the entries, so tolerances do not depend on the number of nodes:
+
+    residual = |r|_rms / max(|x_tilde|_rms, absolute_tolerance / relative_tolerance)
+
+and the window has converged when residual <= relative_tolerance (and at least min_iterations
+were done). Equivalently |r|_rms <= max(rtol |x_tilde|_rms, atol): relative, with an absolute
+floor so that a structure at rest (displacement zero) converges too.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from mpsfem.coupler.errors import CouplingDivergedError
+
+
+def rms(a: np.ndarray) -> float:
+    """Root mean square of all entries (0 for an empty array)."""
+    a = np.asarray(a, dtype=np.float64).reshape(-1)
+    return math.sqrt(float(a @ a) / a.size) if a.size else 0.0
+
+
+@dataclass(frozen=True)
+class ResidualCriterion:
+    """relative_tolerance, absolute_tolerance (m), min/max iterations per window."""
+
+    relative_tolerance: float = 1e-4
+    absolute_tolerance: float = 1e-10
+    min_iterations: int = 1
+    max_iterations: int = 50
+
+    def __post_init__(self) -> None:
+        if not self.relative_tolerance > 0 or not self.absolute_tolerance > 0:
+            raise ValueError("relative_tolerance and absolute_tolerance must be > 0")
+        if not 1 <= self.min_iterations <= self.max_iterations:
+            raise ValueError(
+                f"need 1 <= min_iterations ({self.min_iterations}) <= max_iterations "
+                f"({self.max_iterations})"
+            )
+
+    @classmethod
+    def from_section(cls, sec) -> ResidualCriterion:
+        return cls(
+            sec.relative_tolerance, sec.absolute_tolerance, sec.min_iterations, sec.max_iterations
+        )
+
+    def measure(self, x: np.ndarray, x_tilde: np.ndarray) -> tuple[float, float]:
+        """(relative residual as defined above, |r|_rms in m)."""
+        r_abs = rms(np.asarray(x_tilde) - np.asarray(x))
+        floor = self.absolute_tolerance / self.relative_tolerance
+        return r_abs / max(rms(x_tilde), floor), r_abs
+
+    def converged(self, residual: float, iterations: int) -> bool:
+        """True if ``residual`` (relative) meets the tolerance after ``iterations`` iterations."""
+        return iterations >= self.min_iterations and residual <= self.relative_tolerance
+
+
+def check_finite(where: str, **arrays: np.ndarray) -> None:
+    """Raise :class:`CouplingDivergedError` naming the first array with NaN or inf."""
+    for name, a in arrays.items():
+        a = np.asarray(a)
+        if not np.isfinite(a).all():
+            idx = np.argwhere(~np.isfinite(a))[0]
+            raise CouplingDivergedError(
+                f"{where}: {name} holds non-finite values (first at index {tuple(idx.tolist())}); "
+                "the coupling has diverged"
+            )
+
+
+class InstabilityDetector:
+    """Detects the added-mass instability of explicit (staggered) coupling.
+
+    Fed the explicit coupling error e_n = x_tilde_n - x_n of every window (the structure's answer
+    minus the prediction the fluid was driven with), it looks at the last K windows for
+    K in ``spans``: the unstable mode of staggered coupling with a too-light structure oscillates
+    near the window frequency (consecutive errors point in opposite directions,
+    e_n . e_(n-1) < 0, in at least half of the windows) and grows geometrically, roughly by
+    sqrt(m_added / (2 m_structure)) per window. Divergence is reported when the least-squares
+    growth of log |e| over the K windows amounts to at least ``factor`` and the latest error is
+    above ``floor`` (m, rms). Physical motion resolved by the window changes e smoothly
+    (positive dot products) and MPS noise does not grow; neither triggers it. The growth of
+    mu = 3 is caught within about 16 windows, mu = 10 within 8.
+    """
+
+    def __init__(
+        self, spans: tuple[int, ...] = (8, 16, 32, 64), factor: float = 10.0, floor: float = 0.0
+    ) -> None:
+        self.spans, self.factor, self.floor = tuple(sorted(spans)), factor, floor
+        self.reset()
+
+    def reset(self) -> None:
+        self._prev: np.ndarray | None = None
+        self._log: list[float] = []
+        self._neg: list[bool] = []
+
+    def update(self, e: np.ndarray) -> str | None:
+        """Feed one window; returns a description if divergence is detected, else None."""
+        e = np.asarray(e, dtype=np.float64).reshape(-1)
+        n = rms(e)
+        neg = self._prev is not None and float(e @ self._prev) < 0.0
+        self._prev = e.copy()
+        keep = self.spans[-1]
+        self._log = (self._log + [math.log(max(n, 1e-300))])[-keep:]
+        self._neg = (self._neg + [neg])[-keep:]
+        if n <= self.floor:
+            return None
+        for k in self.spans:
+            if len(self._log) < k:
+                break
+            y = np.array(self._log[-k:])
+            j = np.arange(k) - 0.5 * (k - 1)
+            growth = float(j @ (y - y.mean()) / (j @ j)) * (k - 1)
+            flips = sum(self._neg[-k + 1 :]) / (k - 1)
+            if growth >= math.log(self.factor) and flips >= 0.5:
+                return (
+                    f"the explicit coupling error oscillates from window to window and has grown "
+                    f"{math.exp(growth):.3g}-fold over the last {k} windows (now {n:.3g} m rms)"
+                    " — the added-mass instability of staggered coupling"
+                )
+        return None
