@@ -1,0 +1,154 @@
+"""A participant in another process: a client proxy and the server loop that drives the real one.
+
+The coupling scheme runs in one process (the fluid's: it maps, accelerates and writes the results
+file) and talks to the structure through :class:`RemoteParticipant`, which implements the
+participant protocol by messages over a transport. The structure's process runs :func:`serve`,
+which executes each request on the real participant and answers. The scheme code is the same
+for a local and a remote structure, so every transport gives the same bits.
+
+Requests (tag, meta, arrays) and answers:
+
+==============  ======================  ===================================
+request         payload                 answer
+==============  ======================  ===================================
+``interface``   —                       arrays points, normals, thickness,
+                                        ``cells/<type>``
+``write``       name; array ``value``   none (errors come with the next answer)
+``read``        name                    array ``value``
+``advance``     dt                      meta ``dt`` (time advanced)
+``max_dt``      —                       meta ``value``
+``checkpoint``  —                       none
+``restore``     —                       none
+``energy``      —                       meta ``value`` (NaN if not reported)
+``finalize``    —                       ``done``; the server loop ends
+==============  ======================  ===================================
+
+If the real participant raises, the server answers ``error`` (type, message, traceback) and
+re-raises; the client raises :class:`~mpsfem.coupler.errors.PeerError` with that text.
+"""
+
+from __future__ import annotations
+
+import traceback
+
+import numpy as np
+
+from mpsfem.coupler.errors import PeerError
+from mpsfem.coupler.participant import InterfaceMesh, as_interface_mesh, energy_of
+from mpsfem.coupler.transport.base import Message, Transport
+
+__all__ = ["RemoteParticipant", "serve"]
+
+
+class RemoteParticipant:
+    """The participant on the other end of ``transport`` (protocol of
+    :class:`~mpsfem.coupler.participant.Participant`, plus ``energy`` and ``finalize``)."""
+
+    def __init__(self, transport: Transport) -> None:
+        self.transport = transport
+        self.name = transport.peer
+        self._mesh: InterfaceMesh | None = None
+
+    def _call(self, op: str, meta=None, arrays=None, reply: bool = True) -> Message | None:
+        self.transport.send(Message(op, meta or {}, arrays or {}))
+        if not reply:
+            return None
+        msg = self.transport.recv()
+        if msg.tag == "error":
+            m = msg.meta
+            raise PeerError(
+                f"the {self.name} participant failed in {m.get('op')!r}: {m.get('type')}: "
+                f"{m.get('message')}\n--- remote traceback ---\n{m.get('traceback', '')}"
+            )
+        if msg.tag != op:
+            raise PeerError(f"the {self.name} participant answered {msg.tag!r} to {op!r}")
+        return msg
+
+    def interface(self) -> InterfaceMesh:
+        if self._mesh is None:
+            a = self._call("interface").arrays
+            cells = {k.split("/", 1)[1]: v for k, v in a.items() if k.startswith("cells/")}
+            self._mesh = InterfaceMesh(a["points"], a["normals"], cells, a["thickness"])
+        return self._mesh
+
+    def write(self, name: str, array: np.ndarray) -> None:
+        self._call("write", {"name": name}, {"value": np.asarray(array)}, reply=False)
+
+    def read(self, name: str) -> np.ndarray:
+        return self._call("read", {"name": name}).arrays["value"]
+
+    def advance(self, dt: float) -> float:
+        return float(self._call("advance", {"dt": float(dt)}).meta["dt"])
+
+    def max_dt(self) -> float:
+        return float(self._call("max_dt").meta["value"])
+
+    def checkpoint(self) -> None:
+        self._call("checkpoint", reply=False)
+
+    def restore(self) -> None:
+        self._call("restore", reply=False)
+
+    def energy(self) -> float:
+        return float(self._call("energy").meta["value"])
+
+    def finalize(self) -> None:
+        """End the server loop on the other side."""
+        self._call("finalize")
+
+
+def serve(participant, transport: Transport) -> int:
+    """Answer requests on ``transport`` with ``participant`` until ``finalize``; returns the
+    number of requests served. Exceptions are reported to the client, then re-raised."""
+    n = 0
+    while True:
+        msg = transport.recv()
+        op, meta = msg.tag, msg.meta
+        try:
+            out = _handle(participant, op, meta, msg.arrays)
+        except Exception as exc:
+            transport.send(
+                Message(
+                    "error",
+                    {
+                        "op": op,
+                        "type": type(exc).__name__,
+                        "message": str(exc),
+                        "traceback": traceback.format_exc(),
+                    },
+                )
+            )
+            raise
+        n += 1
+        if out is not None:
+            transport.send(out)
+        if op == "finalize":
+            return n
+
+
+def _handle(p, op: str, meta: dict, arrays: dict) -> Message | None:
+    if op == "write":
+        p.write(meta["name"], arrays["value"])
+        return None
+    if op == "read":
+        return Message(op, arrays={"value": np.asarray(p.read(meta["name"]), dtype=np.float64)})
+    if op == "advance":
+        return Message(op, {"dt": float(p.advance(float(meta["dt"])))})
+    if op == "max_dt":
+        return Message(op, {"value": float(p.max_dt())})
+    if op == "checkpoint":
+        p.checkpoint()
+        return None
+    if op == "restore":
+        p.restore()
+        return None
+    if op == "energy":
+        return Message(op, {"value": energy_of(p)})
+    if op == "interface":
+        m = as_interface_mesh(p.interface())
+        arrays = {"points": m.points, "normals": m.normals, "thickness": m.thickness}
+        arrays.update({f"cells/{k}": v for k, v in m.cells.items()})
+        return Message(op, arrays=arrays)
+    if op == "finalize":
+        return Message(op)
+    raise ValueError(f"unknown request {op!r}")

@@ -1,0 +1,179 @@
+"""Zenoh transport (eclipse-zenoh): two processes, explicit TCP endpoint, no scouting.
+
+The structure listens on ``endpoint`` (e.g. ``tcp/127.0.0.1:7447``), the fluid connects to it
+(retrying until the structure is up); multicast scouting and gossip are off, so nothing else on
+the network is discovered or joins. Each side publishes on ``mpsfem/coupling/<its role>`` and
+subscribes to the other's key; a liveliness token ``mpsfem/coupling/alive/<role>`` tells each
+side that the other is there (the first exchange waits until the peer's token is seen and the
+publisher matches its subscriber) and, when the peer's session ends — process exit, crash or
+lost link — that it is gone, which ends a waiting receive at once with
+:class:`~mpsfem.coupler.errors.PeerLostError`. A frozen peer is caught by the heartbeat timeout.
+
+Messages are byte strings put reliably with congestion control BLOCK (never dropped). Received
+samples go from Zenoh's callback into a queue; the receiver blocks on it (no spinning).
+
+Launch: ``mpsfem run S.toml --transport zenoh --participant structure`` and
+``... --participant fluid`` in two shells (any order), or ``mpsfem run S.toml --transport zenoh``
+which starts both.
+"""
+
+from __future__ import annotations
+
+import json
+import queue
+import re
+import threading
+import time
+from typing import Literal
+
+from pydantic import Field, field_validator
+
+from mpsfem.coupler.errors import PeerLostError
+from mpsfem.coupler.transport.base import Transport, TransportParams
+
+PREFIX = "mpsfem/coupling"
+ENDPOINT_RE = re.compile(r"^tcp/(\[[0-9a-fA-F:]+\]|[A-Za-z0-9.\-]+):([0-9]{1,5})$")
+
+
+class ZenohParams(TransportParams):
+    """Two processes over Zenoh on an explicit TCP endpoint (no scouting)."""
+
+    kind: Literal["zenoh"] = Field(description='"zenoh".')
+    endpoint: str = Field(
+        "tcp/127.0.0.1:7447",
+        description=(
+            "TCP endpoint tcp/<host>:<port> the structure listens on and the fluid connects to; "
+            "use a free port per concurrent run."
+        ),
+    )
+
+    @field_validator("endpoint")
+    @classmethod
+    def _endpoint(cls, v: str) -> str:
+        m = ENDPOINT_RE.match(v)
+        if not m or not 0 < int(m.group(2)) < 65536:
+            raise ValueError(
+                "must be tcp/<host>:<port> with port 1..65535, e.g. tcp/127.0.0.1:7447"
+            )
+        return v
+
+
+class ZenohTransport(Transport):
+    kind = "zenoh"
+    Params = ZenohParams
+
+    def __init__(
+        self,
+        role: str,
+        *,
+        endpoint: str = "tcp/127.0.0.1:7447",
+        listen: bool | None = None,
+        **kw,
+    ) -> None:
+        super().__init__(role, **kw)
+        if not ENDPOINT_RE.match(endpoint):
+            raise ValueError(
+                f"zenoh endpoint {endpoint!r}: expected tcp/<host>:<port>, e.g. tcp/127.0.0.1:7447"
+            )
+        self.endpoint = endpoint
+        self.listen = (role == "structure") if listen is None else bool(listen)
+        self._q: queue.Queue = queue.Queue()
+        self._alive = threading.Event()
+        self._lost = False
+        self.session = None
+
+    @classmethod
+    def from_config(cls, role, config) -> ZenohTransport:
+        return cls(
+            role,
+            endpoint=config.endpoint,
+            timeout_s=config.timeout_s,
+            startup_timeout_s=config.startup_timeout_s,
+        )
+
+    def describe(self) -> str:
+        how = "listening on" if self.listen else "connected to"
+        return f"zenoh transport ({self.role}, {how} {self.endpoint})"
+
+    def _config(self):
+        import zenoh
+
+        conf = zenoh.Config()
+        conf.insert_json5("mode", '"peer"')
+        conf.insert_json5("scouting/multicast/enabled", "false")
+        conf.insert_json5("scouting/gossip/enabled", "false")
+        lease_ms = int(min(10.0, self.timeout_s) * 1000)
+        conf.insert_json5("transport/link/tx/lease", str(lease_ms))
+        if self.listen:
+            conf.insert_json5("listen/endpoints", json.dumps([self.endpoint]))
+        else:
+            conf.insert_json5("connect/endpoints", json.dumps([self.endpoint]))
+            conf.insert_json5("connect/retry", "{period_init_ms: 50, period_max_ms: 500}")
+            conf.insert_json5("listen/endpoints", "[]")  # the fluid opens no port
+        return conf
+
+    def _open(self) -> None:
+        import zenoh
+
+        try:
+            self.session = s = zenoh.open(self._config())
+        except Exception as exc:  # noqa: BLE001 - zenoh raises ZError
+            what = "listen on" if self.listen else "connect to"
+            raise PeerLostError(
+                f"{self.describe()}: cannot {what} {self.endpoint}: {exc} (is the port in use by "
+                "another run? set coupling.transport.endpoint)"
+            ) from exc
+        q = self._q
+        self._sub = s.declare_subscriber(
+            f"{PREFIX}/{self.peer}", lambda sample: q.put(sample.payload.to_bytes())
+        )
+        self._pub = s.declare_publisher(
+            f"{PREFIX}/{self.role}",
+            congestion_control=zenoh.CongestionControl.BLOCK,
+            reliability=zenoh.Reliability.RELIABLE,
+        )
+        self._live_sub = s.liveliness().declare_subscriber(
+            f"{PREFIX}/alive/{self.peer}", self._on_liveliness, history=True
+        )
+        self._token = s.liveliness().declare_token(f"{PREFIX}/alive/{self.role}")
+        deadline = time.monotonic() + self.startup_timeout_s
+        while not (self._alive.is_set() and self._pub.matching_status.matching):
+            if time.monotonic() > deadline:
+                raise PeerLostError(
+                    f"{self.describe()}: the {self.peer} participant did not appear within "
+                    f"{self.startup_timeout_s:g} s (startup_timeout_s); start it with the same "
+                    "endpoint"
+                )
+            self._alive.wait(0.01)
+
+    def _on_liveliness(self, sample) -> None:
+        import zenoh
+
+        if sample.kind == zenoh.SampleKind.PUT:
+            self._alive.set()
+        elif sample.kind == zenoh.SampleKind.DELETE and self._alive.is_set():
+            self._lost = True
+            self._q.put(b"")  # wake a waiting receiver
+
+    def _peer_gone(self) -> str | None:
+        if self._lost:
+            return "has gone: its zenoh session ended (process exited, crashed or lost the link)"
+        return None
+
+    def _send_bytes(self, data: bytes) -> None:
+        self._pub.put(data)
+
+    def _receive_bytes(self, max_wait: float) -> bytes | None:
+        try:
+            data = self._q.get(timeout=max_wait)
+        except queue.Empty:
+            return None
+        return data or None
+
+    def _shutdown(self) -> None:
+        s, self.session = self.session, None
+        if s is not None:
+            try:
+                s.close()
+            except Exception:  # noqa: BLE001 - closing after the peer vanished
+                pass
