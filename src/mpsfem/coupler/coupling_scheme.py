@@ -1,0 +1,474 @@
+"""Serial coupling schemes: explicit (staggered) and implicit (iterated), as in preCICE.
+
+Roles (fixed, as in preCICE's serial schemes): the **fluid is the first participant**, the
+**structure the second**. The scheme runs in the fluid's process; it
+
+* maps on the fluid side: structure displacement/velocity -> fluid points (consistent), fluid
+  forces -> structure nodes (conservative, or the thesis's KFBI);
+* accelerates the second participant's data on its own mesh: the structure's window-end
+  interface displacement (primary: the residual is measured on it) and velocity (secondary,
+  same linear combination);
+* talks to the structure directly (``inproc``) or through a
+  :class:`~mpsfem.coupler.remote.RemoteParticipant` (``mpi``, ``zenoh``) — the same arithmetic
+  on the same bits either way.
+
+One window [t_n, t_n + T] (:meth:`CouplingScheme.advance_window`):
+
+1. Predict the window-end interface state x = d_n + T v_n, s = v_n (d, v the structure's
+   accepted displacement and velocity at t_n). For Newmark's average-acceleration rule this pair
+   is consistent, and it is the first iterate of the implicit scheme.
+2. Fluid: sub-cycles from t_n to t_n + T in equal steps (``time_window.subcycle``), given at each
+   sub-step end the displacement and velocity interpolated linearly between (d_n, v_n) and
+   (x, s), mapped to its points; its forces are sampled after every sub-step and averaged over
+   the window (``force_sampling = "mean"``) or taken at the end.
+3. Structure: the mapped force, linearly interpolated from the previous window's value when it
+   sub-cycles; answers x_tilde, s_tilde at t_n + T.
+4. Explicit: accept. Implicit: residual r = x_tilde - x (``convergence``); if converged accept,
+   else restore both participants to t_n and iterate with the accelerated (x, s).
+
+Records (:class:`WindowRecord`, :attr:`CouplingScheme.history`): per window its end time,
+iterations, residual, sub-step counts, timings, and an interface energy balance: the work of the
+mapped forces on the structure, W_s = 1/2 (F_n + F_n+1) . (d_n+1 - d_n) (the trapezoidal work
+that Newmark's average-acceleration rule conserves), the work of the fluid's forces on the motion
+the fluid was given, W_f (same rule on the fluid points), and the structure's energy if it
+reports one. Cumulative E_s - E_s(0) - sum W_s (energy the structure gained beyond the work
+done on it; <= 0 with damping) and sum (W_s - W_f) (energy the interface created: non-zero for
+KFBI, and for unconverged or explicit coupling) tell whether a coupling setting injects energy.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from mpsfem.coupler import SCHEMES
+from mpsfem.coupler.acceleration import Acceleration, create_acceleration
+from mpsfem.coupler.convergence import InstabilityDetector, ResidualCriterion, check_finite
+from mpsfem.coupler.errors import (
+    CouplingDivergedError,
+    CouplingNotConvergedError,
+    CouplingWarning,
+)
+from mpsfem.coupler.mapping import Mapping, create_mapping
+from mpsfem.coupler.participant import (
+    DISPLACEMENT,
+    FORCES,
+    VELOCITY,
+    as_interface_mesh,
+    energy_of,
+)
+from mpsfem.coupler.time_window import TIME_EPS, interpolate, subcycle
+from mpsfem.scenario.coupling import CouplingSection
+
+__all__ = [
+    "CouplingHistory",
+    "CouplingScheme",
+    "ExplicitScheme",
+    "ImplicitScheme",
+    "WindowRecord",
+    "create_scheme",
+]
+
+#: an implicit window whose residual grows this many times above its first one has diverged
+DIVERGENCE_GROWTH = 1e4
+
+
+@dataclass
+class WindowRecord:
+    """What happened in one coupling window."""
+
+    index: int
+    time: float  # window end, s
+    window: float  # length, s
+    iterations: int
+    residual: float  # relative residual of the accepted iterate (see convergence)
+    residual_abs: float  # rms(x_tilde - x), m
+    converged: bool
+    fluid_substeps: int  # in the accepted iteration
+    structure_substeps: int
+    work_structure: float  # J (J/m in 2D)
+    work_fluid: float
+    structure_energy: float  # NaN if the structure reports none
+    warning: str = ""
+    timings: dict[str, float] = field(default_factory=dict)  # s, summed over iterations
+
+    def results_row(self) -> dict[str, float]:
+        """Scalars for ``ResultsFile.append_coupling(time, iterations, residual, **extra)``."""
+        return {
+            "residual_abs": self.residual_abs,
+            "converged": float(self.converged),
+            "window": self.window,
+            "fluid_substeps": float(self.fluid_substeps),
+            "structure_substeps": float(self.structure_substeps),
+            "work_structure": self.work_structure,
+            "work_fluid": self.work_fluid,
+            "structure_energy": self.structure_energy,
+        }
+
+
+class CouplingHistory(list):
+    """The :class:`WindowRecord` of every window, with column access."""
+
+    def column(self, name: str) -> np.ndarray:
+        if name in WindowRecord.__dataclass_fields__:
+            return np.array([getattr(r, name) for r in self])
+        return np.array([r.timings.get(name, 0.0) for r in self])
+
+    def as_arrays(self, energy0: float = float("nan")) -> dict[str, np.ndarray]:
+        """Columns (time, iterations, residual, ...) plus the cumulative energy balance:
+        ``work_structure_total``, ``energy_imbalance`` = E_s - E_s(0) - sum W_s and
+        ``interface_work_error`` = sum (W_s - W_f)."""
+        out = {
+            k: self.column(k)
+            for k, v in WindowRecord.__dataclass_fields__.items()
+            if k not in ("warning", "timings")
+        }
+        ws = np.cumsum(out["work_structure"]) if len(self) else np.zeros(0)
+        out["work_structure_total"] = ws
+        out["energy_imbalance"] = out["structure_energy"] - energy0 - ws
+        out["interface_work_error"] = np.cumsum(out["work_structure"] - out["work_fluid"])
+        return out
+
+
+class CouplingScheme:
+    """Serial coupling of a fluid (first) and a structure (second) participant.
+
+    Parameters
+    ----------
+    fluid, structure:
+        Participants (:class:`~mpsfem.coupler.participant.Participant`); the structure may be a
+        :class:`~mpsfem.coupler.remote.RemoteParticipant`.
+    config:
+        The ``[coupling]`` section (:class:`~mpsfem.scenario.coupling.CouplingSection`);
+        default: all defaults.
+    mapping, acceleration:
+        Pre-built components (default: created from ``config``).
+    log:
+        Callable for warnings (default: :func:`warnings.warn` with :class:`CouplingWarning`).
+    """
+
+    kind: ClassVar[str]
+    implicit: ClassVar[bool]
+
+    def __init__(
+        self,
+        fluid,
+        structure,
+        config: CouplingSection | None = None,
+        *,
+        mapping: Mapping | None = None,
+        acceleration: Acceleration | None = None,
+        log: Callable[[str], None] | None = None,
+    ) -> None:
+        self.config = config if config is not None else CouplingSection(scheme=self.kind)
+        self.fluid, self.structure = fluid, structure
+        self.mapping = mapping if mapping is not None else create_mapping(self.config.mapping)
+        if self.implicit and acceleration is None:
+            acceleration = create_acceleration(self.config.acceleration)
+        self.acceleration = acceleration
+        self.criterion = ResidualCriterion.from_section(self.config.convergence)
+        self.log = log
+        self.history = CouplingHistory()
+        self.detector = InstabilityDetector(floor=self.config.convergence.absolute_tolerance)
+        self.t = 0.0
+        self.index = 0
+        self.window: float | None = None
+        self.initialized = False
+
+    # ------------------------------------------------------------------ set-up
+    def initialize(self, t0: float = 0.0) -> None:
+        """Exchange meshes, build the mapping, hand both participants their initial data."""
+        self.t = float(t0)
+        self.index = 0
+        self.structure_mesh = as_interface_mesh(self.structure.interface())
+        fluid_mesh = as_interface_mesh(self.fluid.interface())
+        self.mapping.build(fluid_mesh, self.structure_mesh)
+        self.window = (
+            float(self.config.window)
+            if self.config.window is not None
+            else float(self.structure.max_dt())
+        )
+        self.d = np.array(self.structure.read(DISPLACEMENT), dtype=np.float64)
+        self.v = np.array(self.structure.read(VELOCITY), dtype=np.float64)
+        shape = self.structure_mesh.points.shape
+        for name, a in ((DISPLACEMENT, self.d), (VELOCITY, self.v)):
+            if a.shape != shape:
+                raise ValueError(f"structure {name} of shape {a.shape}, expected {shape}")
+        self.F_f = self._read_forces()
+        self.F_s = self.mapping.to_structure(self.F_f)
+        check_finite("initial data", displacement=self.d, velocity=self.v, forces=self.F_s)
+        self.structure.write(FORCES, self.F_s)
+        self.fluid.write(DISPLACEMENT, self.mapping.to_fluid(self.d))
+        self.fluid.write(VELOCITY, self.mapping.to_fluid(self.v))
+        self.energy0 = energy_of(self.structure)
+        self.detector.reset()
+        self.initialized = True
+
+    def _read_forces(self) -> np.ndarray:
+        F = np.array(self.fluid.read(FORCES), dtype=np.float64)
+        if F.shape != self.mapping.fluid.points.shape:
+            raise ValueError(
+                f"fluid forces of shape {F.shape}, expected {self.mapping.fluid.points.shape}"
+            )
+        return F
+
+    # ------------------------------------------------------------------ driving
+    def run(
+        self, end_time: float, on_window: Callable[[WindowRecord], None] | None = None
+    ) -> CouplingHistory:
+        """Advance window by window to ``end_time``; ``on_window(record)`` after each."""
+        if not self.initialized:
+            self.initialize()
+        while end_time - self.t > TIME_EPS * self.window:
+            t_end = self.t + self.window
+            if t_end > end_time - TIME_EPS * self.window:
+                t_end = end_time
+            rec = self.advance_window(t_end)
+            if on_window is not None:
+                on_window(rec)
+        return self.history
+
+    def advance_window(self, t_end: float | None = None) -> WindowRecord:
+        """One coupling window from the current time to ``t_end`` (default: one window)."""
+        if not self.initialized:
+            self.initialize()
+        t0 = self.t
+        t1 = t0 + self.window if t_end is None else float(t_end)
+        T = t1 - t0
+        timings = {"fluid": 0.0, "structure": 0.0, "mapping": 0.0, "acceleration": 0.0}
+        tic = time.perf_counter()
+        fluid_mesh = as_interface_mesh(self.fluid.interface())
+        F_f_prev = self.F_f
+        if self.mapping.needs_rebuild(fluid_mesh):
+            self.mapping.build(fluid_mesh, self.structure_mesh)
+            F_f_prev = None  # forces of the old particle set do not fit the new one
+        d_f0 = self.mapping.to_fluid(self.d)
+        v_f0 = self.mapping.to_fluid(self.v)
+        timings["mapping"] += time.perf_counter() - tic
+
+        x = self.d + T * self.v  # window-end prediction (consistent for avg-acceleration)
+        s = self.v.copy()
+        if self.implicit:
+            self.fluid.checkpoint()
+            self.structure.checkpoint()
+            self.acceleration.start_window()
+        cv = self.config.convergence
+        max_it = cv.max_iterations if self.implicit else 1
+        first_abs = None
+        warning = ""
+        for k in range(1, max_it + 1):
+            if k > 1:
+                self.fluid.restore()
+                self.structure.restore()
+            tic = time.perf_counter()
+            d_f1 = self.mapping.to_fluid(x)
+            v_f1 = self.mapping.to_fluid(s)
+            timings["mapping"] += time.perf_counter() - tic
+
+            tic = time.perf_counter()
+            F_f1, n_f = self._fluid_window(t0, t1, d_f0, v_f0, d_f1, v_f1)
+            timings["fluid"] += time.perf_counter() - tic
+
+            tic = time.perf_counter()
+            F_s1 = self.mapping.to_structure(F_f1)
+            timings["mapping"] += time.perf_counter() - tic
+
+            tic = time.perf_counter()
+            x_t, s_t, n_s = self._structure_window(t0, t1, F_s1)
+            timings["structure"] += time.perf_counter() - tic
+            where = f"coupling window {self.index} ending at t = {t1:.9g} s, iteration {k}"
+            check_finite(
+                where,
+                **{
+                    "fluid forces": F_f1,
+                    "structure displacement": x_t,
+                    "structure velocity": s_t,
+                },
+            )
+            residual, r_abs = self.criterion.measure(x, x_t)
+            if not self.implicit:
+                converged = True
+                break
+            if self.criterion.converged(residual, k):
+                converged = True
+                break
+            if k == max_it:
+                converged = False
+                msg = (
+                    f"{where}: not converged after max_iterations = {max_it}: residual "
+                    f"{residual:.3g} > relative_tolerance {cv.relative_tolerance:g} "
+                    f"(rms |x_tilde - x| = {r_abs:.3g} m). Raise coupling.convergence."
+                    "max_iterations, use a stronger acceleration (iqn-ils) or a shorter window, "
+                    'or set coupling.convergence.on_divergence = "continue"'
+                )
+                if cv.on_divergence == "stop":
+                    raise CouplingNotConvergedError(msg)
+                warning = msg
+                self._warn(msg)
+                break
+            if first_abs is None:
+                first_abs = r_abs
+            elif r_abs > DIVERGENCE_GROWTH * first_abs and r_abs > cv.absolute_tolerance:
+                raise CouplingDivergedError(
+                    f"{where}: the coupling iterations diverge: residual grew from "
+                    f"{first_abs:.3g} m to {r_abs:.3g} m rms "
+                    f"({self.config.acceleration.kind} acceleration); try iqn-ils, a smaller "
+                    "initial relaxation or a shorter window"
+                )
+            tic = time.perf_counter()
+            xn, sec = self.acceleration.compute(
+                x.reshape(-1), x_t.reshape(-1), {VELOCITY: (s.reshape(-1), s_t.reshape(-1))}
+            )
+            x, s = xn.reshape(x.shape), sec[VELOCITY].reshape(s.shape)
+            timings["acceleration"] += time.perf_counter() - tic
+
+        # accept the window
+        if self.implicit:
+            self.acceleration.end_window()
+        work_s = 0.5 * float(np.vdot(self.F_s + F_s1, x_t - self.d))
+        if F_f_prev is None:
+            work_f = float(np.vdot(F_f1, d_f1 - d_f0))
+        else:
+            work_f = 0.5 * float(np.vdot(F_f_prev + F_f1, d_f1 - d_f0))
+        self.d, self.v = x_t, s_t
+        self.F_s, self.F_f = F_s1, F_f1
+        self.t = t1
+        energy = energy_of(self.structure)
+        if cv.max_displacement is not None:
+            dmax = float(np.abs(self.d).max())
+            if dmax > cv.max_displacement:
+                raise CouplingDivergedError(
+                    f"coupling window {self.index} ending at t = {t1:.9g} s: interface "
+                    f"displacement {dmax:.3g} m exceeds coupling.convergence.max_displacement = "
+                    f"{cv.max_displacement:g} m"
+                )
+        if not self.implicit:
+            why = self.detector.update(x_t - x)
+            if why is not None:
+                raise CouplingDivergedError(
+                    f"explicit coupling diverges at window {self.index} (t = {t1:.9g} s): {why}. "
+                    'Use scheme = "implicit" (with iqn-ils or aitken acceleration)'
+                )
+        rec = WindowRecord(
+            index=self.index,
+            time=t1,
+            window=T,
+            iterations=k,
+            residual=residual,
+            residual_abs=r_abs,
+            converged=converged,
+            fluid_substeps=n_f,
+            structure_substeps=n_s,
+            work_structure=work_s,
+            work_fluid=work_f,
+            structure_energy=energy,
+            warning=warning,
+            timings=timings,
+        )
+        self.history.append(rec)
+        self.index += 1
+        return rec
+
+    def _fluid_window(self, t0, t1, d0, v0, d1, v1) -> tuple[np.ndarray, int]:
+        """Sub-cycle the fluid over [t0, t1]; returns (window force, sub-steps)."""
+        T = t1 - t0
+        fluid = self.fluid
+        acc = {"F": None}
+        mean = self.config.force_sampling == "mean"
+
+        def before(t_next: float, dt: float) -> None:
+            theta = (t_next - t0) / T
+            fluid.write(DISPLACEMENT, interpolate(d0, d1, theta))
+            fluid.write(VELOCITY, interpolate(v0, v1, theta))
+
+        def after(t_now: float, dt: float) -> None:
+            F = self._read_forces()
+            if not mean:
+                acc["F"] = F
+            elif acc["F"] is None:
+                acc["F"] = dt * F
+            else:
+                acc["F"] += dt * F
+
+        n = subcycle(fluid.advance, fluid.max_dt, t0, t1, before, after, who="fluid")
+        F = acc["F"] / T if mean else acc["F"]
+        return F, n
+
+    def _structure_window(self, t0, t1, F1) -> tuple[np.ndarray, np.ndarray, int]:
+        """Sub-cycle the structure over [t0, t1] under forces ramping from the previous window's
+        value to ``F1``; returns (displacement, velocity, sub-steps) at t1."""
+        T = t1 - t0
+        st = self.structure
+        F0 = self.F_s
+
+        def before(t_next: float, dt: float) -> None:
+            st.write(FORCES, interpolate(F0, F1, (t_next - t0) / T))
+
+        n = subcycle(st.advance, st.max_dt, t0, t1, before, who="structure")
+        d = np.array(st.read(DISPLACEMENT), dtype=np.float64)
+        v = np.array(st.read(VELOCITY), dtype=np.float64)
+        return d, v, n
+
+    def _warn(self, msg: str) -> None:
+        if self.log is not None:
+            self.log(msg)
+        else:
+            warnings.warn(msg, CouplingWarning, stacklevel=3)
+
+    # ------------------------------------------------------------------ results / restart
+    def history_arrays(self) -> dict[str, np.ndarray]:
+        """Per-window columns for ``/coupling/`` of the results file (see CouplingHistory)."""
+        return self.history.as_arrays(self.energy0)
+
+    def state_dict(self) -> dict[str, Any]:
+        """The scheme's state at a window end (for a checkpoint; arrays and numbers)."""
+        acc = self.acceleration.state_dict() if self.acceleration is not None else {}
+        return {
+            "t": self.t,
+            "index": self.index,
+            "window": self.window,
+            "energy0": self.energy0,
+            "d": self.d.copy(),
+            "v": self.v.copy(),
+            "F_s": self.F_s.copy(),
+            "F_f": self.F_f.copy(),
+            **{f"acceleration/{k}": v for k, v in acc.items()},
+        }
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        """Continue from :meth:`state_dict` (after :meth:`initialize` with restored participants)."""
+        self.t = float(state["t"])
+        self.index = int(state["index"])
+        self.window = float(state["window"])
+        self.energy0 = float(state["energy0"])
+        self.d, self.v = np.array(state["d"]), np.array(state["v"])
+        self.F_s, self.F_f = np.array(state["F_s"]), np.array(state["F_f"])
+        acc = {k[13:]: v for k, v in state.items() if k.startswith("acceleration/")}
+        if self.acceleration is not None:
+            self.acceleration.load_state_dict(acc)
+        self.detector.reset()
+
+
+class ExplicitScheme(CouplingScheme):
+    """Serial-staggered: one fluid and one structure solve per window (thesis's weak coupling)."""
+
+    kind = "explicit"
+    implicit = False
+
+
+class ImplicitScheme(CouplingScheme):
+    """Serial implicit: iterate each window to convergence with acceleration."""
+
+    kind = "implicit"
+    implicit = True
+
+
+def create_scheme(fluid, structure, config: CouplingSection | None = None, **kw) -> CouplingScheme:
+    """The scheme named by ``config.scheme`` (default config: implicit)."""
+    config = config if config is not None else CouplingSection()
+    return SCHEMES.create(config.scheme, fluid, structure, config, **kw)

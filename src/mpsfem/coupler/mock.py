@@ -1,0 +1,194 @@
+"""Small participants for tests, benchmarks and demos of the coupler (no MPS, no FEM).
+
+:class:`SpringMassStructure`
+    A 2D member of length L along x at y = 0 (``n_nodes`` nodes, segment cells, geometric
+    thickness t): every node carries mass m_s / n_nodes and a ground spring, neighbours are
+    joined by springs; the y components move (Newmark, average acceleration), x stays put.
+:class:`AddedMassFluid`
+    Interface particles on both faces of that member (spacing l0, at y = +-t/2). It reacts to
+    the wall acceleration it is given with an added-mass force, F_i = -m_i a_i, plus a constant
+    pressure load p0 on the upper face. The added mass m_i varies along the member (profile
+    1 + x / L), so the coupled fixed point has several distinct eigenvalues. With mass ratio
+    mu = sum m_i / m_s, staggered (explicit) coupling is unstable for mu above about 2, plain
+    fixed-point iteration diverges for mu above about 2, and the coupled (monolithic) problem is
+    stable for every mu.
+
+Both honour the participant protocol exactly (checkpoint/restore bit for bit, ``max_dt``,
+copying inputs), and the fluid's ``max_dt`` is shorter than the structure's to exercise
+sub-cycling.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mpsfem.coupler.participant import InterfaceMesh
+
+
+class SpringMassStructure:
+    name = "structure"
+
+    def __init__(
+        self,
+        n_nodes: int = 11,
+        length: float = 1.0,
+        mass: float = 10.0,
+        stiffness: float = 4.0e4,
+        coupling_stiffness: float = 2.0e4,
+        thickness: float = 0.04,
+        dt: float = 1e-3,
+    ) -> None:
+        self.n = n_nodes
+        x = np.linspace(0.0, length, n_nodes)
+        self.mesh = InterfaceMesh(
+            np.c_[x, np.zeros_like(x)],
+            np.tile([0.0, 1.0], (n_nodes, 1)),
+            {"line": np.c_[np.arange(n_nodes - 1), np.arange(1, n_nodes)]},
+            thickness,
+        )
+        self.m = np.full(n_nodes, mass / n_nodes)
+        lap = 2.0 * np.eye(n_nodes) - np.eye(n_nodes, k=1) - np.eye(n_nodes, k=-1)
+        lap[0, 0] = lap[-1, -1] = 1.0
+        self.K = stiffness / n_nodes * np.eye(n_nodes) + coupling_stiffness * lap
+        self.dt = dt
+        self.t = 0.0
+        self.u = np.zeros(n_nodes)
+        self.v = np.zeros(n_nodes)
+        self.a = np.zeros(n_nodes)
+        self.f = np.zeros(n_nodes)  # y force at the end of the next step
+        self._inv: dict[float, np.ndarray] = {}
+        self._ckpt = None
+        self.steps = 0
+
+    def interface(self) -> InterfaceMesh:
+        return self.mesh
+
+    def write(self, name: str, array: np.ndarray) -> None:
+        if name != "forces":
+            raise KeyError(f"structure takes 'forces', not {name!r}")
+        arr = np.asarray(array, dtype=np.float64)
+        if arr.shape != (self.n, 2):
+            raise ValueError(f"forces of shape {arr.shape}, expected {(self.n, 2)}")
+        self.f = arr[:, 1].copy()
+        if self.steps == 0:  # before the first step: initial acceleration from the load
+            self.a = (self.f - self.K @ self.u) / self.m
+
+    def read(self, name: str) -> np.ndarray:
+        vals = {"displacement": self.u, "velocity": self.v, "acceleration": self.a}
+        if name not in vals:
+            raise KeyError(f"structure has no {name!r}")
+        out = np.zeros((self.n, 2))
+        out[:, 1] = vals[name]
+        return out
+
+    def advance(self, dt: float) -> float:
+        inv = self._inv.get(dt)
+        if inv is None:
+            inv = self._inv[dt] = np.linalg.inv(np.diag(self.m) + 0.25 * dt * dt * self.K)
+        u_pred = self.u + dt * self.v + 0.25 * dt * dt * self.a
+        a1 = inv @ (self.f - self.K @ u_pred)
+        self.u = u_pred + 0.25 * dt * dt * a1
+        self.v = self.v + 0.5 * dt * (self.a + a1)
+        self.a = a1
+        self.t += dt
+        self.steps += 1
+        return dt
+
+    def max_dt(self) -> float:
+        return self.dt
+
+    def checkpoint(self) -> None:
+        self._ckpt = (
+            self.t,
+            self.steps,
+            self.u.copy(),
+            self.v.copy(),
+            self.a.copy(),
+            self.f.copy(),
+        )
+
+    def restore(self) -> None:
+        t, n, u, v, a, f = self._ckpt
+        self.t, self.steps = t, n
+        self.u, self.v, self.a, self.f = u.copy(), v.copy(), a.copy(), f.copy()
+
+    def energy(self) -> tuple[float, float]:
+        return 0.5 * float(self.m @ self.v**2), 0.5 * float(self.u @ self.K @ self.u)
+
+
+class AddedMassFluid:
+    name = "fluid"
+
+    def __init__(
+        self,
+        structure: SpringMassStructure,
+        mass_ratio: float = 1.0,
+        spacing: float = 0.02,
+        pressure: float = 1.0e3,
+        dt: float = 4e-4,
+    ) -> None:
+        L = float(structure.mesh.points[-1, 0])
+        half = 0.5 * float(structure.mesh.thickness[0])
+        xp = np.arange(0.5 * spacing, L, spacing)
+        n = xp.size
+        pts = np.vstack([np.c_[xp, np.full(n, half)], np.c_[xp, np.full(n, -half)]])
+        nrm = np.vstack([np.tile([0.0, 1.0], (n, 1)), np.tile([0.0, -1.0], (n, 1))])
+        self.mesh = InterfaceMesh(pts, nrm)
+        profile = 1.0 + pts[:, 0] / L
+        m_s = float(structure.m.sum())
+        self.m = mass_ratio * m_s * profile / profile.sum()
+        self.load = np.zeros_like(pts)
+        self.load[:n, 1] = -pressure * spacing  # pressure on the upper face pushes down
+        self.dt = dt
+        self.t = 0.0
+        self.d = np.zeros_like(pts)
+        self.v_in = np.zeros_like(pts)  # velocity at the end of the next step
+        self.v_old = np.zeros_like(pts)  # wall velocity at the current time
+        self.F = self.load.copy()
+        self.started = False
+        self._ckpt = None
+
+    def interface(self) -> InterfaceMesh:
+        return self.mesh
+
+    def write(self, name: str, array: np.ndarray) -> None:
+        arr = np.array(array, dtype=np.float64)
+        if arr.shape != self.d.shape:
+            raise ValueError(f"{name} of shape {arr.shape}, expected {self.d.shape}")
+        if name == "displacement":
+            self.d = arr
+        elif name == "velocity":
+            self.v_in = arr
+            if not self.started:  # initial wall velocity
+                self.v_old = arr.copy()
+        else:
+            raise KeyError(f"fluid takes 'displacement' or 'velocity', not {name!r}")
+
+    def read(self, name: str) -> np.ndarray:
+        if name != "forces":
+            raise KeyError(f"fluid has no {name!r}")
+        return self.F.copy()
+
+    def advance(self, dt: float) -> float:
+        acc = (self.v_in - self.v_old) / dt
+        self.F = self.load - self.m[:, None] * acc
+        self.v_old = self.v_in.copy()
+        self.t += dt
+        self.started = True
+        return dt
+
+    def max_dt(self) -> float:
+        return self.dt
+
+    def checkpoint(self) -> None:
+        self._ckpt = (self.t, self.v_old.copy(), self.F.copy(), self.d.copy(), self.v_in.copy())
+
+    def restore(self) -> None:
+        t, vo, F, d, vi = self._ckpt
+        self.t, self.v_old, self.F, self.d, self.v_in = t, vo.copy(), F.copy(), d.copy(), vi.copy()
+
+
+def pair(mass_ratio: float = 1.0, **structure_kw) -> tuple[AddedMassFluid, SpringMassStructure]:
+    """(fluid, structure) mock participants with the given added-to-structure mass ratio."""
+    s = SpringMassStructure(**structure_kw)
+    return AddedMassFluid(s, mass_ratio), s

@@ -1,0 +1,173 @@
+"""The ``[coupling]`` section: scheme, window, mapping, acceleration, convergence, transport.
+
+Mapping, acceleration and transport are tables chosen by ``kind``; the allowed kinds and their
+keys come from the coupler's registries (:mod:`mpsfem.coupler.mapping`,
+:mod:`mpsfem.coupler.acceleration`, :mod:`mpsfem.coupler.transport`), so a new component is
+usable in scenarios as soon as it is registered. Example::
+
+    [coupling]
+    scheme = "implicit"          # or "explicit" (the thesis's weak coupling)
+    # window = 1e-4              # default: the structure's time step
+
+    [coupling.mapping]
+    kind = "shape-function"      # "kfbi" | "conservative-kernel" | "shape-function"
+
+    [coupling.acceleration]
+    kind = "iqn-ils"             # "constant" | "aitken" | "iqn-ils"
+    reuse_windows = 8
+
+    [coupling.convergence]
+    relative_tolerance = 1e-4
+    absolute_tolerance = 1e-9
+    max_iterations = 50
+    on_divergence = "stop"       # or "continue" (accept, record a warning)
+
+    [coupling.transport]
+    kind = "inproc"              # "inproc" | "mpi" | "zenoh" (or --transport)
+    timeout_s = 10.0
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal, Union
+
+from pydantic import Field, field_validator, model_validator
+
+from mpsfem.coupler import SCHEMES
+from mpsfem.coupler.acceleration import ACCELERATIONS
+from mpsfem.coupler.mapping import MAPPINGS
+from mpsfem.coupler.transport import TRANSPORTS
+from mpsfem.scenario.base import Section
+
+__all__ = ["CouplingSection", "ConvergenceSection"]
+
+
+def _by_kind(registry) -> Any:
+    """Discriminated union (on ``kind``) of the ``Params`` sections of a registry's entries."""
+    models = tuple(registry.get(name).Params for name in registry)
+    if len(models) == 1:
+        return models[0]
+    return Annotated[Union[models], Field(discriminator="kind")]  # noqa: UP007
+
+
+MappingConfig = _by_kind(MAPPINGS)
+AccelerationConfig = _by_kind(ACCELERATIONS)
+TransportConfig = _by_kind(TRANSPORTS)
+
+
+def _default(registry, kind: str):
+    return lambda: registry.get(kind).Params(kind=kind)
+
+
+class ConvergenceSection(Section):
+    """When an implicit window has converged, and what to do when it does not."""
+
+    relative_tolerance: float = Field(
+        1e-4,
+        gt=0,
+        lt=1,
+        description=(
+            "Converged when rms(x_tilde - x) <= max(relative_tolerance * rms(x_tilde), "
+            "absolute_tolerance): x the interface displacement the fluid used, x_tilde the "
+            "structure's answer, on the structure nodes. In (0, 1)."
+        ),
+    )
+    absolute_tolerance: float = Field(
+        1e-9,
+        gt=0,
+        description=(
+            "Absolute floor of the residual in m (> 0), for displacements near zero (a "
+            "structure at rest)."
+        ),
+    )
+    min_iterations: int = Field(1, ge=1, description="Fewest iterations per window (>= 1).")
+    max_iterations: int = Field(
+        50, ge=1, description="Most iterations per window (>= min_iterations)."
+    )
+    on_divergence: Literal["stop", "continue"] = Field(
+        "stop",
+        description=(
+            'A window not converged after max_iterations: "stop" ends the run with '
+            'CouplingNotConvergedError; "continue" accepts the last iterate and records a '
+            "warning. Non-finite values and detected blow-up always stop."
+        ),
+    )
+    max_displacement: float | None = Field(
+        None,
+        gt=0,
+        description=(
+            "Optional bound in m (> 0): an interface displacement beyond it stops the run as "
+            "diverged."
+        ),
+    )
+
+    @model_validator(mode="after")
+    def _iterations(self) -> ConvergenceSection:
+        if self.min_iterations > self.max_iterations:
+            raise ValueError(
+                f"min_iterations = {self.min_iterations} must be <= max_iterations = "
+                f"{self.max_iterations}"
+            )
+        return self
+
+
+class CouplingSection(Section):
+    """Partitioned fluid-structure coupling (thesis ch. 2.3; preCICE-style components)."""
+
+    scheme: str = Field(
+        "implicit",
+        description=(
+            '"explicit": serial-staggered, one exchange per window (the thesis\'s weak '
+            'coupling); "implicit": serial, iterated to convergence in every window with '
+            "checkpoint/restore of both participants and acceleration."
+        ),
+    )
+    window: float | None = Field(
+        None,
+        gt=0,
+        description=(
+            "Coupling window in s (> 0): the time between two data exchanges. Default: the "
+            "structure's time step. The fluid sub-cycles in equal steps landing on window ends; "
+            "a window longer than the structure's dt sub-cycles the structure too."
+        ),
+    )
+    force_sampling: Literal["mean", "end"] = Field(
+        "mean",
+        description=(
+            'Fluid force handed to the structure for a window: "mean", the time average over '
+            "the fluid's sub-steps (independent of the sub-step count, smooths MPS pressure "
+            'noise); "end", the force of the last sub-step.'
+        ),
+    )
+    mapping: MappingConfig = Field(
+        default_factory=_default(MAPPINGS, "shape-function"),
+        description=(
+            f"Interface mapping, by kind: {', '.join(repr(k) for k in MAPPINGS)}. Default: "
+            '"shape-function".'
+        ),
+    )
+    acceleration: AccelerationConfig = Field(
+        default_factory=_default(ACCELERATIONS, "iqn-ils"),
+        description=(
+            "Acceleration of implicit coupling, by kind: "
+            f'{", ".join(repr(k) for k in ACCELERATIONS)}. Default: "iqn-ils".'
+        ),
+    )
+    convergence: ConvergenceSection = Field(
+        default_factory=ConvergenceSection,
+        description="Convergence criterion and failure handling.",
+    )
+    transport: TransportConfig = Field(
+        default_factory=_default(TRANSPORTS, "inproc"),
+        description=(
+            f"How the participants talk, by kind: {', '.join(repr(k) for k in TRANSPORTS)} "
+            '(--transport overrides the kind). Default: "inproc".'
+        ),
+    )
+
+    @field_validator("scheme")
+    @classmethod
+    def _scheme(cls, v: str) -> str:
+        if v not in SCHEMES:
+            raise ValueError(f"allowed: {', '.join(repr(s) for s in SCHEMES)}")
+        return v
