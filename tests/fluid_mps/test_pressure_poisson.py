@@ -152,7 +152,7 @@ def test_rebuild_on_size_change_and_iteration_growth():
     s = col.solver("pcg_amg")
     p, info = col.solve(s)
     assert info.rebuilt and s.rebuilds == 1
-    s.base_iterations = 0.5  # pretend the last rebuild converged much faster
+    s.base_rate = 0.1  # pretend the last rebuild's hierarchy converged much faster
     p, info = col.solve(s, p * 0.5)
     assert not info.rebuilt and s._rebuild_next
     p, info = col.solve(s, p)

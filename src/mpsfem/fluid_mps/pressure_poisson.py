@@ -30,9 +30,10 @@ identity-like rows (``A_ii = c n0``, ``b_i = 0``, solution 0). Its size therefor
 particles move and the free surface changes, so an AMG hierarchy built at one step stays a valid
 (symmetric positive definite) preconditioner of later matrices; on the finest level the V-cycle
 smooths with the current matrix. The hierarchy is rebuilt when CG needs more than
-``rebuild_factor`` times the iterations of the first solve after the last rebuild (plus one), when
-the row count changes, or when a solve with an old hierarchy fails to converge (then the solve is
-retried once with a fresh hierarchy).
+``rebuild_factor`` times the iterations per decade of residual reduction (a measure of the
+preconditioner that does not depend on how good the warm start was) of the first solve after the
+last rebuild, when the row count changes, or when a solve with an old hierarchy fails to converge
+(then the solve is retried once with a fresh hierarchy).
 
 Preconditioner radius: ``pcg_amg`` builds its V-cycle from the same equation assembled on the
 smaller radius ``precond_re`` (default: the density radius, 2.1 l0), a matrix with ~3.6 times fewer
@@ -63,6 +64,7 @@ from .lattice import lattice_constants
 from .operators import divergence
 
 WATER_COMPRESSIBILITY = 4.5e-10  # 1/Pa, 1 / (rho c^2) for water
+WALL_MODELS = ("pressure_layer", "neumann")
 
 
 class PressureSolveError(RuntimeError):
@@ -75,6 +77,7 @@ class SolveInfo:
 
     iterations: int = 0
     residual: float = 0.0  # ||b - A p|| / ||b|| reached
+    initial_residual: float = 0.0  # ||b - A p0|| / ||b|| of the warm start
     n_unknowns: int = 0
     n_rows: int = 0
     nnz: int = 0
@@ -125,7 +128,7 @@ def _row_map(kind, row_of):
 
 
 @njit(cache=True, parallel=True)
-def _classify(pos, kind, free_surface, indptr, indices, re2, unknown):
+def _classify(pos, kind, free_surface, indptr, indices, re2, unknown, walls=True):
     """unknown[i] = 1 for non-surface FLUID, and non-surface WALL/STRUCTURE with a FLUID neighbour."""
     n, dim = pos.shape
     for i in prange(n):
@@ -134,7 +137,7 @@ def _classify(pos, kind, free_surface, indptr, indices, re2, unknown):
         if free_surface[i] == 0:
             if k == 0:
                 u = 1
-            elif k == 1 or k == 3:
+            elif walls and (k == 1 or k == 3):
                 for kk in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
                     j = np.uint32(indices[kk])
                     if kind[j] == 0:
@@ -585,8 +588,16 @@ class PressureSolver:
         compressibility=0.0,
         floating_compressibility=WATER_COMPRESSIBILITY,
         precond_re=None,
+        wall_model="pressure_layer",
         **_ignored,
     ):
+        if wall_model not in WALL_MODELS:
+            raise ValueError(
+                f"unknown wall model {wall_model!r}; allowed: {', '.join(WALL_MODELS)}"
+            )
+        # "pressure_layer": the first wall layer is an unknown (thesis ch. 2.1.3);
+        # "neumann": walls are ghosts of the fluid (wall_boundary.py), only fluid is unknown
+        self.wall_model = wall_model
         if dim not in (2, 3):
             raise ValueError(f"dim must be 2 or 3, got {dim!r}")
         if not 0.0 <= gamma <= 1.0:
@@ -714,7 +725,7 @@ class PressureSolver:
             _shift_floating(A.indptr, A.indices, A.data, self.mark, m, extra)
         return nf
 
-    def assemble(self, pos, vel, kind, number_density, free_surface, nb, dt):
+    def assemble(self, pos, vel, kind, number_density, free_surface, nb, dt, extra_rhs=None):
         """Build A (scipy CSR wrapping internal buffers, valid until the next call) and b.
 
         Returns (A, b, m) with m the number of rows. ``nb`` is the shared neighbour list (its
@@ -737,12 +748,24 @@ class PressureSolver:
             self.wcode,
             self.n0_density,
             self.div,
+            self.wall_model == "neumann",
         )
         mixed_source_term(
             self.div, number_density, kind, self.rho, dt, self.gamma, self.n0_density, self.src
         )
+        if extra_rhs is not None:  # b = -src, so b += extra_rhs
+            np.subtract(self.src, extra_rhs, out=self.src)
         m = _row_map(kind, self.row_of)
-        _classify(pos, kind, free_surface, nb.indptr, nb.indices, self.re * self.re, self.unknown)
+        _classify(
+            pos,
+            kind,
+            free_surface,
+            nb.indptr,
+            nb.indices,
+            self.re * self.re,
+            self.unknown,
+            self.wall_model == "pressure_layer",
+        )
         shift = self.rho * self.compressibility / (dt * dt)
         mats = self._matrices(pos, kind, free_surface, nb, m, shift)
         A = mats[0]
@@ -758,13 +781,15 @@ class PressureSolver:
         return A, self._main.b[:m], m
 
     # -- solve ------------------------------------------------------------------------------
-    def solve(self, pos, vel, kind, number_density, free_surface, nb, dt, p) -> SolveInfo:
+    def solve(
+        self, pos, vel, kind, number_density, free_surface, nb, dt, p, extra_rhs=None
+    ) -> SolveInfo:
         """Solve the PPE for the pressure ``p`` (N,), updated in place and used as warm start.
 
         On return p = 0 on every particle that is not an unknown (free surface, dummies, walls
         away from the fluid). Raises PressureSolveError if the tolerance is not reached."""
         t0 = time.perf_counter()
-        A, b, m = self.assemble(pos, vel, kind, number_density, free_surface, nb, dt)
+        A, b, m = self.assemble(pos, vel, kind, number_density, free_surface, nb, dt, extra_rhs)
         x = self.x[:m]
         _gather(p, self.row_of, self.unknown, x)
         t1 = time.perf_counter()
@@ -798,6 +823,7 @@ class PressureSolver:
             return True
         target = (self.tol * bnorm) ** 2
         rr = _residual(a_ptr, a_idx, a_val, x, b, r, part)
+        info.initial_residual = float(np.sqrt(rr) / bnorm)
         it = 0
         restarts = 0
         while True:
@@ -914,7 +940,7 @@ class AMGPCG(PressureSolver):
         self.levels = None  # [(A, P, R) as int32 CSR triples]; A of level 0 is replaced per solve
         self.coarse_inv = None
         self.sizes = []
-        self.base_iterations = None
+        self.base_rate = None
         self.rebuilds = 0
         self._rebuild_next = False
 
@@ -942,7 +968,7 @@ class AMGPCG(PressureSolver):
         self.vecs = [np.zeros((4, m)) for m in self.sizes]  # per level: x, b, residual, old x
         self.blocks = [max(1, min(self.smoother_blocks, m // 256)) for m in self.sizes]
         self.rebuilds += 1
-        self.base_iterations = None
+        self.base_rate = None
 
     def _vcycle(self, lvl, x, b):
         """x = V-cycle(b) from x = 0 on level lvl."""
@@ -1000,13 +1026,21 @@ class AMGPCG(PressureSolver):
             self._attach(M)
             info.rebuilt = True
             self._pcg(A, b, x, precond, info, raise_on_fail=True)
-            self.base_iterations = max(info.iterations, 1)
+            self.base_rate = _iterations_per_decade(info)
             info.iterations += first
             return
-        if info.rebuilt or self.base_iterations is None:
-            self.base_iterations = max(info.iterations, 1)
-        elif info.iterations > self.rebuild_factor * self.base_iterations + 1:
+        rate = _iterations_per_decade(info)
+        if info.rebuilt or self.base_rate is None:
+            self.base_rate = rate
+        elif info.iterations >= 4 and rate > self.rebuild_factor * self.base_rate:
             self._rebuild_next = True
+
+
+def _iterations_per_decade(info):
+    """CG iterations per factor 10 of residual reduction: the preconditioner's quality, whatever
+    the quality of the warm start."""
+    red = info.initial_residual / max(info.residual, 1e-300)
+    return info.iterations / max(np.log10(red), 0.5) if info.iterations else 0.0
 
 
 SOLVERS: dict[str, type[PressureSolver]] = {
