@@ -175,7 +175,7 @@ class CouplingScheme:
         self.log = log
         self.history = CouplingHistory()
         self.detector = InstabilityDetector(floor=self.config.convergence.absolute_tolerance)
-        self.t = 0.0
+        self.t = self.t0 = 0.0
         self.index = 0
         self.window: float | None = None
         self.initialized = False
@@ -183,7 +183,7 @@ class CouplingScheme:
     # ------------------------------------------------------------------ set-up
     def initialize(self, t0: float = 0.0) -> None:
         """Exchange meshes, build the mapping, hand both participants their initial data."""
-        self.t = float(t0)
+        self.t = self.t0 = float(t0)
         self.index = 0
         self.structure_mesh = as_interface_mesh(self.structure.interface())
         fluid_mesh = as_interface_mesh(self.fluid.interface())
@@ -225,7 +225,7 @@ class CouplingScheme:
         if not self.initialized:
             self.initialize()
         while end_time - self.t > TIME_EPS * self.window:
-            t_end = self.t + self.window
+            t_end = self.t0 + (self.index + 1) * self.window  # no accumulated round-off
             if t_end > end_time - TIME_EPS * self.window:
                 t_end = end_time
             rec = self.advance_window(t_end)
@@ -238,7 +238,7 @@ class CouplingScheme:
         if not self.initialized:
             self.initialize()
         t0 = self.t
-        t1 = t0 + self.window if t_end is None else float(t_end)
+        t1 = self.t0 + (self.index + 1) * self.window if t_end is None else float(t_end)
         T = t1 - t0
         timings = {"fluid": 0.0, "structure": 0.0, "mapping": 0.0, "acceleration": 0.0}
         tic = time.perf_counter()
@@ -430,6 +430,7 @@ class CouplingScheme:
         acc = self.acceleration.state_dict() if self.acceleration is not None else {}
         return {
             "t": self.t,
+            "t0": self.t0,
             "index": self.index,
             "window": self.window,
             "energy0": self.energy0,
@@ -442,7 +443,7 @@ class CouplingScheme:
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         """Continue from :meth:`state_dict` (after :meth:`initialize` with restored participants)."""
-        self.t = float(state["t"])
+        self.t, self.t0 = float(state["t"]), float(state["t0"])
         self.index = int(state["index"])
         self.window = float(state["window"])
         self.energy0 = float(state["energy0"])

@@ -5,9 +5,10 @@
     thickness t): every node carries mass m_s / n_nodes and a ground spring, neighbours are
     joined by springs; the y components move (Newmark, average acceleration), x stays put.
 :class:`AddedMassFluid`
-    Interface particles on both faces of that member (spacing l0, at y = +-t/2). It reacts to
+    Interface particles on both faces of a straight 2D member (spacing l0, at +-t/2 along its
+    normal; any structure participant, e.g. the FEM beam). It reacts to
     the wall acceleration it is given with an added-mass force, F_i = -m_i a_i, plus a constant
-    pressure load p0 on the upper face. The added mass m_i varies along the member (profile
+    pressure load p0 on the face the member's normal points to. The added mass m_i varies along the member (profile
     1 + x / L), so the coupled fixed point has several distinct eigenvalues. With mass ratio
     mu = sum m_i / m_s, staggered (explicit) coupling is unstable for mu above about 2, plain
     fixed-point iteration diverges for mu above about 2, and the coupled (monolithic) problem is
@@ -22,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mpsfem.coupler.participant import InterfaceMesh
+from mpsfem.coupler.participant import InterfaceMesh, as_interface_mesh
 
 
 class SpringMassStructure:
@@ -59,6 +60,7 @@ class SpringMassStructure:
         self._inv: dict[float, np.ndarray] = {}
         self._ckpt = None
         self.steps = 0
+        self.started = False
 
     def interface(self) -> InterfaceMesh:
         return self.mesh
@@ -70,7 +72,7 @@ class SpringMassStructure:
         if arr.shape != (self.n, 2):
             raise ValueError(f"forces of shape {arr.shape}, expected {(self.n, 2)}")
         self.f = arr[:, 1].copy()
-        if self.steps == 0:  # before the first step: initial acceleration from the load
+        if not self.started:  # the initial load (t0): initial acceleration
             self.a = (self.f - self.K @ self.u) / self.m
 
     def read(self, name: str) -> np.ndarray:
@@ -92,6 +94,7 @@ class SpringMassStructure:
         self.a = a1
         self.t += dt
         self.steps += 1
+        self.started = True
         return dt
 
     def max_dt(self) -> float:
@@ -121,24 +124,35 @@ class AddedMassFluid:
 
     def __init__(
         self,
-        structure: SpringMassStructure,
+        structure,
         mass_ratio: float = 1.0,
         spacing: float = 0.02,
         pressure: float = 1.0e3,
         dt: float = 4e-4,
+        structure_mass: float | None = None,
     ) -> None:
-        L = float(structure.mesh.points[-1, 0])
-        half = 0.5 * float(structure.mesh.thickness[0])
-        xp = np.arange(0.5 * spacing, L, spacing)
-        n = xp.size
-        pts = np.vstack([np.c_[xp, np.full(n, half)], np.c_[xp, np.full(n, -half)]])
-        nrm = np.vstack([np.tile([0.0, 1.0], (n, 1)), np.tile([0.0, -1.0], (n, 1))])
+        """Particles on both faces of ``structure``'s interface, a straight 2D member (any
+        participant, or its interface mesh). ``structure_mass`` (default: the mock structure's
+        ``m.sum()``) sets the scale of the added mass."""
+        mesh = as_interface_mesh(getattr(structure, "interface", lambda: structure)())
+        if mesh.dim != 2:
+            raise ValueError("AddedMassFluid wraps 2D members")
+        p0, p1 = mesh.points[0], mesh.points[-1]
+        L = float(np.linalg.norm(p1 - p0))
+        e = (p1 - p0) / L
+        nrm_s = mesh.normals[0]
+        half = 0.5 * float(mesh.thickness.max())
+        s_ = np.arange(0.5 * spacing, L, spacing)
+        n = s_.size
+        line = p0 + s_[:, None] * e
+        pts = np.vstack([line + half * nrm_s, line - half * nrm_s])
+        nrm = np.vstack([np.tile(nrm_s, (n, 1)), np.tile(-nrm_s, (n, 1))])
         self.mesh = InterfaceMesh(pts, nrm)
-        profile = 1.0 + pts[:, 0] / L
-        m_s = float(structure.m.sum())
+        profile = 1.0 + np.r_[s_, s_] / L
+        m_s = float(structure.m.sum()) if structure_mass is None else float(structure_mass)
         self.m = mass_ratio * m_s * profile / profile.sum()
         self.load = np.zeros_like(pts)
-        self.load[:n, 1] = -pressure * spacing  # pressure on the upper face pushes down
+        self.load[:n] = -pressure * spacing * nrm_s  # pressure on the +normal face
         self.dt = dt
         self.t = 0.0
         self.d = np.zeros_like(pts)

@@ -188,7 +188,6 @@ class Transport(ABC):
         self._send(Message(HELLO, {"role": self.role, "protocol": PROTOCOL}))
         msg = self._recv(self.startup_timeout_s, expect_hello=True)
         if msg.meta.get("role") != self.peer or msg.meta.get("protocol") != PROTOCOL:
-            self.abort()
             raise PeerLostError(
                 f"{self.describe()}: this process is the {self.role} and expected the "
                 f"{self.peer} on the other side, but got {msg.meta.get('role')!r} (protocol "

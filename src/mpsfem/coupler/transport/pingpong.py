@@ -5,8 +5,9 @@
     python -m mpsfem.coupler.transport.pingpong --transport zenoh --role fluid
 
 The fluid end prints one JSON line: whether every echo came back bit-identical, round-trip
-latency and throughput. ``--die-after N`` makes the echoing end exit hard (os._exit) after N
-messages, ``--wait S`` makes it wait S seconds before its first echo (to measure the CPU the
+latency and throughput. ``--die-after N`` makes the echoing end crash (SIGKILL) after N
+messages, ``--freeze`` makes it stop itself (SIGSTOP, heartbeats included) on the first
+"ping", ``--wait S`` makes it wait S seconds before answering "ping" (to measure the CPU the
 fluid end burns while it waits).
 """
 
@@ -15,6 +16,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import sys
 import time
 
@@ -24,7 +26,7 @@ from mpsfem.coupler.errors import PeerLostError
 from mpsfem.coupler.transport import TRANSPORTS, Message
 
 
-def test_arrays(seed: int = 0) -> dict[str, np.ndarray]:
+def sample_arrays(seed: int = 0) -> dict[str, np.ndarray]:
     """Arrays that catch any conversion: odd values, NaN payloads, signed zeros, big and empty."""
     rng = np.random.default_rng(seed)
     odd = np.array(
@@ -51,7 +53,7 @@ def make(kind: str, role: str | None, args) -> object:
     return cls(role, **kw)
 
 
-def echo(t, die_after: int | None, wait: float) -> None:
+def echo(t, die_after: int | None, wait: float, freeze: bool = False) -> None:
     n = 0
     while True:
         msg = t.recv()
@@ -59,7 +61,9 @@ def echo(t, die_after: int | None, wait: float) -> None:
             break
         n += 1
         if die_after is not None and n > die_after:
-            os._exit(3)
+            os.kill(os.getpid(), signal.SIGKILL)  # a crash: no goodbye, no cleanup
+        if freeze and msg.tag == "ping":
+            os.kill(os.getpid(), signal.SIGSTOP)
         if wait and msg.tag == "ping":
             time.sleep(wait)
         t.send(msg)
@@ -67,7 +71,7 @@ def echo(t, die_after: int | None, wait: float) -> None:
 
 
 def drive(t, args) -> dict:
-    arrays = test_arrays()
+    arrays = sample_arrays()
     t.send(Message("data", {"x": 1.0}, arrays))
     back = t.recv()
     exact = set(back.arrays) == set(arrays) and all(
@@ -78,7 +82,7 @@ def drive(t, args) -> dict:
         for k in arrays
     )
     out = {"transport": t.kind, "bit_exact": bool(exact), "meta_ok": back.meta == {"x": 1.0}}
-    if args.wait:
+    if args.wait or args.freeze:
         c0, w0 = time.process_time(), time.perf_counter()
         t.send(Message("ping"))
         t.recv()
@@ -110,6 +114,7 @@ def main(argv=None) -> int:
     p.add_argument("--startup-timeout", type=float, default=60.0)
     p.add_argument("--die-after", type=int, default=None)
     p.add_argument("--wait", type=float, default=0.0)
+    p.add_argument("--freeze", action="store_true")
     p.add_argument("--sizes", type=int, nargs="*", default=[])
     p.add_argument("--reps", type=int, default=200)
     args = p.parse_args(argv)
@@ -117,7 +122,7 @@ def main(argv=None) -> int:
     try:
         t.connect()
         if t.role == "structure":
-            echo(t, args.die_after, args.wait)
+            echo(t, args.die_after, args.wait, args.freeze)
         else:
             print(json.dumps(drive(t, args)), flush=True)
     except PeerLostError as exc:

@@ -172,8 +172,17 @@ class ZenohTransport(Transport):
 
     def _shutdown(self) -> None:
         s, self.session = self.session, None
-        if s is not None:
+        if s is None:
+            return
+
+        def close() -> None:
             try:
                 s.close()
             except Exception:  # noqa: BLE001 - closing after the peer vanished
                 pass
+
+        # a graceful close flushes towards the peer and can block ~10 s when the peer is frozen:
+        # give it a moment, then leave it to the process exit
+        th = threading.Thread(target=close, name="mpsfem-zenoh-close", daemon=True)
+        th.start()
+        th.join(timeout=1.0)
