@@ -1,0 +1,152 @@
+"""Accelerators on linear fixed-point problems x = A x + b with a known solution.
+
+A = Q diag(lambda) Q^T with negative eigenvalues, the added-mass type (fixed-point factor
+-m_added / m_structure per mode): plain iteration diverges once some |lambda| > 1.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mpsfem.coupler.acceleration import ACCELERATIONS, create_acceleration
+from mpsfem.coupler.acceleration.iqn_ils import IQNILS, IQNILSParams
+
+
+def problem(n=12, lam_max=20.0, lam_min=0.5, seed=1):
+    rng = np.random.default_rng(seed)
+    Q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    A = Q @ np.diag(-np.geomspace(lam_min, lam_max, n)) @ Q.T
+    b = rng.standard_normal(n)
+    return A, b, np.linalg.solve(np.eye(n) - A, b)
+
+
+def make(kind, **kw):
+    cls = ACCELERATIONS.get(kind)
+    return cls(cls.Params(kind=kind, **kw))
+
+
+def iterate(acc, A, b, x0, tol=1e-10, max_it=2000, secondary=None):
+    """Fixed-point iterations with acceleration; returns (evaluations, x, history of |r|)."""
+    x = x0.copy()
+    s = None if secondary is None else secondary @ x
+    hist = []
+    acc.start_window()
+    for k in range(1, max_it + 1):
+        xt = A @ x + b
+        r = np.linalg.norm(xt - x)
+        hist.append(r)
+        if r <= tol * np.linalg.norm(xt) or not np.isfinite(r) or r > 1e30:
+            return k, x, hist, s
+        sec = None if secondary is None else {"s": (s, secondary @ xt)}
+        x, out = acc.compute(x, xt, sec)
+        if secondary is not None:
+            s = out["s"]
+    return max_it, x, hist, s
+
+
+def test_plain_iteration_diverges():
+    A, b, xs = problem()
+    acc = make("constant", relaxation=1.0)
+    k, x, hist, _ = iterate(acc, A, b, np.zeros(b.size), max_it=50)
+    assert hist[-1] > 1e6 * hist[0]
+
+
+def test_iqn_ils_converges_in_n_plus_one():
+    for n in (1, 4, 12, 30):
+        A, b, xs = problem(n=n)
+        acc = make("iqn-ils", reuse_windows=0, filter="QR2", filter_limit=1e-8)
+        k, x, hist, _ = iterate(acc, A, b, np.zeros(n))
+        # k evaluations = k - 1 updates: one relaxation step, then n quasi-Newton steps
+        assert k <= n + 3, (n, k)
+        np.testing.assert_allclose(x, xs, rtol=1e-8, atol=1e-10)
+
+
+def test_iqn_ils_reuse_speeds_up_next_window():
+    A, b, xs = problem(n=12)
+    acc = make("iqn-ils", reuse_windows=4)
+    k1, *_ = iterate(acc, A, b, np.zeros(12))
+    acc.end_window()
+    b2 = b + 0.1  # the next window: same Jacobian, new right-hand side
+    k2, x2, _, _ = iterate(acc, A, b2, np.zeros(12))
+    assert k2 <= 3 < k1
+    np.testing.assert_allclose(x2, np.linalg.solve(np.eye(12) - A, b2), rtol=1e-8)
+
+
+def test_iqn_ils_without_reuse_forgets():
+    acc = make("iqn-ils", reuse_windows=0)
+    A, b, _ = problem(n=5)
+    iterate(acc, A, b, np.zeros(5))
+    acc.end_window()
+    acc.start_window()
+    assert acc.V == []
+
+
+@pytest.mark.parametrize("filt", ["QR1", "QR2"])
+def test_filter_drops_dependent_columns(filt):
+    acc = IQNILS(IQNILSParams(kind="iqn-ils", filter=filt, reuse_windows=0))
+    acc.start_window()
+    rng = np.random.default_rng(0)
+    v = rng.standard_normal(6)
+    x = np.zeros(6)
+    # residuals along one direction only: every new column is parallel to the first
+    for k in range(5):
+        xt = x + (k + 1.0) * v
+        x, _ = acc.compute(x, xt)
+    assert len(acc.V) == 1 and acc.filtered >= 2
+
+
+def test_max_columns():
+    acc = make("iqn-ils", max_columns=3, reuse_windows=10, filter="none")
+    A, b, _ = problem(n=10)
+    iterate(acc, A, b, np.zeros(10), max_it=8)
+    assert len(acc.V) <= 3
+
+
+def test_aitken_converges():
+    A, b, xs = problem(n=12, lam_max=20.0)
+    k, x, hist, _ = iterate(make("aitken"), A, b, np.zeros(12))
+    assert hist[-1] < 1e-9 * np.linalg.norm(xs) and k < 400
+    np.testing.assert_allclose(x, xs, rtol=1e-8)
+
+
+def test_constant_relaxation_stability_limit():
+    """omega < 2 / (1 + |lambda|max) converges, above it diverges."""
+    A, b, xs = problem(n=8, lam_max=5.0)
+    limit = 2.0 / (1.0 + 5.0)
+    k, x, hist, _ = iterate(make("constant", relaxation=0.9 * limit), A, b, np.zeros(8))
+    assert hist[-1] < 1e-9 * np.linalg.norm(xs)
+    k, x, hist, _ = iterate(make("constant", relaxation=1.1 * limit), A, b, np.zeros(8), max_it=600)
+    assert hist[-1] > hist[0]
+
+
+@pytest.mark.parametrize("kind", list(ACCELERATIONS))
+def test_secondary_follows_the_same_combination(kind):
+    """Secondary data that are an affine function of the primary stay that function."""
+    A, b, xs = problem(n=6, lam_max=3.0)
+    S = np.random.default_rng(3).standard_normal((4, 6))
+    kw = {"relaxation": 0.3} if kind == "constant" else {}
+    k, x, hist, s = iterate(make(kind, **kw), A, b, np.zeros(6), secondary=S)
+    np.testing.assert_allclose(s, S @ x, rtol=1e-10, atol=1e-12)
+
+
+def test_state_dict_round_trip():
+    A, b, _ = problem(n=6)
+    acc = make("iqn-ils")
+    iterate(acc, A, b, np.zeros(6))
+    acc.end_window()
+    clone = make("iqn-ils")
+    clone.load_state_dict(acc.state_dict())
+    x = np.ones(6)
+    acc.start_window()
+    clone.start_window()
+    a1, _ = acc.compute(x, A @ x + b)
+    a2, _ = clone.compute(x, A @ x + b)
+    assert a1.tobytes() == a2.tobytes()
+
+
+def test_create_from_schema_params():
+    from mpsfem.scenario.coupling import CouplingSection
+
+    acc = create_acceleration(CouplingSection().acceleration)
+    assert acc.kind == "iqn-ils" and acc.params.filter == "QR2"

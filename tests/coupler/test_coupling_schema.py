@@ -1,0 +1,123 @@
+"""The [coupling] scenario section: strict, closed, described, errors that say what is allowed."""
+
+from __future__ import annotations
+
+import typing
+
+import pytest
+from pydantic import BaseModel, ValidationError
+
+from mpsfem.coupler import SCHEMES
+from mpsfem.coupler.acceleration import ACCELERATIONS
+from mpsfem.coupler.mapping import MAPPINGS
+from mpsfem.coupler.transport import TRANSPORTS
+from mpsfem.scenario.base import Section
+from mpsfem.scenario.coupling import CouplingSection
+
+
+def errors(data) -> list[str]:
+    with pytest.raises(ValidationError) as e:
+        CouplingSection.model_validate(data)
+    return [f"{'.'.join(map(str, x['loc']))}: {x['msg']}" for x in e.value.errors()]
+
+
+def models(root) -> set[type[BaseModel]]:
+    out, todo = set(), [root]
+    while todo:
+        m = todo.pop()
+        if m in out:
+            continue
+        out.add(m)
+        for f in m.model_fields.values():
+            stack = [f.annotation]
+            while stack:
+                a = stack.pop()
+                if isinstance(a, type) and issubclass(a, BaseModel):
+                    todo.append(a)
+                stack.extend(typing.get_args(a))
+    return out
+
+
+def test_defaults():
+    c = CouplingSection()
+    assert c.scheme == "implicit" and c.window is None and c.force_sampling == "mean"
+    assert c.mapping.kind == "shape-function" and c.acceleration.kind == "iqn-ils"
+    assert c.transport.kind == "inproc" and c.transport.timeout_s == 10.0
+    assert c.convergence.on_divergence == "stop"
+
+
+def test_every_field_described_and_sections_closed():
+    for m in models(CouplingSection):
+        assert issubclass(m, Section), m
+        assert m.model_config["extra"] == "forbid" and m.model_config["strict"]
+        for name, f in m.model_fields.items():
+            assert f.description, f"{m.__name__}.{name} has no description"
+
+
+@pytest.mark.parametrize(
+    "registry, key",
+    [(MAPPINGS, "mapping"), (ACCELERATIONS, "acceleration"), (TRANSPORTS, "transport")],
+)
+def test_every_registered_component_is_a_kind(registry, key):
+    for name in registry:
+        c = CouplingSection.model_validate({key: {"kind": name}})
+        assert getattr(c, key).kind == name
+
+
+@pytest.mark.parametrize(
+    "data, expect",
+    [
+        ({"scheme": "weak"}, "scheme: Value error, allowed: 'explicit', 'implicit'"),
+        ({"mapping": {"kind": "nearest"}}, "'kfbi', 'conservative-kernel', 'shape-function'"),
+        ({"acceleration": {"kind": "anderson"}}, "'constant', 'aitken', 'iqn-ils'"),
+        ({"transport": {"kind": "tcp"}}, "'inproc', 'mpi', 'zenoh'"),
+        (
+            {"acceleration": {"kind": "iqn-ils", "reuse": 2}},
+            "reuse: Extra inputs are not permitted",
+        ),
+        ({"window": -1e-3}, "window: Input should be greater than 0"),
+        ({"window": "1e-3"}, "window: Input should be a valid number"),
+        ({"coupling": 1}, "coupling: Extra inputs are not permitted"),
+        ({"acceleration": {"kind": "constant", "relaxation": 1.5}}, "less than or equal to 1"),
+        ({"acceleration": {"kind": "iqn-ils", "filter": "QR3"}}, "'QR1', 'QR2' or 'none'"),
+        ({"convergence": {"on_divergence": "ignore"}}, "'stop' or 'continue'"),
+        ({"convergence": {"min_iterations": 4, "max_iterations": 3}}, "min_iterations = 4 must be"),
+        ({"transport": {"kind": "zenoh", "endpoint": "127.0.0.1:7447"}}, "tcp/<host>:<port>"),
+        ({"transport": {"kind": "zenoh", "endpoint": "tcp/127.0.0.1:70000"}}, "port 1..65535"),
+        (
+            {"transport": {"kind": "mpi", "timeout_s": 0}},
+            "timeout_s: Input should be greater than 0",
+        ),
+        ({"mapping": {"kind": "kfbi", "kernel": "gauss"}}, "'improved' or 'original'"),
+    ],
+)
+def test_bad_input_says_what_is_allowed(data, expect):
+    msgs = errors(data)
+    assert any(expect in m for m in msgs), msgs
+
+
+def test_integer_accepted_for_float_and_toml_round_trip():
+    import tomllib
+
+    text = """
+    scheme = "explicit"
+    window = 1
+    [mapping]
+    kind = "kfbi"
+    radius = 0.0042
+    [acceleration]
+    kind = "aitken"
+    initial_relaxation = 1
+    [transport]
+    kind = "zenoh"
+    endpoint = "tcp/127.0.0.1:7500"
+    """
+    c = CouplingSection.model_validate(tomllib.loads(text))
+    assert c.window == 1.0 and c.mapping.radius == 0.0042 and c.transport.endpoint.endswith("7500")
+    again = CouplingSection.model_validate(c.model_dump())
+    assert again == c
+
+
+def test_scheme_names_match_registry():
+    for name in SCHEMES:
+        assert CouplingSection(scheme=name).scheme == name

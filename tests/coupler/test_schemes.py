@@ -1,0 +1,310 @@
+"""Coupling schemes on the mock added-mass problem (mpsfem.coupler.mock).
+
+Structure: spring-mass member, fluid: added-mass force -m_a a on particles on both faces, mapped
+with the shape-function mapping. Mass ratio mu = added / structure mass.
+"""
+
+from __future__ import annotations
+
+import copy
+import warnings
+
+import numpy as np
+import pytest
+
+from mpsfem.coupler import mock
+from mpsfem.coupler.coupling_scheme import ExplicitScheme, ImplicitScheme, create_scheme
+from mpsfem.coupler.errors import (
+    CouplingDivergedError,
+    CouplingNotConvergedError,
+    CouplingWarning,
+)
+from mpsfem.coupler.participant import InterfaceMesh
+from mpsfem.scenario.coupling import CouplingSection
+
+
+def config(**kw) -> CouplingSection:
+    data = {"mapping": {"kind": "shape-function"}}
+    data.update(kw)
+    return CouplingSection.model_validate(data)
+
+
+def reference(mu: float, windows: int, T: float = 1e-3) -> np.ndarray:
+    """The monolithic solution of the same discrete problem (what implicit coupling converges
+    to): Newmark on the structure with the fluid's added-mass force taken implicitly."""
+    fluid, st = mock.pair(mu)
+    sch = create_scheme(fluid, st, config())
+    sch.initialize()
+    H = sch.mapping.to_fluid_matrix.toarray()
+    n = st.n
+    y = 2 * np.arange(n) + 1  # y components of the structure nodes
+    Hy = H[:, y]
+    Ma = Hy.T @ (np.repeat(fluid.m, 2)[:, None] * Hy)
+    Fy = (H.T @ fluid.load.reshape(-1))[y]
+    M, K = np.diag(st.m), st.K
+    u, v = np.zeros(n), np.zeros(n)
+    a = np.linalg.solve(M, Fy - K @ u)
+    out = []
+    A = M + 0.25 * T * T * K + 0.5 * Ma
+    for _ in range(windows):
+        a1 = np.linalg.solve(A, Fy - K @ (u + T * v + 0.25 * T * T * a) - 0.5 * Ma @ a)
+        u = u + T * v + 0.25 * T * T * (a + a1)
+        v = v + 0.5 * T * (a + a1)
+        a = a1
+        out.append(u.copy())
+    return np.array(out)
+
+
+def run(mu, end=0.1, **kw):
+    fluid, st = mock.pair(mu)
+    sch = create_scheme(fluid, st, config(**kw))
+    trace = []
+    sch.run(end, on_window=lambda r: trace.append(st.u.copy()))
+    return sch, np.array(trace), st
+
+
+@pytest.mark.parametrize("mu", [10.0, 3.0])
+def test_explicit_diverges_for_heavy_fluid_and_says_so(mu):
+    with pytest.raises(CouplingDivergedError, match="added-mass instability") as err:
+        run(mu, scheme="explicit")
+    assert 'scheme = "implicit"' in str(err.value)
+
+
+@pytest.mark.parametrize("mu", [1.0, 0.1, 0.01])
+def test_explicit_stable_for_light_fluid(mu):
+    sch, trace, _ = run(mu, scheme="explicit")
+    assert isinstance(sch, ExplicitScheme)
+    assert (sch.history.column("iterations") == 1).all()
+    assert np.abs(trace).max() < 0.2
+
+
+@pytest.mark.parametrize("mu", [10.0, 3.0, 1.0, 0.1, 0.01])
+def test_implicit_iqn_ils_stable_and_matches_monolithic(mu):
+    tol = 1e-9
+    sch, trace, _ = run(
+        mu,
+        convergence={"relative_tolerance": tol, "absolute_tolerance": 1e-14, "max_iterations": 60},
+    )
+    assert isinstance(sch, ImplicitScheme)
+    ref = reference(mu, trace.shape[0])
+    err = np.abs(trace - ref).max() / np.abs(ref).max()
+    assert err < 1e3 * tol, err
+    assert sch.history.column("converged").all()
+
+
+@pytest.mark.parametrize("mu", [10.0, 1.0, 0.01])
+def test_aitken_converges(mu):
+    sch, trace, _ = run(mu, acceleration={"kind": "aitken"})
+    assert sch.history.column("converged").all()
+    ref = reference(mu, trace.shape[0])
+    assert np.abs(trace - ref).max() < 1e-2 * np.abs(ref).max()  # rtol 1e-4 per window
+
+
+def fixed_point_eigenvalues(mu: float) -> np.ndarray:
+    """Eigenvalues of the window's fixed-point map x -> x_tilde (numerical Jacobian)."""
+    fluid, st = mock.pair(mu)
+    sch = create_scheme(fluid, st, config())
+    sch.initialize()
+    T = sch.window
+    fluid.checkpoint()
+    st.checkpoint()
+    d0f, v0f = sch.mapping.to_fluid(sch.d), sch.mapping.to_fluid(sch.v)
+
+    def G(x):
+        fluid.restore()
+        st.restore()
+        s = 2.0 * (x - sch.d) / T - sch.v  # Newmark-consistent velocity
+        F, _ = sch._fluid_window(0.0, T, d0f, v0f, sch.mapping.to_fluid(x), sch.mapping.to_fluid(s))
+        return sch._structure_window(0.0, T, sch.mapping.to_structure(F))[0][:, 1]
+
+    x0 = np.zeros((st.n, 2))
+    g0 = G(x0)
+    J = np.empty((st.n, st.n))
+    for j in range(st.n):
+        x = x0.copy()
+        x[j, 1] = 1e-6
+        J[:, j] = (G(x) - g0) / 1e-6
+    return np.linalg.eigvals(J)
+
+
+def test_constant_relaxation_below_stability_limit_converges():
+    mu = 3.0
+    lam = fixed_point_eigenvalues(mu)
+    assert (lam.real < 0).all() and np.abs(lam.imag).max() < 1e-6
+    limit = 2.0 / (1.0 + np.abs(lam).max())
+    sch, _, _ = run(mu, end=0.02, acceleration={"kind": "constant", "relaxation": 0.8 * limit})
+    assert sch.history.column("converged").all()
+    with pytest.raises((CouplingDivergedError, CouplingNotConvergedError)):
+        run(mu, end=0.02, acceleration={"kind": "constant", "relaxation": min(1.0, 1.3 * limit)})
+
+
+def test_iterations_per_window_vs_mass_ratio():
+    """The added-mass stress test on the mock: where explicit coupling diverges, and how many
+    iterations per window Aitken and IQN-ILS need (printed table)."""
+    rows = []
+    for mu in (10.0, 3.0, 1.0, 0.3, 0.1, 0.03, 0.01):
+        row = [mu]
+        try:
+            run(mu, scheme="explicit")
+            row.append("stable")
+        except CouplingDivergedError:
+            fluid, st = mock.pair(mu)
+            sch = create_scheme(fluid, st, config(scheme="explicit"))
+            with pytest.raises(CouplingDivergedError):
+                sch.run(0.1)
+            row.append(f"diverged @{sch.index}")
+        for acc in ("aitken", "iqn-ils"):
+            sch, _, _ = run(mu, acceleration={"kind": acc})
+            it = sch.history.column("iterations")
+            row += [it.mean(), it.max()]
+        rows.append(row)
+    print("\nmock added-mass problem, 100 windows, rtol 1e-4: iterations per window")
+    print(
+        f"{'m_a/m_s':>8} {'explicit':>14} {'aitken mean':>12} {'max':>4} {'iqn-ils mean':>13} {'max':>4}"
+    )
+    for r in rows:
+        print(f"{r[0]:8.2f} {r[1]:>14} {r[2]:12.2f} {r[3]:4d} {r[4]:13.2f} {r[5]:4d}")
+    by = {r[0]: r for r in rows}
+    assert by[10.0][1].startswith("diverged") and by[0.01][1] == "stable"
+    assert all(r[4] <= r[2] + 0.5 for r in rows)  # IQN-ILS needs no more than Aitken
+    assert all(r[4] < 5 for r in rows)
+
+
+def test_not_converged_stops_or_warns():
+    kw = {
+        "convergence": {
+            "relative_tolerance": 1e-12,
+            "absolute_tolerance": 1e-16,
+            "max_iterations": 2,
+        }
+    }
+    with pytest.raises(CouplingNotConvergedError, match=r"not converged after max_iterations = 2"):
+        run(3.0, end=0.003, **kw)
+    kw["convergence"]["on_divergence"] = "continue"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sch, _, _ = run(3.0, end=0.003, **kw)
+    assert any(issubclass(w.category, CouplingWarning) for w in caught)
+    rec = sch.history[-1]
+    assert not rec.converged and "max_iterations" in rec.warning and rec.iterations == 2
+
+
+def test_nan_stops_with_clear_message():
+    fluid, st = mock.pair(1.0)
+    sch = create_scheme(fluid, st, config())
+    sch.run(0.002)
+    fluid.load[3, 1] = np.nan
+    with pytest.raises(CouplingDivergedError, match=r"fluid forces holds non-finite values"):
+        sch.run(0.004)
+
+
+def test_max_displacement_bound():
+    with pytest.raises(CouplingDivergedError, match="max_displacement"):
+        run(1.0, end=0.05, convergence={"max_displacement": 1e-3})
+
+
+def test_window_and_subcycling():
+    """Fluid max_dt 4e-4 in a 1e-3 window: 3 equal sub-steps; a 2e-3 window sub-cycles the
+    structure (dt 1e-3) twice; a 5e-4 window gives the structure one step of 5e-4."""
+    sch, _, st = run(1.0, end=0.004)
+    assert (sch.history.column("fluid_substeps") == 3).all()
+    assert (sch.history.column("structure_substeps") == 1).all()
+    np.testing.assert_array_equal(sch.history.column("time"), [1e-3, 2e-3, 3e-3, 4e-3])
+    sch, _, st = run(1.0, end=0.004, window=2e-3)
+    assert (sch.history.column("structure_substeps") == 2).all()
+    assert (sch.history.column("fluid_substeps") == 5).all()
+    sch, _, st = run(1.0, end=0.002, window=5e-4)
+    assert (sch.history.column("structure_substeps") == 1).all() and st.t == pytest.approx(0.002)
+
+
+def test_records_and_energy_balance():
+    """Implicit + conservative mapping: the structure's energy equals the work done on it
+    (undamped, trapezoidal work, no structure sub-cycling) and the interface creates no
+    energy beyond the tolerance; KFBI's force average does not keep the work."""
+    tight = {"relative_tolerance": 1e-10, "absolute_tolerance": 1e-15}
+    sch, _, _ = run(1.0, end=0.05, convergence=tight)
+    h = sch.history_arrays()
+    for key in ("time", "iterations", "residual", "work_structure", "energy_imbalance"):
+        assert key in h and h[key].shape == (50,)
+    e_scale = np.abs(h["structure_energy"]).max()
+    assert np.abs(h["energy_imbalance"]).max() < 1e-9 * e_scale
+    assert np.abs(h["interface_work_error"]).max() < 1e-6 * e_scale
+    row = sch.history[-1].results_row()
+    assert {"residual_abs", "work_structure", "structure_energy"} <= set(row)
+    sch_k, _, _ = run(1.0, end=0.05, convergence=tight, mapping={"kind": "kfbi", "radius": 0.06})
+    hk = sch_k.history_arrays()
+    assert np.abs(hk["interface_work_error"]).max() > 1e-3 * e_scale
+
+
+class ShrinkingFluid(mock.AddedMassFluid):
+    """Drops its last interface particle after a few windows (a changing particle set)."""
+
+    def __init__(self, *a, **kw):
+        super().__init__(*a, **kw)
+        self.calls = 0
+
+    def interface(self):
+        self.calls += 1
+        if self.calls == 4:
+            keep = slice(0, self.mesh.n_points - 1)
+            self.mesh = InterfaceMesh(self.mesh.points[keep], self.mesh.normals[keep])
+            for name in ("m", "load", "d", "v_in", "v_old", "F"):
+                setattr(self, name, getattr(self, name)[keep].copy())
+        return self.mesh
+
+
+def test_mapping_rebuilt_when_particles_change():
+    st = mock.SpringMassStructure()
+    fluid = ShrinkingFluid(st, 1.0)
+    sch = create_scheme(fluid, st, config())
+    sch.run(0.006)
+    assert sch.mapping.builds == 2 and sch.mapping.fluid.n_points == fluid.mesh.n_points
+
+
+def test_restart_continues_bit_for_bit():
+    cfg = config()
+    fluid, st = mock.pair(3.0)
+    sch = create_scheme(fluid, st, cfg)
+    sch.run(0.01)
+    saved = copy.deepcopy((fluid, st, sch.state_dict()))
+    sch.run(0.02)
+    f2, s2, state = saved
+    sch2 = create_scheme(f2, s2, cfg)
+    sch2.initialize()
+    sch2.load_state_dict(state)
+    sch2.run(0.02)
+    assert sch2.d.tobytes() == sch.d.tobytes() and s2.u.tobytes() == st.u.tobytes()
+    assert [r.iterations for r in sch2.history] == [r.iterations for r in sch.history[10:]]
+
+
+def test_real_structure_participant_with_mock_fluid():
+    """The FEM beam of structure_fem coupled to the added-mass mock: the protocols fit, the
+    implicit scheme converges and the damped structure gains no energy beyond the work."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parents[1] / "structure_fem"))
+    structure_cases = pytest.importorskip("structure_cases")
+    from mpsfem.structure_fem.participant import StructureParticipant
+
+    st = StructureParticipant(structure_cases.section([structure_cases.BEAM]))
+    m_beam = 1100.0 * 0.04 * 0.25
+    fluid = mock.AddedMassFluid(
+        st, mass_ratio=2.0, spacing=0.005, pressure=200.0, dt=4e-5, structure_mass=m_beam
+    )
+    sch = create_scheme(fluid, st, config())
+    sch.run(0.005)
+    h = sch.history_arrays()
+    assert h["converged"].all() and h["iterations"].max() < 10
+    tip = np.abs(st.read("displacement")).max()
+    assert 0 < tip < 1e-2
+    assert (h["energy_imbalance"] < 1e-9 * max(1e-12, np.abs(h["structure_energy"]).max())).all()
+
+
+def test_scheme_names_and_defaults():
+    fluid, st = mock.pair(1.0)
+    sch = create_scheme(fluid, st)
+    assert isinstance(sch, ImplicitScheme) and sch.acceleration.kind == "iqn-ils"
+    assert sch.mapping.kind == "shape-function"
+    sch.initialize()
+    assert sch.window == st.max_dt()
