@@ -193,8 +193,7 @@ class CouplingScheme:
             if self.config.window is not None
             else float(self.structure.max_dt())
         )
-        self.d = np.array(self.structure.read(DISPLACEMENT), dtype=np.float64)
-        self.v = np.array(self.structure.read(VELOCITY), dtype=np.float64)
+        self.d, self.v = read_outputs(self.structure, (DISPLACEMENT, VELOCITY))
         shape = self.structure_mesh.points.shape
         for name, a in ((DISPLACEMENT, self.d), (VELOCITY, self.v)):
             if a.shape != shape:
@@ -410,8 +409,7 @@ class CouplingScheme:
             st.write(FORCES, interpolate(F0, F1, (t_next - t0) / T))
 
         n = subcycle(st.advance, st.max_dt, t0, t1, before, who="structure")
-        d = np.array(st.read(DISPLACEMENT), dtype=np.float64)
-        v = np.array(st.read(VELOCITY), dtype=np.float64)
+        d, v = read_outputs(st, (DISPLACEMENT, VELOCITY))
         return d, v, n
 
     def _warn(self, msg: str) -> None:
@@ -453,6 +451,15 @@ class CouplingScheme:
         if self.acceleration is not None:
             self.acceleration.load_state_dict(acc)
         self.detector.reset()
+
+
+def read_outputs(participant, names) -> list[np.ndarray]:
+    """Copies of several outputs (one round trip for a remote participant with ``read_many``)."""
+    many = getattr(participant, "read_many", None)
+    if many is not None:
+        got = many(names)
+        return [np.array(got[n], dtype=np.float64) for n in names]
+    return [np.array(participant.read(n), dtype=np.float64) for n in names]
 
 
 class ExplicitScheme(CouplingScheme):

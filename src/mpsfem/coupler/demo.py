@@ -13,8 +13,10 @@ The fluid process writes the per-window records and the final interface state to
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import threading
+import time
 
 import numpy as np
 
@@ -47,6 +49,20 @@ def config_from(args) -> CouplingSection:
     )
 
 
+def timed_run(scheme, args) -> None:
+    scheme.initialize()
+    t0 = time.perf_counter()
+    scheme.run(args.end_time)
+    if args.timing:
+        wall = time.perf_counter() - t0
+        n = len(scheme.history)
+        parts = {
+            k: float(scheme.history.column(k).sum())
+            for k in ("fluid", "structure", "mapping", "acceleration")
+        }
+        print(json.dumps({"windows": n, "run_s": wall, **parts}), flush=True)
+
+
 def save(path, scheme, fluid) -> None:
     arrays = {f"history/{k}": v for k, v in scheme.history_arrays().items()}
     arrays.update(d=scheme.d, v=scheme.v, F_s=scheme.F_s, F_f=scheme.F_f, fluid_F=fluid.F)
@@ -67,13 +83,14 @@ def main(argv=None) -> int:
     p.add_argument("--endpoint", default="tcp/127.0.0.1:7447")
     p.add_argument("--timeout", type=float, default=10.0)
     p.add_argument("--out", default=None)
+    p.add_argument("--timing", action="store_true", help="print the run's wall time (JSON)")
     args = p.parse_args(argv)
     config = config_from(args)
     fluid, structure = mock.pair(args.mass_ratio)
 
     if args.transport == "inproc":
         scheme = create_scheme(fluid, structure, config)
-        scheme.run(args.end_time)
+        timed_run(scheme, args)
         if args.out:
             save(args.out, scheme, fluid)
         return 0
@@ -83,7 +100,7 @@ def main(argv=None) -> int:
         server.start()
         a.connect()
         scheme = create_scheme(fluid, RemoteParticipant(a), config)
-        scheme.run(args.end_time)
+        timed_run(scheme, args)
         scheme.structure.finalize()
         server.join()
         if args.out:
@@ -104,7 +121,7 @@ def main(argv=None) -> int:
     remote, transport = connect_structure(config)
     try:
         scheme = create_scheme(fluid, remote, config)
-        scheme.run(args.end_time)
+        timed_run(scheme, args)
         remote.finalize()
     except CouplingError as exc:
         print(f"fluid: {type(exc).__name__}: {exc}", file=sys.stderr, flush=True)

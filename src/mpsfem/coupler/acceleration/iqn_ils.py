@@ -23,6 +23,7 @@ from typing import Literal
 
 import numpy as np
 from pydantic import Field
+from scipy.linalg import solve_triangular
 
 from mpsfem.coupler.acceleration.base import Acceleration, relax
 from mpsfem.scenario.base import Section
@@ -61,18 +62,6 @@ class IQNILSParams(Section):
         lt=1,
         description="Filter threshold in (0, 1). Default: 1e-2 for QR2, 1e-6 for QR1.",
     )
-
-
-def _orthogonalize(v: np.ndarray, Q: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """Modified Gram-Schmidt with one re-orthogonalisation: (v_orth, coefficients)."""
-    coef = np.zeros(len(Q))
-    v = v.copy()
-    for _ in range(2):
-        for k, q in enumerate(Q):
-            c = float(q @ v)
-            v -= c * q
-            coef[k] += c
-    return v, coef
 
 
 class IQNILS(Acceleration):
@@ -125,10 +114,9 @@ class IQNILS(Acceleration):
                 self._select(list(range(self.params.max_columns)))
         self._prev = (r, x_tilde.copy(), {k: v.copy() for k, v in st.items()})
         Q, R = self._qr()
-        if not Q:
+        if Q is None:
             return relax(self.params.initial_relaxation, x, x_tilde, secondary)
-        Qm = np.stack(Q, axis=1)
-        alpha = np.linalg.solve(R, -(Qm.T @ r)) if R.size else np.zeros(0)
+        alpha = solve_triangular(R, -(Q.T @ r))
         x_next = x_tilde + np.stack(self.W, axis=1) @ alpha
         sec = {}
         for k, (_, s_t) in secondary.items():
@@ -136,34 +124,31 @@ class IQNILS(Acceleration):
             sec[k] = np.asarray(s_t, dtype=np.float64) + np.stack(cols, axis=1) @ alpha
         return x_next, sec
 
-    def _qr(self) -> tuple[list[np.ndarray], np.ndarray]:
-        """QR of V (newest column first) after filtering; drops filtered columns for good."""
-        while True:
-            Q: list[np.ndarray] = []
-            Rcols: list[np.ndarray] = []
-            drop: list[int] = []
-            for k, v in enumerate(self.V):
-                nv = float(np.linalg.norm(v))
-                v_orth, coef = _orthogonalize(v, Q)
-                rkk = float(np.linalg.norm(v_orth))
-                if nv == 0.0 or (self.params.filter == "QR2" and rkk < self.limit * nv):
-                    drop.append(k)
-                    continue
-                Q.append(v_orth / rkk)
-                Rcols.append(np.append(coef, rkk))
-            m = len(Q)
-            R = np.zeros((m, m))
-            for j, col in enumerate(Rcols):
-                R[: col.size, j] = col
-            if self.params.filter == "QR1" and m:
-                small = np.abs(np.diag(R)) < self.limit * np.linalg.norm(R)
-                if small.any():
-                    kept = [k for k in range(len(self.V)) if k not in drop]
-                    drop += [kept[j] for j in np.flatnonzero(small)]
-            if not drop:
+    def _qr(self) -> tuple[np.ndarray | None, np.ndarray]:
+        """QR of V (newest column first) after filtering; drops filtered columns for good.
+
+        Householder QR (LAPACK). With the columns in this order |R_jj| is the norm of column j
+        orthogonal to the newer ones, which is what QR2 compares with the column's norm; QR1
+        compares it with the Frobenius norm of R. The first failing column is removed and the
+        QR recomputed, until none fails."""
+        while self.V:
+            Vm = np.stack(self.V, axis=1)
+            Q, R = np.linalg.qr(Vm, mode="reduced")
+            diag = np.abs(np.diag(R))
+            norms = np.linalg.norm(Vm, axis=0)
+            if self.params.filter == "QR2":
+                bad = diag < self.limit * norms
+            elif self.params.filter == "QR1":
+                bad = diag < self.limit * np.linalg.norm(R)
+            else:
+                bad = diag == 0.0
+            bad |= norms == 0.0
+            if not bad.any():
                 return Q, R
-            self.filtered += len(drop)
-            self._select([k for k in range(len(self.V)) if k not in set(drop)])
+            drop = int(np.argmax(bad))
+            self.filtered += 1
+            self._select([k for k in range(len(self.V)) if k != drop])
+        return None, np.zeros((0, 0))
 
     # ------------------------------------------------------------------ restart
     def state_dict(self):

@@ -142,7 +142,10 @@ def _project_quad(P, X):
         J = np.einsum("mad,mai->mdi", X, dN)
         R = np.einsum("ma,mad->md", N, X) - P
         G = np.einsum("mdi,mdj->mij", J, J)
-        xi -= np.linalg.solve(G, np.einsum("mdi,md->mi", J, R)[:, :, None])[:, :, 0]
+        step = np.linalg.solve(G, np.einsum("mdi,md->mi", J, R)[:, :, None])[:, :, 0]
+        xi -= step
+        if np.abs(step).max() < 1e-13:
+            break
     outside = (np.abs(xi) > 1.0 + 1e-12).any(axis=1)
     if outside.any():
         o = np.flatnonzero(outside)
@@ -173,25 +176,27 @@ def project(points: np.ndarray, structure: InterfaceMesh, radius: float):
     Returns (x_star (n, dim), nodes (n, 4) padded with 0, N (n, 4) padded with 0,
     grad_s N (n, 4, dim), distance (n,)); points with no cell within ``radius`` get distance inf.
     Ties go to the earlier cell block and the lower cell index (deterministic).
+
+    Candidates in two passes: the cells of the 4 nearest centroids give an upper bound d1 of the
+    distance; the nearest cell then has its centroid within min(d1, radius) + (largest cell
+    circumradius), and only those cells are projected exactly.
     """
     n, dim = points.shape
-    blocks = [(c, conn) for c, conn in structure.cells.items() if c in _PROJECT and len(conn)]
+    blocks = []
+    for order, (ctype, conn) in enumerate(structure.cells.items()):
+        if ctype not in _PROJECT or not len(conn):
+            continue
+        X = structure.points[conn]
+        centroid = X.mean(axis=1)
+        reach = float(np.linalg.norm(X - centroid[:, None], axis=2).max())
+        blocks.append((order, ctype, conn, X, cKDTree(centroid), reach))
     if not blocks:
         raise ValueError(
             "the shape-function mapping needs structure cells (line / triangle / quad); the "
             f"structure interface has {sorted(structure.cells) or 'none'}"
         )
-    tree_p = cKDTree(points)
-    cand = []
-    for order, (ctype, conn) in enumerate(blocks):
-        X = structure.points[conn]
-        centroid = X.mean(axis=1)
-        reach = radius + float(np.linalg.norm(X - centroid[:, None], axis=2).max())
-        pairs = tree_p.sparse_distance_matrix(cKDTree(centroid), reach, output_type="ndarray")
-        i = pairs["i"].astype(np.int64)
-        c = pairs["j"].astype(np.int64)
-        if i.size == 0:
-            continue
+
+    def candidates(i, c, order, ctype, conn, X):
         x, N, dN = _PROJECT[ctype](points[i], X[c])
         k = conn.shape[1]
         nodes = np.zeros((i.size, 4), dtype=np.int64)
@@ -201,7 +206,27 @@ def project(points: np.ndarray, structure: InterfaceMesh, radius: float):
         dNp = np.zeros((i.size, 4, dim))
         dNp[:, :k] = dN
         dist = np.linalg.norm(points[i] - x, axis=1)
-        cand.append((i, np.full(i.size, order), c, x, nodes, Np, dNp, dist))
+        return i, np.full(i.size, order), c, x, nodes, Np, dNp, dist
+
+    # pass 1: an upper bound of every point's distance to the mid-surface
+    d1 = np.full(n, np.inf)
+    for order, ctype, conn, X, tree, _ in blocks:
+        k = min(4, conn.shape[0])
+        _, c = tree.query(points, k=k)
+        c = c.reshape(n, k)
+        i = np.repeat(np.arange(n), k)
+        dist = candidates(i, c.ravel(), order, ctype, conn, X)[-1]
+        d1 = np.minimum(d1, dist.reshape(n, k).min(axis=1))
+    # pass 2: every cell that can be nearer
+    cand = []
+    for order, ctype, conn, X, tree, reach in blocks:
+        lists = tree.query_ball_point(points, np.minimum(d1, radius) + reach * (1 + 1e-12))
+        counts = np.fromiter((len(x) for x in lists), dtype=np.int64, count=n)
+        if counts.sum() == 0:
+            continue
+        i = np.repeat(np.arange(n), counts)
+        c = np.concatenate([np.asarray(x, dtype=np.int64) for x in lists if len(x)])
+        cand.append(candidates(i, c, order, ctype, conn, X))
     x_star = np.zeros((n, dim))
     nodes = np.zeros((n, 4), dtype=np.int64)
     N = np.zeros((n, 4))
