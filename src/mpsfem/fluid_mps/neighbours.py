@@ -354,7 +354,7 @@ class NeighbourSearch:
         _prefix(counts, indptr)
         nnz = int(indptr[n])
         if self._indices.shape[0] < nnz:
-            self._indices = np.empty(int(nnz * 1.25) + 16, np.int32)
+            self._indices = np.empty(int(nnz * 1.1) + 16, np.int32)
         indices = self._indices[:nnz]
         _fill(pos, r2, nc, cell_of, cell_start, order, pos_sorted, indptr, indices)
         self._last = NeighbourList(indptr=indptr, indices=indices, radius=r)
@@ -385,7 +385,7 @@ class NeighbourSearch:
         _prefix(counts, ptr)
         nnz = int(ptr[n])
         if bufs[1].shape[0] < nnz:
-            bufs[1] = np.empty(int(nnz * 1.25) + 16, np.int32)
+            bufs[1] = np.empty(int(nnz * 1.1) + 16, np.int32)
         idx = bufs[1][:nnz]
         _fill_within(pos, last.indptr, last.indices, r * r, ptr, idx)
         return NeighbourList(indptr=ptr, indices=idx, radius=r)

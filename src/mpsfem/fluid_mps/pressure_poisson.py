@@ -550,7 +550,7 @@ class _Matrix:
 
     def ensure_nnz(self, nnz):
         if nnz > self.cap:
-            self.cap = int(nnz * 1.25) + 64
+            self.cap = int(nnz * 1.1) + 64
             self.a_idx = np.empty(self.cap, np.int32)
             self.a_val = np.empty(self.cap)
 
