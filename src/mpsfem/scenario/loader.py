@@ -10,7 +10,7 @@ import tomllib
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, get_args, get_origin
+from typing import Any, Literal, get_args, get_origin
 
 from pydantic import BaseModel, ValidationError
 
@@ -97,30 +97,50 @@ def apply_override(data: dict, key: str, value: Any) -> None:
 
 
 def _model_at(loc: Sequence[str | int]) -> type[BaseModel] | None:
-    """The model class whose field set applies at ``loc`` (for 'allowed keys' hints)."""
+    """The model class whose field set applies at ``loc`` (for 'allowed keys' hints).
+
+    Inside a union of tables tagged by ``kind`` or ``type`` (pydantic puts the tag value in the
+    location), the member with that tag is chosen."""
     model: Any = Scenario
+    candidates: list[type[BaseModel]] = []
     for part in loc:
-        if isinstance(part, int) or model is None:
+        if isinstance(part, int):
             continue
+        if candidates:
+            tagged = [m for m in candidates if part in _tags(m)]
+            if tagged:
+                model, candidates = tagged[0], []
+                continue
+            model, candidates = candidates[0], []
         if not (isinstance(model, type) and issubclass(model, BaseModel)):
             return None
         f = model.model_fields.get(part)
         if f is None:
-            # discriminated-union tags appear in loc (e.g. 'pressure'); keep the current model
-            continue
-        model = _unwrap(f.annotation)
+            return None
+        found = _models_in(f.annotation)
+        if len(found) > 1:
+            candidates = found
+            model = None
+        else:
+            model = found[0] if found else None
+    if candidates:
+        return candidates[0]
     return model if isinstance(model, type) and issubclass(model, BaseModel) else None
 
 
-def _unwrap(ann: Any) -> Any:
-    origin = get_origin(ann)
-    if origin is None:
-        return ann
-    for arg in get_args(ann):
-        inner = _unwrap(arg)
-        if isinstance(inner, type) and issubclass(inner, BaseModel):
-            return inner
-    return None
+def _models_in(ann: Any) -> list[type[BaseModel]]:
+    if isinstance(ann, type) and issubclass(ann, BaseModel):
+        return [ann]
+    return [m for a in get_args(ann) for m in _models_in(a)]
+
+
+def _tags(model: type[BaseModel]) -> set[str]:
+    out: set[str] = set()
+    for tag in ("kind", "type"):
+        f = model.model_fields.get(tag)
+        if f is not None and get_origin(f.annotation) is Literal:
+            out.update(str(a) for a in get_args(f.annotation))
+    return out
 
 
 def _dotted(loc: Sequence[str | int]) -> str:
@@ -133,22 +153,43 @@ def _dotted(loc: Sequence[str | int]) -> str:
     return out or "(top level)"
 
 
-_TAGS = {"pressure", "wave_gauge", "front", "force", "displacement", "energy"}
+def _without_tags(loc: Sequence[str | int]) -> list[str | int]:
+    """Drop the union-tag entries pydantic inserts (``probes.0.pressure.radius``)."""
+    out: list[str | int] = []
+    model: Any = Scenario
+    candidates: list[type[BaseModel]] = []
+    for part in loc:
+        if isinstance(part, int):
+            out.append(part)
+            continue
+        if candidates:
+            tagged = [m for m in candidates if part in _tags(m)]
+            candidates = []
+            if tagged:
+                model = tagged[0]
+                continue
+        out.append(part)
+        f = model.model_fields.get(part) if isinstance(model, type) else None
+        if f is None:
+            model = None
+            continue
+        found = _models_in(f.annotation)
+        if len(found) > 1:
+            candidates, model = found, None
+        else:
+            model = found[0] if found else None
+    return out
 
 
 def format_validation_error(err: ValidationError) -> list[str]:
     """One line per problem: dotted key, value given, what is allowed."""
     lines = []
     for e in err.errors(include_url=False):
-        loc = [
-            p
-            for p in e["loc"]
-            if not (isinstance(p, str) and p in _TAGS and e["loc"][0] == "probes")
-        ]
+        loc = _without_tags(e["loc"])
         key = _dotted(loc)
         msg = e["msg"]
         if e["type"] == "extra_forbidden":
-            parent = _model_at(loc[:-1])
+            parent = _model_at(list(e["loc"])[:-1])
             allowed = sorted(parent.model_fields) if parent else []
             lines.append(f"{key}: unknown key; allowed here: {', '.join(allowed)}")
             continue

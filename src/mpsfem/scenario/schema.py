@@ -5,6 +5,7 @@ from __future__ import annotations
 from pydantic import Field, model_validator
 
 from mpsfem.scenario.base import Section
+from mpsfem.scenario.coupling import CouplingSection
 from mpsfem.scenario.fluid import FluidSection
 from mpsfem.scenario.output import OutputSection, RunSection
 from mpsfem.scenario.probes import Probe
@@ -20,6 +21,9 @@ class Scenario(Section):
     output: OutputSection = Field(default_factory=OutputSection, description="results output")
     fluid: FluidSection | None = Field(None, description="MPS fluid participant")
     structure: StructureSection | None = Field(None, description="FEM structure participant")
+    coupling: CouplingSection | None = Field(
+        None, description="fluid-structure coupling (needs [fluid] and [structure])"
+    )
     probes: list[Probe] = Field(default_factory=list, description="measurements")
 
     @model_validator(mode="after")
@@ -57,6 +61,8 @@ class Scenario(Section):
                     f"probes[{i}].target '{p.target}' must be 'fluid' or a structure member "
                     f"{sorted(members)}"
                 )
+        if self.coupling is not None and (self.fluid is None or self.structure is None):
+            raise ValueError("[coupling] needs both a [fluid] and a [structure] section")
         if self.fluid is None and self.structure is None:
             raise ValueError("a scenario needs a [fluid] or a [structure] section (or both)")
         return self
