@@ -1,11 +1,12 @@
 """Neighbour search by a cell-linked list (numba).
 
-The particles are binned into cubic cells of edge ``h >= radius`` (counting sort by cell id; within
-a cell particles keep ascending index), then a two-pass CSR fill runs in parallel over particles:
-pass 1 counts each particle's neighbours, a prefix sum gives ``indptr``, pass 2 writes them. Each
-row is sorted by neighbour index, so the list is a function of (pos, radius) alone (not of the cell
-grid) and identical for any thread count. Self is excluded; a pair is a neighbour when ``|r_ij| <
-radius``.
+The particles are binned into cubic cells of edge ``h = radius / cells_per_radius`` (counting sort
+by cell id; within a cell particles keep ascending index); with the default 2 cells per radius the
+(2k+1)^dim stencil scans ~30 % fewer candidates than 3^dim cells of edge ``radius``. Then a
+two-pass CSR fill runs in parallel over particles: pass 1 counts each particle's neighbours, a
+prefix sum gives ``indptr``, pass 2 writes them. Each row is sorted by neighbour index, so the list
+is a function of (pos, radius) alone (not of the cell grid) and identical for any thread count.
+Self is excluded; a pair is a neighbour when ``|r_ij| < radius``.
 
 One list at the largest radius any operator needs is shared by all operators; each operator filters
 by its own kernel radius.
@@ -117,27 +118,28 @@ def _bin(pos, lo, h, nc, cell_of, cell_start, order):
 
 
 @njit(cache=True, inline="always")
-def _strip(cid_i, s, nc, dim):
-    """The s-th of the 3**(dim-1) strips of x-adjacent cells around cell cid_i.
+def _strip(cid_i, s, nc, dim, k):
+    """The s-th of the (2k+1)**(dim-1) strips of x-adjacent cells within k cells of cell cid_i.
 
     Returns the first and last cell id of the strip (cells are numbered x fastest, so the cells
     of a strip are consecutive and so are their particles in the sorted order), or (-1, -1) when
     the strip lies outside the grid.
     """
+    w = 2 * k + 1
     cx = cid_i % nc[0]
     rest = cid_i // nc[0]
     base = 0
     stride = nc[0]
     for d in range(1, dim):
-        c = rest % nc[d] + (s % 3) - 1
+        c = rest % nc[d] + (s % w) - k
         rest //= nc[d]
-        s //= 3
+        s //= w
         if c < 0 or c >= nc[d]:
             return -1, -1
         base += c * stride
         stride *= nc[d]
-    c0 = cx - 1 if cx > 0 else 0
-    c1 = cx + 1 if cx + 1 < nc[0] else nc[0] - 1
+    c0 = cx - k if cx >= k else 0
+    c1 = cx + k if cx + k < nc[0] else nc[0] - 1
     return base + c0, base + c1
 
 
@@ -151,13 +153,13 @@ def _gather_sorted(pos, order, pos_sorted):
 
 
 @njit(cache=True, parallel=True)
-def _count(pos, r2max, nc, cell_of, cell_start, order, pos_sorted, counts):
+def _count(pos, r2max, nc, kc, cell_of, cell_start, order, pos_sorted, counts):
     n, dim = pos.shape
-    nstrip = 3 ** (dim - 1)
+    nstrip = (2 * kc + 1) ** (dim - 1)
     for i in prange(n):
         cnt = 0
         for s in range(nstrip):
-            c0, c1 = _strip(cell_of[i], s, nc, dim)
+            c0, c1 = _strip(cell_of[i], s, nc, dim, kc)
             if c0 < 0:
                 continue
             for k in range(np.uint64(cell_start[c0]), np.uint64(cell_start[c1 + 1])):
@@ -179,13 +181,13 @@ def _prefix(counts, indptr):
 
 
 @njit(cache=True, parallel=True)
-def _fill(pos, r2max, nc, cell_of, cell_start, order, pos_sorted, indptr, indices):
+def _fill(pos, r2max, nc, kc, cell_of, cell_start, order, pos_sorted, indptr, indices):
     n, dim = pos.shape
-    nstrip = 3 ** (dim - 1)
+    nstrip = (2 * kc + 1) ** (dim - 1)
     for i in prange(n):
         p = indptr[i]
         for s in range(nstrip):
-            c0, c1 = _strip(cell_of[i], s, nc, dim)
+            c0, c1 = _strip(cell_of[i], s, nc, dim, kc)
             if c0 < 0:
                 continue
             for k in range(np.uint64(cell_start[c0]), np.uint64(cell_start[c1 + 1])):
@@ -254,9 +256,18 @@ class NeighbourSearch:
         docstring.
     escape : ``"clip"`` (default) or ``"raise"``: what a particle outside ``domain`` does.
     max_cells : grid size limit without a domain (default ``16 N + 4096``).
+    cells_per_radius : cells per search radius along each axis (default 2).
     """
 
-    def __init__(self, dim: int, radius: float, domain=None, escape: str = "clip", max_cells=None):
+    def __init__(
+        self,
+        dim: int,
+        radius: float,
+        domain=None,
+        escape: str = "clip",
+        max_cells=None,
+        cells_per_radius: int = 2,
+    ):
         if dim not in (2, 3):
             raise ValueError(f"dim must be 2 or 3, got {dim!r}")
         if not radius > 0:
@@ -267,6 +278,9 @@ class NeighbourSearch:
         self.radius = float(radius)
         self.escape = escape
         self.max_cells = max_cells
+        self.cells_per_radius = int(cells_per_radius)
+        if self.cells_per_radius < 1:
+            raise ValueError(f"cells_per_radius must be >= 1, got {cells_per_radius!r}")
         if domain is not None:
             lo, hi = (np.asarray(a, dtype=np.float64).reshape(dim) for a in domain)
             if not np.all(hi > lo):
@@ -297,7 +311,7 @@ class NeighbourSearch:
             self._n = n
 
     def _grid(self, pos, n):
-        h = self.radius
+        h = self.radius / self.cells_per_radius
         bad = _first_nonfinite(pos)
         if bad >= 0:
             raise NeighbourSearchError(
@@ -347,16 +361,27 @@ class NeighbourSearch:
         cell_of, order, counts = self._cell_of[:n], self._order[:n], self._counts[:n]
         indptr = self._indptr[: n + 1]
         pos_sorted = self._pos_sorted[:n]
-        _bin(pos, lo, self.radius, nc, cell_of, cell_start, order)
+        _bin(pos, lo, self.radius / self.cells_per_radius, nc, cell_of, cell_start, order)
         _gather_sorted(pos, order, pos_sorted)
         r2 = r * r
-        _count(pos, r2, nc, cell_of, cell_start, order, pos_sorted, counts)
+        _count(pos, r2, nc, self.cells_per_radius, cell_of, cell_start, order, pos_sorted, counts)
         _prefix(counts, indptr)
         nnz = int(indptr[n])
         if self._indices.shape[0] < nnz:
             self._indices = np.empty(int(nnz * 1.1) + 16, np.int32)
         indices = self._indices[:nnz]
-        _fill(pos, r2, nc, cell_of, cell_start, order, pos_sorted, indptr, indices)
+        _fill(
+            pos,
+            r2,
+            nc,
+            self.cells_per_radius,
+            cell_of,
+            cell_start,
+            order,
+            pos_sorted,
+            indptr,
+            indices,
+        )
         self._last = NeighbourList(indptr=indptr, indices=indices, radius=r)
         return self._last
 
