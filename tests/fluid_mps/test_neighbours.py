@@ -6,11 +6,12 @@ from mpsfem.fluid_mps.neighbours import NeighbourSearch, NeighbourSearchError, b
 
 
 @pytest.mark.parametrize("dim", [2, 3])
-def test_matches_brute_force_random(dim, rng):
+@pytest.mark.parametrize("cells", [1, 2, 3])
+def test_matches_brute_force_random(dim, cells, rng):
     n = 400 if dim == 2 else 600
     pos = rng.uniform(0.0, 10.0, size=(n, dim))
     radius = 1.7
-    nl = build_neighbours(pos, radius)
+    nl = NeighbourSearch(dim, radius, cells_per_radius=cells).build(pos)
     ref = brute_force_neighbours(pos, radius)
     assert nl.indptr.shape == (n + 1,)
     assert nl.indices.dtype == np.int32
