@@ -242,3 +242,21 @@ def test_three_dimensional_column():
     inner = (col.kind == FLUID) & (z > 2 * L0) & (z < 6 * L0)
     slope = np.polyfit(z[inner], p[inner], 1)[0]
     assert -1.1 * RHO * G < slope < -0.5 * RHO * G
+
+
+def test_neumann_wall_model_keeps_walls_out():
+    """wall_model="neumann" (walls as ghosts, see wall_boundary.py): only fluid is unknown, the
+    matrix stays SPD, and an extra right-hand side enters b of the fluid rows."""
+    col = Column(shape=(12, 10))
+    s = col.solver("pcg_amg", wall_model="neumann")
+    A, b, m = s.assemble(col.pos, col.vel, col.kind, col.n, col.fs, col.nb, DT)
+    b = b.copy()  # (a view of the solver's buffer)
+    assert np.all(s.unknown[col.kind != FLUID] == 0)
+    assert np.linalg.eigvalsh(A.toarray()).min() > 0
+    extra = np.zeros(len(col.pos))
+    extra[col.kind == FLUID] = 1.0e3
+    A2, b2, _ = s.assemble(col.pos, col.vel, col.kind, col.n, col.fs, col.nb, DT, extra)
+    rows = s.row_of[(col.kind == FLUID) & (col.fs == 0)]
+    np.testing.assert_allclose(b2[rows] - b[rows], 1.0e3, rtol=1e-9)
+    with pytest.raises(ValueError, match="unknown wall model"):
+        col.solver("pcg_amg", wall_model="slip")

@@ -107,9 +107,10 @@ def laplacian(pos, f, kind, indptr, indices, re, wcode, coef, out):
 
 
 @njit(cache=True, parallel=True)
-def divergence(pos, u, kind, indptr, indices, re, wcode, n0, out):
+def divergence(pos, u, kind, indptr, indices, re, wcode, n0, out, fluid_only=False):
     """Divergence of a vector field ``u`` (N, dim) (eq. 2-15) on FLUID, WALL and STRUCTURE
-    particles (the pressure equation's rows); 0 on dummy particles."""
+    particles (the pressure equation's rows); 0 on dummy particles. ``fluid_only``: sum over FLUID
+    neighbours only (the Neumann wall model, where walls enter through ghost pressures)."""
     n, dim = pos.shape
     c = dim / n0
     for i in prange(n):
@@ -120,6 +121,8 @@ def divergence(pos, u, kind, indptr, indices, re, wcode, n0, out):
         s = 0.0
         for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
             j = np.uint32(indices[k])
+            if fluid_only and kind[j] != 0:
+                continue
             r2 = 0.0
             dot = 0.0
             for d in range(dim):
