@@ -204,6 +204,9 @@ def replay(l0, kind, states, radius, solver):
 
 
 def main():
+    ops.number_density(
+        np.zeros((2, 2)), np.zeros(3, np.int64), np.zeros(0, np.int32), 1.0, 0, np.zeros(2)
+    )  # starts the threading layer
     numba.set_num_threads(max(1, min(ARGS.threads, numba.config.NUMBA_NUM_THREADS)))
     sizes = [
         int(float(s.lower().rstrip("k")) * (1000 if s.lower().endswith("k") else 1))
@@ -212,7 +215,8 @@ def main():
     radii = [float(r) for r in ARGS.radii.split(",")]
     solvers = ARGS.solvers.split(",")
     print(
-        f"# numba threads {numba.get_num_threads()} on {os.cpu_count()} CPUs "
+        f"# numba threads {numba.get_num_threads()} ({numba.threading_layer()}) on "
+        f"{os.cpu_count()} CPUs "
         f"({platform.machine()}), {ARGS.steps} measured steps"
     )
     hdr = (
@@ -264,6 +268,7 @@ def main():
                     first_solve_ms=round(first.solve_time * 1e3, 1),
                     us_per_unknown=round(wall * 1e3 / unk, 3),
                     threads=numba.get_num_threads(),
+                    threading_layer=numba.threading_layer(),
                 )
                 out_rows.append(rec)
                 print(
