@@ -42,6 +42,13 @@ class PressureSection(Section):
         description="linear solver: CG preconditioned by pyamg smoothed aggregation (reused "
         "across steps), CG with a diagonal preconditioner, or a sparse direct solve",
     )
+    wall_model: Literal["neumann", "pressure_layer"] = Field(
+        "neumann",
+        description="'pressure_layer': the first wall layer is an unknown of the pressure "
+        "equation and dummy layers are left out (thesis ch. 2.1.3); 'neumann': wall and dummy "
+        "particles are ghosts of each fluid particle carrying the projection method's wall "
+        "condition (docs/architecture.md), walls are not unknowns",
+    )
     gradient: Literal["tanaka", "pmin"] = Field(
         "tanaka",
         description="pressure gradient: Tanaka's momentum-conserving form or the classic "

@@ -1,0 +1,257 @@
+"""Particle generation from the geometry primitives of a scenario (boxes, tanks).
+
+Conventions (every dimension):
+- fluid particles sit at the cell centres of the square (cubic) lattice of spacing l0 that starts
+  at a block's lower corner: ``lower + (i + 1/2) l0``; a block of size L holds ``round(L / l0)``
+  particles per axis, so its faces are the physical fluid boundaries;
+- a wall's physical surface is the face of its box; the pressure layer sits half a spacing
+  behind it and dummy layers follow at l0 intervals, so fluid and wall lattices line up;
+- a wall particle's layer is its lattice distance behind the face (the largest over the axes),
+  layer 0 is the pressure layer (kind WALL) and deeper layers are DUMMY;
+- wall normals are unit vectors from the particle towards the fluid side (for force probes).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mpsfem.fluid_mps.particle_kinds import DUMMY, FLUID, WALL
+from mpsfem.scenario.fluid import FluidSection, Wall
+
+
+@dataclass
+class WallPatch:
+    """Contiguous index range of one wall's particles in the particle arrays (``spec`` is None
+    for a patch whose motion another participant drives, e.g. a structure surface)."""
+
+    name: str
+    start: int
+    stop: int
+    spec: Wall | None
+
+
+@dataclass
+class ExternalPatch:
+    """Boundary particles handed in by another participant (a structure's surface layers).
+
+    ``kind`` holds STRUCTURE (pressure layer) or STRUCTURE_DUMMY codes, ``normal`` the unit
+    normals towards the fluid (zeros for dummies); ``inside(points) -> bool mask`` tells which
+    fluid particles the body occupies (they are not generated)."""
+
+    name: str
+    pos: np.ndarray
+    kind: np.ndarray
+    normal: np.ndarray
+    inside: Callable[[np.ndarray], np.ndarray] | None = None
+
+
+@dataclass
+class ParticleSet:
+    """Initial particles: positions, velocities, kinds and wall normals (zeros for fluid)."""
+
+    pos: np.ndarray
+    vel: np.ndarray
+    kind: np.ndarray
+    normal: np.ndarray
+    n_fluid: int
+    patches: list[WallPatch] = field(default_factory=list)
+
+
+def default_dummy_layers(max_re: float) -> int:
+    """Wall layers (pressure layer included) that give the pressure layer full kernel support."""
+    return int(math.ceil(max_re - 0.5)) + 1
+
+
+def _lattice(lower: np.ndarray, counts: np.ndarray, l0: float, start: np.ndarray) -> np.ndarray:
+    """Cell centres ``lower + (start + i + 1/2) l0`` for i in range(counts) per axis."""
+    axes = [lower[k] + (start[k] + np.arange(counts[k]) + 0.5) * l0 for k in range(len(lower))]
+    grid = np.meshgrid(*axes, indexing="ij")
+    return np.stack([g.ravel() for g in grid], axis=1)
+
+
+def fluid_block(lower: list[float], upper: list[float], l0: float) -> np.ndarray:
+    """Fluid particle positions (n x dim, m) filling the box ``lower..upper``."""
+    lo = np.asarray(lower, dtype=np.float64)
+    counts = np.rint((np.asarray(upper) - lo) / l0).astype(np.int64)
+    return _lattice(lo, counts, l0, np.zeros_like(counts))
+
+
+def tank_walls(
+    lower: list[float], upper: list[float], l0: float, layers: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Floor and side walls around the box ``lower..upper`` (top open).
+
+    Returns positions (n x dim), layer index (n,) and normals towards the fluid (n x dim).
+    """
+    lo = np.asarray(lower, dtype=np.float64)
+    hi = np.asarray(upper, dtype=np.float64)
+    d = lo.size
+    counts = np.rint((hi - lo) / l0).astype(np.int64)
+    start = -layers * np.ones(d, dtype=np.int64)
+    ext = counts + 2 * layers
+    ext[d - 1] = counts[d - 1] + layers  # no lid: the vertical axis starts below the floor only
+    pts = _lattice(lo, ext, l0, start)
+    idx = np.rint((pts - lo) / l0 - 0.5).astype(np.int64)  # lattice index relative to the box
+    below = np.maximum(-idx, 0)  # layers behind the lower faces (1 = pressure layer)
+    above = np.maximum(idx - counts + 1, 0)  # layers behind the upper faces
+    depth = np.maximum(below, above)
+    outside = depth.max(axis=1) > 0
+    pts, depth, below, above = pts[outside], depth[outside], below[outside], above[outside]
+    layer = depth.max(axis=1) - 1
+    direction = (below > 0).astype(np.float64) - (above > 0).astype(np.float64)
+    direction *= (below + above) == depth.max(axis=1, keepdims=True)
+    normal = direction / np.linalg.norm(direction, axis=1, keepdims=True)
+    return pts, layer, normal
+
+
+def solid_box(
+    lower: list[float], upper: list[float], l0: float, layers: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Wall particles of a solid obstacle filling ``lower..upper`` to ``layers`` deep."""
+    lo = np.asarray(lower, dtype=np.float64)
+    hi = np.asarray(upper, dtype=np.float64)
+    counts = np.rint((hi - lo) / l0).astype(np.int64)
+    pts = _lattice(lo, counts, l0, np.zeros_like(counts))
+    idx = np.rint((pts - lo) / l0 - 0.5).astype(np.int64)
+    from_low = idx  # layers from the lower faces
+    from_high = counts - 1 - idx
+    depth = np.minimum(from_low, from_high)
+    layer = depth.min(axis=1)
+    keep = layer < layers
+    pts, layer = pts[keep], layer[keep]
+    from_low, from_high = from_low[keep], from_high[keep]
+    nearest = layer[:, None]
+    direction = -(from_low == nearest).astype(np.float64) + (from_high == nearest).astype(
+        np.float64
+    )
+    norm = np.linalg.norm(direction, axis=1, keepdims=True)
+    normal = np.divide(direction, norm, out=np.zeros_like(direction), where=norm > 0)
+    return pts, layer, normal
+
+
+def _inside_any(pts: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+    mask = np.zeros(len(pts), dtype=bool)
+    for lo, hi in boxes:
+        mask |= np.all((pts > lo) & (pts < hi), axis=1)
+    return mask
+
+
+def build_particles(fluid: FluidSection, external: Sequence[ExternalPatch] = ()) -> ParticleSet:
+    """All particles of a scene: fluid first, then each wall's particles in scenario order, then
+    the external patches."""
+    l0 = fluid.spacing
+    k = fluid.kernel
+    max_re = max(k.re_density, k.re_gradient, k.re_laplacian, k.re_pressure)
+    layers = fluid.dummy_layers + 1 if fluid.dummy_layers else default_dummy_layers(max_re)
+
+    solids = [
+        (np.asarray(w.lower, dtype=np.float64), np.asarray(w.upper, dtype=np.float64))
+        for w in fluid.walls
+        if w.shape == "box"
+    ]
+    fluid_pts, fluid_vel = [], []
+    for b in fluid.blocks:
+        pts = fluid_block(b.lower, b.upper, l0)
+        pts = pts[~_inside_any(pts, solids)]
+        for ext in external:
+            if ext.inside is not None:
+                pts = pts[~np.asarray(ext.inside(pts), dtype=bool)]
+        fluid_pts.append(pts)
+        v = np.zeros_like(pts)
+        if b.velocity is not None:
+            v[:] = np.asarray(b.velocity, dtype=np.float64)
+        fluid_vel.append(v)
+    all_pos = np.concatenate(fluid_pts)
+    all_vel = np.concatenate(fluid_vel)
+    # overlapping blocks: keep the first particle at each lattice site, in generation order
+    site = np.rint(all_pos / l0 * 1e6).astype(np.int64)
+    _, first = np.unique(site, axis=0, return_index=True)
+    keep = np.sort(first)
+    fpos, fvel = all_pos[keep], all_vel[keep]
+    d = fluid.dim
+
+    pos = [fpos]
+    vel = [fvel]
+    kind = [np.full(len(fpos), FLUID, dtype=np.int8)]
+    normal = [np.zeros_like(fpos)]
+    patches: list[WallPatch] = []
+    n = len(fpos)
+    for i, w in enumerate(fluid.walls):
+        if w.shape == "tank":
+            pts, layer, nrm = tank_walls(w.lower, w.upper, l0, layers)
+        else:
+            pts, layer, nrm = solid_box(w.lower, w.upper, l0, layers)
+        kinds = np.where(layer == 0, WALL, DUMMY).astype(np.int8)
+        pos.append(pts)
+        vel.append(np.zeros_like(pts))
+        kind.append(kinds)
+        normal.append(np.where((layer == 0)[:, None], nrm, 0.0))
+        patches.append(WallPatch(w.name or f"wall{i}", n, n + len(pts), w))
+        n += len(pts)
+    for ext in external:
+        pos.append(np.asarray(ext.pos, dtype=np.float64))
+        vel.append(np.zeros_like(pos[-1]))
+        kind.append(np.asarray(ext.kind, dtype=np.int8))
+        normal.append(np.asarray(ext.normal, dtype=np.float64))
+        patches.append(WallPatch(ext.name, n, n + len(ext.pos), None))
+        n += len(ext.pos)
+    out = ParticleSet(
+        pos=np.ascontiguousarray(np.concatenate(pos)),
+        vel=np.ascontiguousarray(np.concatenate(vel)),
+        kind=np.concatenate(kind),
+        normal=np.ascontiguousarray(np.concatenate(normal)),
+        n_fluid=len(fpos),
+        patches=patches,
+    )
+    assert out.pos.shape[1] == d
+    return out
+
+
+def hydrostatic_pressure(
+    pos: np.ndarray, kind: np.ndarray, gravity: np.ndarray, rho: float, l0: float
+) -> np.ndarray:
+    """Initial pressure p = rho |g| (h_top - h) of still water (Pa).
+
+    ``h`` is the height against gravity; ``h_top`` is the top of the fluid column the particle
+    belongs to (highest fluid particle of the same lattice column plus l0/2). Wall pressure
+    particles take the column of the nearest fluid particle across the horizontal axes; dummy
+    particles get 0.
+    """
+    g = float(np.linalg.norm(gravity))
+    p = np.zeros(len(pos))
+    if g == 0.0:
+        return p
+    up = -np.asarray(gravity, dtype=np.float64) / g
+    h = pos @ up
+    horiz = pos - np.outer(h, up)
+    fluid = kind == FLUID
+    if not fluid.any():
+        return p
+    key = np.rint(horiz / (0.5 * l0)).astype(np.int64)
+    fkey = key[fluid]
+    cols, inv = np.unique(fkey, axis=0, return_inverse=True)
+    inv = inv.ravel()
+    top = np.full(len(cols), -np.inf)
+    np.maximum.at(top, inv, h[fluid])
+    top += 0.5 * l0
+    p[fluid] = rho * g * (top[inv] - h[fluid])
+    wall = kind == WALL
+    if wall.any():
+        from scipy.spatial import cKDTree
+
+        tree = cKDTree(horiz[fluid])
+        _, nearest = tree.query(horiz[wall])
+        p[wall] = rho * g * np.maximum(top[inv[nearest]] - h[wall], 0.0)
+    return np.maximum(p, 0.0)
+
+
+def check_bounds(pos: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:
+    """Raise if any initial particle is outside the domain box."""
+    bad = np.any((pos < lower) | (pos > upper), axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise ValueError(f"particle {i} at {pos[i].tolist()} lies outside the domain")

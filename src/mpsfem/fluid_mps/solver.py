@@ -1,0 +1,433 @@
+"""The semi-implicit MPS time step: state arrays sized once, stages assembled from the scenario.
+
+One step (thesis ch. 2.1):
+
+1. walls move to their prescribed position at t + dt;
+2. explicit prediction u* = u + dt (nu lap u + g), r* = r + dt u* (viscosity only if nu > 0);
+3. neighbour search at r*; collision model (if on) on approaching fluid pairs;
+4. particle number density n*, free-surface detection;
+5. pressure Poisson equation with the mixed source term, solved by preconditioned CG;
+6. negative-pressure clamp (if on); pressure gradient; correction of u and r;
+7. checks (non-finite values, escaped particles) and the next dt from the Courant number and the
+   viscous limit.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from mpsfem.fluid_mps import operators, probes, time_integration, wall_boundary
+from mpsfem.fluid_mps.collision import collide
+from mpsfem.fluid_mps.dummy_pressure import dummy_sources, extrapolate_dummy_pressure
+from mpsfem.fluid_mps.geometry import ExternalPatch, build_particles, hydrostatic_pressure
+from mpsfem.fluid_mps.kernels import weight_code
+from mpsfem.fluid_mps.lattice import lattice_constants
+from mpsfem.fluid_mps.neighbours import NeighbourSearch
+from mpsfem.fluid_mps.pressure_poisson import make_pressure_solver
+from mpsfem.fluid_mps.surface import make_surface_detector
+from mpsfem.fluid_mps.wall_motion import MotionLaw
+from mpsfem.scenario.fluid import FluidSection
+
+
+class FluidRunError(RuntimeError):
+    """The fluid state went wrong (non-finite values, an escaped particle, dt collapse)."""
+
+
+@dataclass
+class StageTimes:
+    """Accumulated wall time per stage, s."""
+
+    neighbours: float = 0.0
+    explicit: float = 0.0
+    assembly: float = 0.0
+    solve: float = 0.0
+    other: float = 0.0
+    iterations: list[int] = field(default_factory=list)
+
+    def as_dict(self) -> dict[str, float]:
+        return {
+            "neighbours": self.neighbours,
+            "explicit": self.explicit,
+            "assembly": self.assembly,
+            "solve": self.solve,
+            "other": self.other,
+        }
+
+
+class FluidSolver:
+    """MPS fluid state and its time step. Units SI; arrays (N, dim) float64, kinds int8."""
+
+    def __init__(
+        self,
+        spec: FluidSection,
+        base_dir: Path | None = None,
+        external: Sequence[ExternalPatch] = (),
+        neighbour_filter: Callable | None = None,
+    ) -> None:
+        """``external``: boundary patches driven by another participant (structure surfaces,
+        moved with :meth:`set_patch_state`); ``neighbour_filter(nb, pos, kind)``: called after
+        every neighbour search, may drop pairs in place (e.g. across a thin member) and returns
+        the list to use."""
+        self.spec = spec
+        self.dim = spec.dim
+        l0 = spec.spacing
+        self.l0 = l0
+        self.rho = spec.density
+        self.nu = spec.viscosity
+        self.gravity = np.asarray(spec.gravity, dtype=np.float64)
+
+        ps = build_particles(spec, external)
+        self.neighbour_filter = neighbour_filter
+        self.pos, self.vel, self.kind, self.normal = ps.pos, ps.vel, ps.kind, ps.normal
+        self.n_fluid = ps.n_fluid
+        self.patches = ps.patches
+        self._patch = {pt.name: pt for pt in self.patches}
+        n = len(self.pos)
+        self.n = n
+        self.p = np.zeros(n)
+        if spec.hydrostatic_start:
+            self.p[:] = hydrostatic_pressure(self.pos, self.kind, self.gravity, self.rho, l0)
+
+        k = spec.kernel
+        self.wcode = weight_code(k.weight)
+        self.re_n = k.re_density * l0
+        self.re_grad = k.re_gradient * l0
+        self.re_lap = k.re_laplacian * l0
+        self.re_ppe = k.re_pressure * l0
+        self.n0_n, _ = lattice_constants(self.dim, l0, self.re_n, k.weight)
+        self.n0_grad, _ = lattice_constants(self.dim, l0, self.re_grad, k.weight)
+        n0_lap, lam_lap = lattice_constants(self.dim, l0, self.re_lap, k.weight)
+        self.lap_coef = operators.laplacian_coefficient(self.dim, n0_lap, lam_lap)
+        self.grad_form = operators.gradient_code(spec.pressure.gradient)
+
+        radii = [self.re_n, self.re_grad, self.re_ppe]
+        if self.nu > 0.0:
+            radii.append(self.re_lap)
+        if spec.collision.enabled:
+            radii.append(spec.collision.distance * l0)
+        self.search_radius = max(radii)
+        self.lower, self.upper = self._domain(spec)
+        self.search = NeighbourSearch(
+            self.dim, self.search_radius, domain=(self.lower, self.upper), escape="clip"
+        )
+        self.surface = make_surface_detector(
+            spec.surface.detector,
+            dim=self.dim,
+            l0=l0,
+            re=self.re_n,
+            weight=k.weight,
+            beta=spec.surface.beta,
+            beta_low=spec.surface.beta_low,
+            asymmetry=spec.surface.asymmetry,
+        )
+        self.pressure = make_pressure_solver(
+            spec.pressure.solver,
+            dim=self.dim,
+            l0=l0,
+            re=self.re_ppe,
+            re_density=self.re_n,
+            weight=k.weight,
+            rho=self.rho,
+            gamma=spec.pressure.gamma,
+            tol=spec.pressure.tol,
+            max_iter=spec.pressure.max_iter,
+            rebuild_factor=spec.pressure.amg_rebuild_factor,
+            compressibility=spec.pressure.compressibility,
+            wall_model=spec.pressure.wall_model,
+        )
+        self.neumann = spec.pressure.wall_model == "neumann"
+        n0_ppe, lam_ppe = lattice_constants(self.dim, l0, self.re_ppe, k.weight)
+        self.ppe_coef = operators.laplacian_coefficient(self.dim, n0_ppe, lam_ppe)
+        self.ghost_rhs = np.zeros(n)
+
+        # work arrays, sized once
+        self.number_density = np.zeros(n)
+        self.free_surface = np.zeros(n, dtype=np.int8)
+        self.lap_u = np.zeros((n, self.dim))
+        self.grad_p = np.zeros((n, self.dim))
+        self.vel_before = np.zeros((n, self.dim))
+
+        self.dummy_src = dummy_sources(
+            self.pos, self.kind, [(pt.start, pt.stop) for pt in self.patches]
+        )
+        self.motions = [
+            MotionLaw(pt.spec.motion, base_dir) for pt in self.patches if pt.spec is not None
+        ]
+        rigid = [pt for pt in self.patches if pt.spec is not None]
+        self.moving = [(pt, m) for pt, m in zip(rigid, self.motions, strict=True) if m.moves]
+        self.wall_origin = {pt.name: self.pos[pt.start : pt.stop].copy() for pt, _ in self.moving}
+
+        self.t = 0.0
+        self.step_count = 0
+        ts = spec.time_step
+        self.dt_next = ts.dt_initial or ts.dt_max
+        self.times = StageTimes()
+        self.last_iterations = 0
+        self._last_neighbours = None
+        self._uf_parent: np.ndarray | None = None
+        self._uf_size: np.ndarray | None = None
+
+    # ------------------------------------------------------------------ set-up helpers
+    def _domain(self, spec: FluidSection) -> tuple[np.ndarray, np.ndarray]:
+        if spec.domain_lower is not None and spec.domain_upper is not None:
+            return (np.asarray(spec.domain_lower, float), np.asarray(spec.domain_upper, float))
+        lo = self.pos.min(axis=0) - 10.0 * self.l0
+        hi = self.pos.max(axis=0) + 10.0 * self.l0
+        up = int(np.argmax(np.abs(self.gravity))) if np.any(self.gravity) else self.dim - 1
+        hi[up] += 1.0
+        if spec.domain_lower is not None:
+            lo = np.asarray(spec.domain_lower, float)
+        if spec.domain_upper is not None:
+            hi = np.asarray(spec.domain_upper, float)
+        return lo, hi
+
+    @property
+    def mass(self) -> float:
+        """Mass of one particle, kg (kg/m in 2D)."""
+        return self.rho * self.l0**self.dim
+
+    # ------------------------------------------------------------------ time step
+    def stable_dt(self) -> float:
+        """Largest dt allowed by the Courant number and the viscous limit, capped at dt_max."""
+        ts = self.spec.time_step
+        umax = time_integration.max_speed(self.vel, self.kind)
+        dt = ts.dt_max
+        if umax > 0.0:
+            dt = min(dt, ts.courant * self.l0 / umax)
+        if self.nu > 0.0:
+            dt = min(dt, ts.viscous_number * self.l0**2 / self.nu)
+        return dt
+
+    def move_walls(self, t: float) -> None:
+        """Put the moving wall patches at their prescribed position and velocity for time t."""
+        for pt, law in self.moving:
+            s, v = law(t)
+            sl = slice(pt.start, pt.stop)
+            self.pos[sl] = self.wall_origin[pt.name] + s * law.direction
+            self.vel[sl] = v * law.direction
+
+    def set_patch_state(self, name: str, pos: np.ndarray, vel: np.ndarray) -> None:
+        """Position (m) and velocity (m/s) of an external patch's particles at the end of the next
+        step (the driving participant calls this before :meth:`step`)."""
+        pt = self._patch[name]
+        self.pos[pt.start : pt.stop] = pos
+        self.vel[pt.start : pt.stop] = vel
+
+    def patch(self, name: str):
+        """The index range of the patch ``name`` (a WallPatch)."""
+        return self._patch[name]
+
+    def _neighbours(self):
+        nb = self.search.build(self.pos)
+        if self.neighbour_filter is not None:
+            nb = self.neighbour_filter(nb, self.pos, self.kind)
+        return nb
+
+    def step(self, dt: float) -> None:
+        """Advance the fluid by dt (s)."""
+        if not dt >= self.spec.time_step.dt_min:
+            raise FluidRunError(
+                f"time step {dt:.3e} s at t = {self.t:.6g} s is below fluid.time_step.dt_min = "
+                f"{self.spec.time_step.dt_min:.3e} s (the flow has become too fast; check the "
+                "scenario or lower the Courant number)"
+            )
+        tm = self.times
+        c0 = time.perf_counter()
+        self.move_walls(self.t + dt)
+        if self.nu > 0.0:
+            nb = self._neighbours()
+            c1 = time.perf_counter()
+            tm.neighbours += c1 - c0
+            operators.laplacian(
+                self.pos,
+                self.vel,
+                self.kind,
+                nb.indptr,
+                nb.indices,
+                self.re_lap,
+                self.wcode,
+                self.lap_coef,
+                self.lap_u,
+            )
+            time_integration.predict(
+                self.pos, self.vel, self.kind, self.lap_u, self.nu, self.gravity, dt
+            )
+        else:
+            c1 = c0
+            time_integration.predict_inviscid(self.pos, self.vel, self.kind, self.gravity, dt)
+        c2 = time.perf_counter()
+        tm.explicit += c2 - c1
+        nb = self._neighbours()
+        self._last_neighbours = nb
+        c3 = time.perf_counter()
+        tm.neighbours += c3 - c2
+        col = self.spec.collision
+        if col.enabled:
+            self.vel_before[:] = self.vel
+            collide(
+                self.pos,
+                self.vel,
+                self.kind,
+                nb.indptr,
+                nb.indices,
+                col.distance * self.l0,
+                col.restitution,
+            )
+            time_integration.shift_by_velocity_change(
+                self.pos, self.vel, self.vel_before, self.kind, dt
+            )
+        operators.number_density(
+            self.pos, nb.indptr, nb.indices, self.re_n, self.wcode, self.number_density
+        )
+        self.surface.detect(self.pos, self.kind, self.number_density, nb, self.free_surface)
+        c4 = time.perf_counter()
+        tm.explicit += c4 - c3
+        if self.neumann:
+            wall_boundary.mark_dry(
+                self.pos, self.kind, self.free_surface, self.dummy_src, nb.indptr, nb.indices,
+                self.re_n,
+            )
+            wall_boundary.ghost_rhs(
+                self.pos, self.vel, self.kind, self.free_surface, nb.indptr, nb.indices,
+                self.re_ppe, self.wcode, self.ppe_coef, self.re_n, self.n0_n,
+                self.spec.pressure.gamma, self.rho, dt, self.gravity, self.ghost_rhs,
+            )
+        info = self.pressure.solve(
+            self.pos, self.vel, self.kind, self.number_density, self.free_surface, nb, dt, self.p,
+            self.ghost_rhs if self.neumann else None,
+        )
+        tm.assembly += info.assembly_time
+        tm.solve += info.solve_time
+        tm.iterations.append(info.iterations)
+        self.last_iterations = info.iterations
+        c5 = time.perf_counter()
+        if self.spec.pressure.clamp_negative:
+            np.maximum(self.p, 0.0, out=self.p)
+        if self.neumann:
+            wall_boundary.pressure_gradient_ghost(
+                self.pos, self.p, self.kind, self.free_surface, nb.indptr, nb.indices,
+                self.re_grad, self.wcode, self.n0_grad, self.grad_form, self.rho, self.gravity,
+                self.grad_p,
+            )
+            wall_boundary.wall_pressure(
+                self.pos, self.p, self.kind, self.free_surface, nb.indptr, nb.indices,
+                self.re_n, self.wcode, self.rho, self.gravity,
+            )
+        else:
+            extrapolate_dummy_pressure(self.pos, self.p, self.dummy_src, self.rho, self.gravity)
+            operators.pressure_gradient(
+                self.pos, self.p, self.kind, nb.indptr, nb.indices, self.re_grad, self.wcode,
+                self.n0_grad, self.grad_form, False, self.grad_p,
+            )
+        time_integration.correct(self.pos, self.vel, self.kind, self.grad_p, self.rho, dt)
+        self.t += dt
+        self.step_count += 1
+        self._check()
+        self.dt_next = self.stable_dt()
+        tm.explicit += time.perf_counter() - c5
+
+    def _check(self) -> None:
+        i, code = time_integration.first_bad_particle(
+            self.pos, self.vel, self.p, self.kind, self.lower, self.upper
+        )
+        if i < 0:
+            return
+        what = {
+            1: "a non-finite position or velocity",
+            2: "a non-finite pressure",
+            3: "left the domain",
+        }
+        raise FluidRunError(
+            f"particle {i} (kind {int(self.kind[i])}) has {what[code]} at t = {self.t:.6g} s, "
+            f"step {self.step_count}: position {self.pos[i].tolist()}, velocity "
+            f"{self.vel[i].tolist()}, pressure {self.p[i]:.6g} (domain {self.lower.tolist()} .. "
+            f"{self.upper.tolist()})"
+            if code != 3
+            else f"fluid particle {i} left the domain {self.lower.tolist()} .. "
+            f"{self.upper.tolist()} at t = {self.t:.6g} s (step {self.step_count}): position "
+            f"{self.pos[i].tolist()}, velocity {self.vel[i].tolist()}"
+        )
+
+    def substeps(self, window: float) -> tuple[int, float]:
+        """Split ``window`` (s) into n equal steps no longer than the stable dt."""
+        n = max(1, math.ceil(window / self.dt_next * (1.0 - 1e-12)))
+        return n, window / n
+
+    # ------------------------------------------------------------------ state for checkpoints
+    def state(self) -> dict[str, np.ndarray]:
+        """Arrays that, with ``meta()``, restore the solver exactly."""
+        return {"pos": self.pos, "vel": self.vel, "p": self.p}
+
+    def meta(self) -> dict:
+        return {"t": self.t, "step": self.step_count, "dt_next": self.dt_next}
+
+    def restore(self, arrays: dict[str, np.ndarray], meta: dict) -> None:
+        for name in ("pos", "vel", "p"):
+            src = arrays[name]
+            if src.shape != getattr(self, name).shape:
+                raise ValueError(
+                    f"checkpoint array {name} has shape {src.shape}, the scenario gives "
+                    f"{getattr(self, name).shape}: the checkpoint belongs to another scenario"
+                )
+            getattr(self, name)[...] = src
+        self.t = float(meta["t"])
+        self.step_count = int(meta["step"])
+        self.dt_next = float(meta["dt_next"])
+        self.pressure.reset()
+
+    # ------------------------------------------------------------------ probes
+    def probe_value(self, probe) -> float | np.ndarray:
+        """Current value of a fluid-side probe (see mpsfem.fluid_mps.probes for definitions)."""
+        l0 = self.l0
+        if probe.kind == "pressure":
+            r = probe.radius or l0
+            return probes.pressure_at(
+                self.pos, self.p, self.kind, np.asarray(probe.position, float), r
+            )
+        if probe.kind == "wave_gauge":
+            up = self._up_axis()
+            hw = probe.half_width or 0.5 * l0
+            h = probes.surface_height(
+                self.pos, self.kind, np.asarray(probe.position, float), hw, up, l0
+            )
+            return h - probe.reference_level
+        if probe.kind == "front":
+            nb = self._last_neighbours
+            if nb is None:
+                nb = self._last_neighbours = self._neighbours()
+            if self._uf_parent is None:
+                self._uf_parent = np.empty(self.n, np.int64)
+                self._uf_size = np.empty(self.n, np.int64)
+            return probes.front_position(
+                self.pos,
+                self.kind,
+                nb.indptr,
+                nb.indices,
+                probe.link_distance * l0,
+                probe.axis,
+                probe.min_cluster_fraction,
+                l0,
+                self._uf_parent,
+                self._uf_size,
+            )
+        if probe.kind == "force":
+            pt = next(pt for pt in self.patches if pt.name == probe.target)
+            return probes.patch_force(
+                self.p, self.normal, pt.start, pt.stop, self.kind, l0 ** (self.dim - 1)
+            )
+        if probe.kind == "energy":
+            return np.array(
+                probes.fluid_energy(self.pos, self.vel, self.kind, self.mass, self.gravity)
+            )
+        raise ValueError(f"probe kind {probe.kind!r} is not a fluid probe")
+
+    def _up_axis(self) -> int:
+        if np.any(self.gravity):
+            return int(np.argmax(np.abs(self.gravity)))
+        return self.dim - 1

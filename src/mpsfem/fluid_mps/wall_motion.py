@@ -1,0 +1,58 @@
+"""Prescribed rigid motion of wall patches: displacement s(t) along a fixed direction."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from mpsfem.scenario.fluid import WallMotion
+
+
+class MotionLaw:
+    """s(t) (m) and ds/dt (m/s) of one wall patch along its unit direction."""
+
+    def __init__(self, spec: WallMotion, base_dir: Path | None = None) -> None:
+        self.kind = spec.kind
+        d = np.asarray(spec.direction, dtype=np.float64)
+        norm = float(np.linalg.norm(d))
+        if norm == 0.0:
+            raise ValueError("motion.direction = [0, ...]: must be a non-zero vector")
+        self.direction = d / norm
+        self.spec = spec
+        if spec.kind == "table":
+            path = Path(spec.file)
+            if base_dir is not None and not path.is_absolute():
+                path = base_dir / path
+            if not path.is_file():
+                raise ValueError(f"motion.file = {spec.file!r}: no such file")
+            data = np.loadtxt(path, delimiter=",", comments="#", ndmin=2)
+            if data.shape[1] < 2 or np.any(np.diff(data[:, 0]) <= 0):
+                raise ValueError(
+                    f"motion.file = {spec.file!r}: needs two columns (t s, x m) with increasing t"
+                )
+            self.t_table, self.s_table = data[:, 0], data[:, 1]
+            self.v_table = np.diff(self.s_table) / np.diff(self.t_table)
+        self._s0 = 0.0
+        self._s0 = self(0.0)[0]  # the wall starts where the scenario puts it
+
+    @property
+    def moves(self) -> bool:
+        return self.kind != "none"
+
+    def __call__(self, t: float) -> tuple[float, float]:
+        """(displacement from the initial position m, velocity m/s) at time t (s)."""
+        s = self.spec
+        if self.kind == "harmonic":
+            w = 2.0 * math.pi / s.period
+            return (
+                s.amplitude * math.sin(w * t + s.phase) - self._s0,
+                s.amplitude * w * math.cos(w * t + s.phase),
+            )
+        if self.kind == "table":
+            x = float(np.interp(t, self.t_table, self.s_table))
+            k = int(np.searchsorted(self.t_table, t, side="right")) - 1
+            v = float(self.v_table[k]) if 0 <= k < self.v_table.size else 0.0
+            return x - self._s0, v
+        return 0.0, 0.0
