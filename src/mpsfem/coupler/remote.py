@@ -8,22 +8,28 @@ for a local and a remote structure, so every transport gives the same bits.
 
 Requests (tag, meta, arrays) and answers:
 
-==============  ======================  ===================================
-request         payload                 answer
-==============  ======================  ===================================
-``interface``   —                       arrays points, normals, thickness,
-                                        ``cells/<type>``
-``write``       name; array ``value``   none (errors come with the next answer)
-``read``        name                    array ``value``
-``read_many``   names                   one array per name
-``advance``     dt                      meta ``dt`` (time advanced), ``max_dt``
-                                        (the next one)
-``max_dt``      —                       meta ``value``
-``checkpoint``  —                       none
-``restore``     —                       none
-``energy``      —                       meta ``value`` (NaN if not reported)
-``finalize``    —                       ``done``; the server loop ends
-==============  ======================  ===================================
+================  ======================  ===================================
+request           payload                 answer
+================  ======================  ===================================
+``interface``     —                       arrays points, normals, thickness,
+                                          ``cells/<type>``
+``write``         name; array ``value``   none (errors come with the next answer)
+``read``          name                    array ``value``
+``read_many``     names                   one array per name
+``advance``       dt                      meta ``dt`` (time advanced), ``max_dt``
+                                          (the next one)
+``max_dt``        —                       meta ``value``
+``checkpoint``    —                       none
+``restore``       —                       none
+``energy``        —                       meta ``value`` (NaN if not reported)
+``energy_parts``  member (or null)        meta ``value``: the parts of
+                                          ``energy(member)``
+``get_state``     —                       the ``checkpoint()`` dict: arrays as
+                                          arrays, numbers as meta (checkpoint
+                                          files)
+``set_state``     a ``get_state`` answer  none: ``restore(state)`` (restart)
+``finalize``      —                       ``done``; the server loop ends
+================  ======================  ===================================
 
 If the real participant raises, the server answers ``error`` (type, message, traceback) and
 re-raises; the client raises :class:`~mpsfem.coupler.errors.PeerError` with that text.
@@ -110,6 +116,23 @@ class RemoteParticipant:
     def energy(self) -> float:
         return float(self._call("energy").meta["value"])
 
+    def energy_parts(self, member: str | None = None) -> tuple[float, ...]:
+        """The parts of ``energy(member)`` (e.g. kinetic, strain) of the remote participant."""
+        return tuple(float(x) for x in self._call("energy_parts", {"member": member}).meta["value"])
+
+    def get_state(self) -> dict:
+        """The remote participant's full state (its ``checkpoint()`` dict), for a checkpoint
+        file: arrays as arrays, numbers as numbers."""
+        msg = self._call("get_state")
+        return {**msg.meta, **msg.arrays}
+
+    def set_state(self, state: dict) -> None:
+        """Put a state from :meth:`get_state` back (``restore(state)`` on the other side)."""
+        arrays = {k: np.asarray(v) for k, v in state.items() if isinstance(v, np.ndarray)}
+        meta = {k: v for k, v in state.items() if k not in arrays}
+        self._max_dt = None
+        self._call("set_state", meta, arrays, reply=False)
+
     def finalize(self) -> None:
         """End the server loop on the other side."""
         self._call("finalize")
@@ -166,6 +189,21 @@ def _handle(p, op: str, meta: dict, arrays: dict) -> Message | None:
         return None
     if op == "energy":
         return Message(op, {"value": energy_of(p)})
+    if op == "energy_parts":
+        member = meta.get("member")
+        e = p.energy(member) if member is not None else p.energy()
+        parts = list(e) if isinstance(e, tuple | list | np.ndarray) else [e]
+        return Message(op, {"value": [float(x) for x in parts]})
+    if op == "get_state":
+        state = p.checkpoint()
+        if not isinstance(state, dict):
+            raise TypeError(f"{type(p).__name__}.checkpoint() returns no state dict")
+        arr = {k: np.asarray(v) for k, v in state.items() if isinstance(v, np.ndarray)}
+        num = {k: v for k, v in state.items() if k not in arr}
+        return Message(op, num, arr)
+    if op == "set_state":
+        p.restore({**meta, **arrays})
+        return None
     if op == "interface":
         m = as_interface_mesh(p.interface())
         arrays = {"points": m.points, "normals": m.normals, "thickness": m.thickness}

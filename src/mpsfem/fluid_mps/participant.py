@@ -1,0 +1,209 @@
+"""The MPS fluid as a participant of the coupler (protocol of ``mpsfem.coupler.participant``).
+
+:class:`FluidParticipant` wraps a :class:`~mpsfem.fluid_mps.solver.FluidSolver` whose structure
+members are boundary particles laid by :class:`~mpsfem.fluid_mps.structure_surface.
+StructureSurface` and kept apart across members by :class:`~mpsfem.fluid_mps.thin_member.
+ThinMemberFilter`.
+
+Data (SI; 2D forces per unit width):
+
+* interface: the structure's pressure-layer particles on both faces (and end caps) in the
+  reference configuration, normals out of the structure (``cells`` empty: a point cloud);
+* written: ``"displacement"`` (m) and ``"velocity"`` (m/s) at those points, the values for the
+  end of the next ``advance``; dummies follow by the rigid link of their column;
+* read: ``"forces"``, F_i = -p_i A_i n_i (N/m), the force of the fluid on the structure at each
+  interface point after the last step (zero on dry particles).
+
+``advance(dt)`` places the structure particles (``FluidSolver.set_patch_state``) and takes one
+MPS step of exactly ``dt``; ``max_dt()`` is the solver's next stable step. ``checkpoint()`` /
+``restore()`` copy the particle state, the time, the step count, the next dt and the written
+inputs; a restore also resets the pressure solver's preconditioner, so restored steps repeat bit
+for bit whatever happened in between.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from mpsfem.coupler.participant import InterfaceMesh
+from mpsfem.fluid_mps import wall_boundary
+from mpsfem.fluid_mps.solver import FluidSolver
+from mpsfem.fluid_mps.structure_surface import StructureSurface
+from mpsfem.fluid_mps.thin_member import ThinMemberFilter
+from mpsfem.scenario.fluid import FluidSection
+
+__all__ = ["FluidParticipant", "reset_preconditioner"]
+
+
+def reset_preconditioner(pressure) -> None:
+    """Drop the pressure solver's reusable preconditioner so the next solve rebuilds it (the
+    same state a freshly built solver is in). Uses ``pressure.reset()`` where the solver has one;
+    otherwise clears the AMG hierarchy (``levels``) it would otherwise reuse."""
+    fn = getattr(pressure, "reset", None)
+    if callable(fn):
+        fn()
+        return
+    if hasattr(pressure, "levels"):
+        pressure.levels = None
+        pressure._rebuild_next = False
+        pressure.base_rate = None
+
+
+class FluidParticipant:
+    """The MPS fluid around 2D structure members, for the coupler.
+
+    Parameters
+    ----------
+    fluid:
+        The ``[fluid]`` section.
+    structure_interface:
+        The structure participant's ``interface()`` (reference mid-lines, geometric thickness).
+    base_dir:
+        Folder of the scenario (relative files of wall motions).
+    member_names:
+        Member names in interface order (patches ``<name>+`` / ``<name>-``, force probes).
+    free_ends:
+        Per member (free at the first node, free at the last); default: from the rigid walls.
+    """
+
+    name = "fluid"
+
+    def __init__(
+        self,
+        fluid: FluidSection,
+        structure_interface,
+        *,
+        base_dir: Path | None = None,
+        member_names: Sequence[str] | None = None,
+        free_ends: Sequence[tuple[bool, bool]] | None = None,
+    ) -> None:
+        self.spec = fluid
+        self.surface = StructureSurface(structure_interface, fluid, member_names, free_ends)
+        self.filter = ThinMemberFilter(self.surface)
+        self.solver = FluidSolver(
+            fluid, base_dir, external=self.surface.patches(), neighbour_filter=self.filter
+        )
+        self.surface.bind(self.solver)
+        self.filter.bind(self.solver)
+        self._mesh = self.surface.interface_mesh()
+        n = self.surface.n_interface
+        self._d = np.zeros((n, self.solver.dim))
+        self._v = np.zeros((n, self.solver.dim))
+        self._ckpt: dict | None = None
+        if fluid.hydrostatic_start:
+            self._initial_structure_pressure()
+
+    # ------------------------------------------------------------------ set-up
+    def _initial_structure_pressure(self) -> None:
+        """Pressure of the structure particles at t0 from the hydrostatic fluid around them
+        (``wall_boundary.wall_pressure`` over the filtered neighbours), so that the forces the
+        coupler reads before the first step are the hydrostatic load."""
+        s = self.solver
+        nb = self.filter(s.search.build(s.pos), s.pos, s.kind)
+        p = s.p.copy()
+        dry = np.zeros(s.n, dtype=np.int8)
+        wall_boundary.wall_pressure(
+            s.pos, p, s.kind, dry, nb.indptr, nb.indices, s.re_n, s.wcode, s.rho, s.gravity
+        )
+        idx = self.surface.index
+        s.p[idx] = p[idx]
+
+    # ------------------------------------------------------------------ protocol
+    def interface(self) -> InterfaceMesh:
+        """Pressure-layer particles of every member face, reference configuration."""
+        return self._mesh
+
+    def write(self, name: str, array: np.ndarray) -> None:
+        """``"displacement"`` (m) or ``"velocity"`` (m/s), (n_interface, dim), for the end of
+        the next step."""
+        arr = np.array(array, dtype=np.float64)
+        if arr.shape != self._d.shape:
+            raise ValueError(f"fluid {name} of shape {arr.shape}, expected {self._d.shape}")
+        if not np.isfinite(arr).all():
+            raise FloatingPointError(f"non-finite {name} written to the fluid")
+        if name == "displacement":
+            self._d = arr
+        elif name == "velocity":
+            self._v = arr
+        else:
+            raise KeyError(f"the fluid takes 'displacement' or 'velocity', not {name!r}")
+
+    def read(self, name: str) -> np.ndarray:
+        """``"forces"``: fluid on structure at the interface points, N (N/m in 2D)."""
+        if name != "forces":
+            raise KeyError(f"the fluid has no {name!r}; readable: 'forces'")
+        return self.surface.forces(self.solver.p)
+
+    def advance(self, dt: float) -> float:
+        """Move the structure particles to the written state and take one MPS step of ``dt``."""
+        self.surface.place(self.solver, self._d, self._v)
+        self.solver.step(dt)
+        return dt
+
+    def max_dt(self) -> float:
+        """The solver's next stable step (Courant and viscous limits, capped at dt_max), s."""
+        return float(self.solver.dt_next)
+
+    def checkpoint(self) -> None:
+        """Keep a copy of the full state for :meth:`restore`."""
+        self._ckpt = {
+            k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in self.state().items()
+        }
+
+    def restore(self) -> None:
+        """Return to the last :meth:`checkpoint`."""
+        if self._ckpt is None:
+            raise RuntimeError("restore() before any checkpoint()")
+        self.load_state(self._ckpt)
+
+    # ------------------------------------------------------------------ disk state
+    def state(self) -> dict:
+        """Arrays and numbers that restore this participant exactly (views, not copies)."""
+        s = self.solver
+        return {
+            "pos": s.pos,
+            "vel": s.vel,
+            "p": s.p,
+            "d": self._d,
+            "v": self._v,
+            "t": s.t,
+            "step": s.step_count,
+            "dt_next": s.dt_next,
+        }
+
+    def load_state(self, state: dict) -> None:
+        """Inverse of :meth:`state` (copies the arrays in)."""
+        s = self.solver
+        for name in ("pos", "vel", "p"):
+            src = np.asarray(state[name])
+            dst = getattr(s, name)
+            if src.shape != dst.shape:
+                raise ValueError(
+                    f"state array {name} has shape {src.shape}, this scenario gives {dst.shape}: "
+                    "the state belongs to another scenario"
+                )
+            np.copyto(dst, src)
+        self._d = np.array(state["d"], dtype=np.float64)
+        self._v = np.array(state["v"], dtype=np.float64)
+        s.t = float(state["t"])
+        s.step_count = int(state["step"])
+        s.dt_next = float(state["dt_next"])
+        reset_preconditioner(s.pressure)
+
+    # ------------------------------------------------------------------ extras
+    @property
+    def time(self) -> float:
+        return self.solver.t
+
+    def member_force(self, member: str) -> np.ndarray:
+        """Total fluid force on ``member``, both faces (N/m in 2D)."""
+        return self.surface.member_force(self.solver.p, member)
+
+    def probe_value(self, probe):
+        """A fluid probe's value; ``force`` probes may target a structure member."""
+        if probe.kind == "force" and probe.target in self.surface.names:
+            return self.member_force(probe.target)
+        return self.solver.probe_value(probe)

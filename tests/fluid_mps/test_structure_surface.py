@@ -1,0 +1,162 @@
+"""Structure members as boundary particles of the MPS fluid: layout, motion, forces.
+
+References: the layout conventions of fluid_mps.geometry (pressure layer half a spacing behind
+the face, dummies at l0 intervals), the rigid-link kinematics of a beam cross-section, and the
+hydrostatic force rho g H^2 / 2 per unit width on a vertical face.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mpsfem.coupler.participant import InterfaceMesh
+from mpsfem.fluid_mps.participant import FluidParticipant
+from mpsfem.fluid_mps.particle_kinds import FLUID, STRUCTURE, STRUCTURE_DUMMY
+from mpsfem.fluid_mps.structure_surface import StructureSurface, members_from_interface
+from mpsfem.scenario.fluid import FluidSection
+
+L0 = 0.01
+RHO, G = 1000.0, 9.81
+
+
+def beam_mesh(start, end, n_el, thickness, offset=0):
+    """Interface mesh of one straight beam (structure_fem's conventions)."""
+    start, end = np.asarray(start, float), np.asarray(end, float)
+    pts = start + np.linspace(0.0, 1.0, n_el + 1)[:, None] * (end - start)
+    t = (end - start) / np.linalg.norm(end - start)
+    nrm = np.tile([-t[1], t[0]], (n_el + 1, 1))
+    cells = np.c_[np.arange(n_el), np.arange(1, n_el + 1)] + offset
+    return pts, nrm, cells, np.full(n_el + 1, thickness)
+
+
+def tank_fluid(blocks, width=0.41, height=0.4, spacing=L0) -> FluidSection:
+    return FluidSection.model_validate(
+        {
+            "spacing": spacing,
+            "blocks": [{"lower": lo, "upper": hi} for lo, hi in blocks],
+            "walls": [{"shape": "tank", "name": "tank", "lower": [0, 0], "upper": [width, height]}],
+        }
+    )
+
+
+def partition(thickness=L0, xc=0.205, top=0.3):
+    """A vertical member standing on the tank floor at x = xc (normal -x: side +1 faces left)."""
+    pts, nrm, cells, th = beam_mesh([xc, 0.0], [xc, top], 10, thickness)
+    return InterfaceMesh(pts, nrm, {"line": cells}, th)
+
+
+def test_members_are_split_in_interface_order():
+    a = beam_mesh([0, 0], [1, 0], 4, 0.02)
+    b = beam_mesh([0, 1], [0, 2], 3, 0.05, offset=5)
+    mesh = InterfaceMesh(
+        np.vstack([a[0], b[0]]), np.vstack([a[1], b[1]]), {"line": np.vstack([b[2], a[2]])},
+        np.r_[a[3], b[3]],
+    )  # fmt: skip
+    got = members_from_interface(mesh, ["floor", "post"])
+    assert [g[0] for g in got] == ["floor", "post"]
+    assert got[0][1].tolist() == [0, 1, 2, 3, 4] and got[1][1].tolist() == [5, 6, 7, 8]
+    assert [g[2] for g in got] == [0.02, 0.05]
+    with pytest.raises(ValueError, match="2 member"):
+        members_from_interface(mesh, ["only_one"])
+
+
+def test_layout_faces_layers_caps_and_free_ends():
+    fluid = tank_fluid([([0, 0], [0.2, 0.2])])
+    T = 0.03
+    surf = StructureSurface(partition(T), fluid, ["wall"])
+    (frame,) = surf.frames
+    assert not frame.free_start and frame.free_end  # on the floor, tip in the open
+    assert surf.layers == 5  # re = 4.01 l0: the pressure layer plus four dummy layers
+    for sl in surf.sides:
+        s, eta = frame.local(sl.pos)
+        depth = 0.5 * T - sl.side * eta  # behind the side's own face
+        assert np.allclose(np.unique(np.round(depth / L0, 9)), np.arange(5) + 0.5)
+        assert np.allclose(np.unique(np.round(s / L0, 9)), np.arange(30) + 0.5)
+        press = sl.kind == STRUCTURE
+        assert set(np.unique(sl.kind)) == {STRUCTURE, STRUCTURE_DUMMY}
+        # the face row carries pressure, and so does the end cap on the side's own half
+        face = press & (sl.row == 0)
+        assert face.sum() == 30
+        cap = press & (sl.row > 0)
+        assert np.all(np.isclose(s[cap], 0.295)) and np.all(depth[cap] <= 0.5 * T)
+        assert cap.sum() == 1  # depths 0.005 (corner) and 0.015 <= T/2 = 0.015
+        # area vectors: the face h n side per particle, the cap l0 t
+        area = sl.area[press].sum(axis=0)
+        expect = sl.side * frame.normal * frame.length + frame.tangent * 2 * L0
+        assert np.allclose(area, expect, rtol=0, atol=1e-12)
+        assert np.allclose(np.linalg.norm(sl.normal[press], axis=1), 1.0)
+        assert np.all(sl.normal[~press] == 0.0)
+
+
+def test_fluid_is_not_generated_inside_the_member():
+    fluid = tank_fluid([([0, 0], [0.41, 0.2])])
+    surf = StructureSurface(partition(L0), fluid, ["wall"])
+    x = np.array([[0.195, 0.1], [0.205, 0.1], [0.215, 0.1], [0.205, 0.303], [0.205, 0.305]])
+    # closer than l0 / 2 to a face or the free end: not generated; l0 / 2 away (lattice) kept
+    assert surf.inside(x).tolist() == [False, True, False, True, False]
+
+
+@pytest.fixture(scope="module")
+def two_levels():
+    """Still water 0.2 m deep left of a partition of thickness l0 and 0.1 m deep right of it."""
+    fluid = tank_fluid([([0, 0], [0.2, 0.2]), ([0.2, 0], [0.41, 0.1])])
+    return FluidParticipant(fluid, partition(L0), member_names=["wall"])
+
+
+def test_initial_force_is_the_hydrostatic_resultant(two_levels):
+    fp = two_levels
+    f = fp.member_force("wall")
+    exact = 0.5 * RHO * G * (0.2**2 - 0.1**2)  # acts towards +x (from the deeper side)
+    assert f[0] == pytest.approx(exact, rel=1e-12) and abs(f[1]) < 1e-9 * exact
+    F = fp.read("forces")
+    assert F.shape == fp.interface().points.shape
+    assert np.allclose(F.sum(axis=0), f, rtol=1e-14, atol=1e-12)
+
+
+def test_rigid_motion_moves_every_layer_rigidly(two_levels):
+    """A small rigid rotation theta about c, u = theta z x (x - c), written at the interface
+    points moves the dummies by the same field (the column slope is exact for linear w)."""
+    fp = two_levels
+    s = fp.surface
+    theta, c = 1e-3, np.array([0.205, 0.0])
+    rot = lambda x: theta * np.c_[-(x[:, 1] - c[1]), x[:, 0] - c[0]]  # noqa: E731
+    ref_if = fp.interface().points
+    u_all = np.zeros_like(s.ref)
+    s._rigid_link(rot(ref_if), u_all)
+    assert np.allclose(u_all, rot(s.ref), rtol=0, atol=1e-15)
+    # and a translation plus velocity reaches the solver's arrays through place()
+    solver = fp.solver
+    before = solver.pos[s.index].copy()
+    d = np.tile([1e-4, -2e-4], (s.n_interface, 1))
+    s.place(solver, d, 3.0 * d)
+    assert np.allclose(solver.pos[s.index] - before, [1e-4, -2e-4], rtol=0, atol=1e-15)
+    assert np.allclose(solver.vel[s.index], [3e-4, -6e-4], rtol=0, atol=1e-15)
+    s.place(solver, 0.0 * d, 0.0 * d)
+    assert np.array_equal(solver.pos[s.index], before)
+
+
+def test_interface_is_the_pressure_layer(two_levels):
+    fp = two_levels
+    mesh = fp.interface()
+    k = fp.solver.kind[fp.surface.interface_index]
+    assert np.all(k == STRUCTURE) and mesh.n_points == np.count_nonzero(fp.solver.kind == 3)
+    assert fp.solver.kind[fp.surface.index].tolist().count(STRUCTURE_DUMMY) > 0
+    assert not np.any(fp.solver.kind[fp.surface.index] == FLUID)
+
+
+def test_checkpoint_restore_repeats_steps_bit_for_bit(two_levels):
+    fp = two_levels
+    fp.checkpoint()
+    d = np.tile([0.0, -1e-5], (fp.surface.n_interface, 1))
+    runs = []
+    for _ in range(2):
+        fp.write("displacement", d)
+        fp.write("velocity", d / 1e-3)
+        dt = fp.max_dt()
+        fp.advance(min(dt, 1e-3))
+        fp.advance(min(fp.max_dt(), 1e-3))
+        runs.append((fp.solver.pos.copy(), fp.solver.p.copy(), fp.read("forces")))
+        fp.restore()
+    for a, b in zip(*runs, strict=True):
+        assert np.array_equal(a, b)
