@@ -377,9 +377,15 @@ class StructureSurface:
         # labels for the neighbour filter, over the solver's particles
         self.member_of = np.full(solver.n, -1, dtype=np.int32)
         self.side_of = np.zeros(solver.n, dtype=np.int8)
+        self.half = np.zeros(solver.n, dtype=np.int8)
         for st, sl in zip(starts, self.sides, strict=True):
             self.member_of[st : st + len(sl.pos)] = sl.member
             self.side_of[st : st + len(sl.pos)] = sl.side
+            # +1: inside the body on the side's own half, 0: on the mid-line, -1: past the
+            # mid-line (inside the body or a virtual layer beyond the other face)
+            own = sl.side * sl.eta
+            tol = 1e-9 * self.l0
+            self.half[st : st + len(sl.pos)] = np.where(own > tol, 1, np.where(own < -tol, -1, 0))
         self.bound = True
 
     # ------------------------------------------------------------------ coupler view

@@ -7,8 +7,13 @@ This filter runs after every neighbour search (``FluidSolver(neighbour_filter=..
 the pairs that would act through a member, in place:
 
 1. two particles of the same member but of different sides (their layers may overlap in space);
-2. a member particle of side s and a fluid particle on the other side of that member's
-   mid-line (the fluid sees only the virtual solid of its own face);
+2. a member particle of side s and a fluid particle beside the member on the other side of its
+   mid-line (fluid beside a member sees only the virtual solid of its own face). Beyond a free
+   end the virtual layers would overlap the fluid that wraps round the end, so fluid there sees
+   the body once: each side's particles on its own half of the body, and the mid-line row of
+   its own side. The member particles' own rows keep all fluid beyond the end (a pressure
+   particle at the end then has a full neighbourhood and is not taken for a dry, free-surface
+   one); this is the only place where the list is not symmetric;
 3. two fluid particles whose connecting segment crosses a member's mid-line: both beside the
    member on opposite sides, or, near an end, a segment that intersects the mid-line polyline.
 
@@ -19,8 +24,8 @@ extended line decides the side, and rule 3 uses the exact segment test. Only par
 ``radius + (largest offset of the member's particles)`` of a polyline are classified, so the
 cost is that of the particles near members; rows of all other particles are kept unchanged.
 
-The filter is symmetric in i and j and keeps each row's ascending order, so the list stays a
-function of the positions (bit-identical for any thread count).
+The filter keeps each row's ascending order, so the list stays a function of the positions
+(bit-identical for any thread count).
 """
 
 from __future__ import annotations
@@ -120,24 +125,35 @@ def _sign(v):
     return 1 if v > 0 else (-1 if v < 0 else 0)
 
 
+@njit(cache=True, inline="always")
+def _fluid_sees(c, side_j, half_j):
+    """Rule 2, row of a fluid particle classified ``c`` (see classify_sides): may it see a member
+    particle of side ``side_j`` on half ``half_j`` of the body?"""
+    if c == 0:
+        return True
+    if c == 1 or c == -1:
+        return _sign(c) == side_j
+    return half_j == 1 or (half_j == 0 and side_j == _sign(c))
+
+
+@njit(cache=True, inline="always")
+def _member_sees(c, side_i):
+    """Rule 2, row of a member particle of side ``side_i``: may it see a fluid particle
+    classified ``c``? (All fluid beyond an end, fluid beside the member on its own side.)"""
+    return c == 0 or c == 2 or c == -2 or _sign(c) == side_i
+
+
 @njit(cache=True)
-def _allowed(i, j, pos, kind, member_of, side_of, side, anchors, aptr):
+def _allowed(i, j, pos, kind, member_of, side_of, half, side, anchors, aptr):
+    """May row i keep neighbour j? (rules of the module docstring)"""
     mi = member_of[i]
     mj = member_of[j]
     if mi >= 0 and mj >= 0:
         return not (mi == mj and side_of[i] != side_of[j])  # rule 1
     if mi >= 0:
-        if kind[j] == 0:
-            s = side[j, mi]
-            if s != 0 and _sign(s) != side_of[i]:  # rule 2
-                return False
-        return True
+        return kind[j] != 0 or _member_sees(side[j, mi], side_of[i])
     if mj >= 0:
-        if kind[i] == 0:
-            s = side[i, mj]
-            if s != 0 and _sign(s) != side_of[j]:
-                return False
-        return True
+        return kind[i] != 0 or _fluid_sees(side[i, mj], side_of[j], half[j])
     if kind[i] != 0 or kind[j] != 0:
         return True
     for m in range(side.shape[1]):  # rule 3
@@ -155,7 +171,9 @@ def _allowed(i, j, pos, kind, member_of, side_of, side, anchors, aptr):
 
 
 @njit(cache=True, parallel=True)
-def mark_pairs(pos, kind, indptr, indices, member_of, side_of, side, anchors, aptr, keep, drops):
+def mark_pairs(
+    pos, kind, indptr, indices, member_of, side_of, half, side, anchors, aptr, keep, drops
+):
     """keep[q] = 1 for pairs that stay, 0 for pairs through a member; drops[i] = pairs dropped
     from row i. Returns the total."""
     n = indptr.shape[0] - 1
@@ -172,7 +190,8 @@ def mark_pairs(pos, kind, indptr, indices, member_of, side_of, side, anchors, ap
         cnt = 0
         if involved:
             for q in range(a, b):
-                if _allowed(i, indices[q], pos, kind, member_of, side_of, side, anchors, aptr):
+                j = indices[q]
+                if _allowed(i, j, pos, kind, member_of, side_of, half, side, anchors, aptr):
                     keep[q] = 1
                 else:
                     keep[q] = 0
@@ -230,6 +249,7 @@ class ThinMemberFilter:
             s.bind(solver)
         self.member_of = s.member_of
         self.side_of = s.side_of
+        self.half = s.half
         n = solver.n
         self._side = np.zeros((n, len(s.frames)), dtype=np.int8)
         self._drops = np.zeros(n, dtype=np.int64)
@@ -258,6 +278,7 @@ class ThinMemberFilter:
             nb.indices,
             self.member_of,
             self.side_of,
+            self.half,
             self._side,
             anchors,
             aptr,
