@@ -238,7 +238,7 @@ class CouplingScheme:
             self.initialize()
         t0 = self.t
         t1 = self.t0 + (self.index + 1) * self.window if t_end is None else float(t_end)
-        T = t1 - t0
+        T = self.window_length(t0, t1)
         timings = {"fluid": 0.0, "structure": 0.0, "mapping": 0.0, "acceleration": 0.0}
         tic = time.perf_counter()
         fluid_mesh = as_interface_mesh(self.fluid.interface())
@@ -373,15 +373,26 @@ class CouplingScheme:
         self.index += 1
         return rec
 
-    def _fluid_window(self, t0, t1, d0, v0, d1, v1) -> tuple[np.ndarray, int]:
-        """Sub-cycle the fluid over [t0, t1]; returns (window force, sub-steps)."""
+    def window_length(self, t0: float, t1: float) -> float:
+        """Length of the window [t0, t1]: exactly ``self.window`` for a regular window (t1 - t0
+        carries the round-off of the window times, which would make the participants' step
+        sizes, and a structure's cached factorisation, depend on the window index and so on
+        where a run was restarted), else t1 - t0 (a final, shorter window)."""
         T = t1 - t0
+        if abs(T - self.window) <= TIME_EPS * self.window:
+            return float(self.window)
+        return T
+
+    def _fluid_window(self, t0, t1, d0, v0, d1, v1) -> tuple[np.ndarray, int]:
+        """Sub-cycle the fluid over [t0, t1] (in local time 0 .. T, T = window_length); returns
+        (window force, sub-steps)."""
+        T = self.window_length(t0, t1)
         fluid = self.fluid
         acc = {"F": None}
         mean = self.config.force_sampling == "mean"
 
         def before(t_next: float, dt: float) -> None:
-            theta = (t_next - t0) / T
+            theta = t_next / T
             fluid.write(DISPLACEMENT, interpolate(d0, d1, theta))
             fluid.write(VELOCITY, interpolate(v0, v1, theta))
 
@@ -394,21 +405,22 @@ class CouplingScheme:
             else:
                 acc["F"] += dt * F
 
-        n = subcycle(fluid.advance, fluid.max_dt, t0, t1, before, after, who="fluid")
+        n = subcycle(fluid.advance, fluid.max_dt, 0.0, T, before, after, who="fluid")
         F = acc["F"] / T if mean else acc["F"]
         return F, n
 
     def _structure_window(self, t0, t1, F1) -> tuple[np.ndarray, np.ndarray, int]:
-        """Sub-cycle the structure over [t0, t1] under forces ramping from the previous window's
-        value to ``F1``; returns (displacement, velocity, sub-steps) at t1."""
-        T = t1 - t0
+        """Sub-cycle the structure over [t0, t1] (in local time 0 .. T, T = window_length) under
+        forces ramping from the previous window's value to ``F1``; returns (displacement,
+        velocity, sub-steps) at t1."""
+        T = self.window_length(t0, t1)
         st = self.structure
         F0 = self.F_s
 
         def before(t_next: float, dt: float) -> None:
-            st.write(FORCES, interpolate(F0, F1, (t_next - t0) / T))
+            st.write(FORCES, interpolate(F0, F1, t_next / T))
 
-        n = subcycle(st.advance, st.max_dt, t0, t1, before, who="structure")
+        n = subcycle(st.advance, st.max_dt, 0.0, T, before, who="structure")
         d, v = read_outputs(st, (DISPLACEMENT, VELOCITY))
         return d, v, n
 
