@@ -1,17 +1,33 @@
 """Command line: ``mpsfem run | structure | modes | validate | docs``.
 
 The ``run`` contract (design brief): ``mpsfem run SCENARIO.toml [--out PATH] [--end-time T]
-[--transport inproc|mpi|zenoh] [--set key=value ...] [--restart CHECKPOINT]``.
+[--transport inproc|mpi|zenoh] [--participant fluid|structure] [--set key=value ...]
+[--restart CHECKPOINT]``. A scenario with both ``[fluid]`` and ``[structure]`` is a coupled run
+(``[coupling]`` optional, defaults otherwise):
+
+* ``mpsfem run S.toml`` (inproc, one process);
+* ``mpirun -n 2 mpsfem run S.toml --transport mpi`` (rank 0 fluid, rank 1 structure), or MPMD
+  ``mpirun -n 1 mpsfem run S.toml --transport mpi --participant fluid : -n 1 mpsfem run S.toml
+  --transport mpi --participant structure``;
+* ``mpsfem run S.toml --transport zenoh --participant structure`` and ``... --participant
+  fluid`` in two shells, or ``mpsfem run S.toml --transport zenoh`` (starts the structure itself).
+
+BLAS runs single-threaded (``OPENBLAS_NUM_THREADS=1`` unless set): the structure's solves stay
+bit-identical between processes and do not compete with the fluid's numba threads.
 """
 
 from __future__ import annotations
 
-import argparse
-import sys
-from pathlib import Path
+import os
 
-from mpsfem import __version__
-from mpsfem.scenario.base import ScenarioError
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy is imported anywhere
+
+import argparse  # noqa: E402
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from mpsfem import __version__  # noqa: E402
+from mpsfem.scenario.base import ScenarioError  # noqa: E402
 
 
 def _scenario_args(p: argparse.ArgumentParser) -> None:
@@ -44,13 +60,14 @@ def build_parser() -> argparse.ArgumentParser:
         "--transport",
         choices=["inproc", "mpi", "zenoh"],
         default=None,
-        help="how the participants talk (coupled scenarios)",
+        help="how the participants of a coupled scenario talk (default: "
+        "[coupling.transport] kind, else inproc)",
     )
     run.add_argument(
         "--participant",
         choices=["fluid", "structure"],
         default=None,
-        help="run one participant only (MPMD / zenoh launches)",
+        help="run one participant of a coupled scenario only (MPMD and zenoh launches)",
     )
     run.add_argument("--restart", type=Path, help="resume from this checkpoint file")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -82,7 +99,7 @@ def _set_threads(n: int | None) -> None:
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from mpsfem.scenario.loader import load_scenario
-    from mpsfem.simulation import RunFailed, run_fluid
+    from mpsfem.simulation import RunFailed, run_coupled, run_fluid
 
     loaded = load_scenario(args.scenario, args.overrides)
     sc = loaded.scenario
@@ -90,9 +107,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         raise ScenarioError([f"--end-time = {args.end_time}: must be > 0"])
     out = args.out or Path.cwd() / f"{loaded.stem}.h5"
     _set_threads(sc.run.threads)
-    if getattr(sc, "structure", None) is not None and getattr(sc, "coupling", None) is not None:
-        print("error: coupled runs are not available yet (issue: coupler)", file=sys.stderr)
-        return 2
+    progress = False if args.no_progress else None
+    coupled = sc.fluid is not None and sc.structure is not None
     if sc.fluid is None:
         print(
             f"error: {args.scenario} has no [fluid] section; use 'mpsfem structure' for a "
@@ -100,13 +116,38 @@ def _cmd_run(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
-    try:
-        summary = run_fluid(
-            loaded, out, args.end_time, args.restart, progress=False if args.no_progress else None
+    if not coupled and (args.participant or args.transport not in (None, "inproc")):
+        print(
+            f"error: --transport {args.transport} / --participant {args.participant}: "
+            f"{args.scenario} is not a coupled scenario (it has no [structure] section)",
+            file=sys.stderr,
         )
+        return 2
+    try:
+        if coupled:
+            child = ["run", str(args.scenario), "--transport", "zenoh", "--no-progress"]
+            for item in args.overrides:
+                child += ["--set", item]
+            summary = run_coupled(
+                loaded,
+                out,
+                args.end_time,
+                args.restart,
+                progress=progress,
+                transport=args.transport,
+                participant=args.participant,
+                child_argv=child,
+            )
+            if summary is None:  # this process was the structure participant
+                return 0
+        else:
+            summary = run_fluid(loaded, out, args.end_time, args.restart, progress=progress)
     except RunFailed as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
+    except ValueError as exc:  # bad launch options (roles, ranks), caught before any compute
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     print(
         f"finished t = {summary.t:.6g} s in {summary.steps} steps, {summary.wall_time:.1f} s wall; "
         f"results {summary.results}, checkpoint {summary.checkpoint}"

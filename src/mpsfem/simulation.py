@@ -1,9 +1,10 @@
-"""The run loop shared by every kind of run: output cadence, checkpoints, failure handling.
+"""The run loops: output cadence, checkpoints, failure handling.
 
-A *stepper* advances the physics (the MPS fluid alone here; a coupled system drives the same
-loop). The loop samples probes, writes snapshots, flushes the results file on a wall-clock
-cadence, writes checkpoints at a simulated-time interval and, when anything goes wrong, stops with
-a message after flushing results and writing a checkpoint of the last good state.
+:func:`run_fluid` steps the MPS fluid alone; :func:`run_coupled` advances a fluid-structure system
+window by window through the coupler (roles, transports and launch forms in docs/coupler.md). Both
+sample probes, write snapshots, flush the results file on a wall-clock cadence, write checkpoints
+at a simulated-time interval and, when anything goes wrong, stop with a message after flushing
+results and writing a checkpoint of the last good state.
 """
 
 from __future__ import annotations
@@ -18,6 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
+from mpsfem.coupler.coupling_scheme import create_scheme
+from mpsfem.coupler.errors import CouplingError, PeerError, PeerLostError
+from mpsfem.coupler.launch import connect_structure, participant_role, spawn_structure
+from mpsfem.coupler.time_window import TIME_EPS
+from mpsfem.fluid_mps.participant import FluidParticipant, reset_preconditioner
 from mpsfem.fluid_mps.probes import PROBE_UNITS
 from mpsfem.fluid_mps.solver import FluidSolver
 from mpsfem.progress import Progress
@@ -84,7 +90,7 @@ def run_fluid(
 
     if restart is not None:
         arrays, meta, _ = read_checkpoint(restart)
-        solver.restore(arrays["fluid"], meta["fluid"])
+        _restore_solver(solver, arrays["fluid"], meta["fluid"])
         next_probe.update(meta["next_probe"])
         next_snap = meta["next_snapshot"]
         next_ckpt = meta["next_checkpoint"]
@@ -106,7 +112,7 @@ def run_fluid(
         path = write_checkpoint(ckpt_path, {"fluid": solver.state()}, meta, loaded.text)
         # the restarted run starts with a fresh preconditioner; so does this one from here on,
         # which keeps both bit-identical
-        solver.pressure.reset()
+        reset_preconditioner(solver.pressure)
         return path
 
     def sample(force: bool = False) -> None:
@@ -159,7 +165,7 @@ def run_fluid(
             pass
         for k, v in good.items():
             np.copyto(solver.state()[k], v)
-        solver.restore(solver.state(), good_meta)
+        _restore_solver(solver, solver.state(), good_meta)
         ckpt = checkpoint()
         results.close(status=f"failed: {exc}")
         for s, h in old_handlers.items():
@@ -183,7 +189,428 @@ def run_fluid(
     return RunSummary(out, ckpt, solver.t, solver.step_count, wall)
 
 
+def _restore_solver(solver: FluidSolver, arrays: dict, meta: dict) -> None:
+    """``FluidSolver.restore`` (particle arrays, time, step, next dt; fresh preconditioner)."""
+    for name in ("pos", "vel", "p"):
+        src = arrays[name]
+        dst = getattr(solver, name)
+        if src.shape != dst.shape:
+            raise ValueError(
+                f"checkpoint array {name} has shape {src.shape}, the scenario gives "
+                f"{dst.shape}: the checkpoint belongs to another scenario"
+            )
+        if src is not dst:
+            dst[...] = src
+    solver.t = float(meta["t"])
+    solver.step_count = int(meta["step"])
+    solver.dt_next = float(meta["dt_next"])
+    reset_preconditioner(solver.pressure)
+
+
 def _main_thread() -> bool:
     import threading
 
     return threading.current_thread() is threading.main_thread()
+
+
+# ====================================================================== coupled runs
+#: window-record scalars written to /coupling/ besides time, iterations and residual
+TIMING_KEYS = ("fluid", "structure", "mapping", "acceleration")
+
+
+def coupling_config(scenario, transport: str | None = None):
+    """The scenario's ``[coupling]`` section (defaults if absent) with the transport kind
+    replaced by ``transport`` (``--transport``); a replaced transport keeps the timeouts."""
+    from mpsfem.coupler.transport import TRANSPORTS
+    from mpsfem.scenario.coupling import CouplingSection
+
+    cfg = scenario.coupling if scenario.coupling is not None else CouplingSection()
+    if transport is None or transport == cfg.transport.kind:
+        return cfg
+    if transport not in TRANSPORTS:
+        raise ValueError(f"--transport {transport!r}: allowed {', '.join(TRANSPORTS)}")
+    old = cfg.transport
+    params = TRANSPORTS.get(transport).Params(
+        kind=transport, timeout_s=old.timeout_s, startup_timeout_s=old.startup_timeout_s
+    )
+    return cfg.model_copy(update={"transport": params})
+
+
+def member_nodes(scenario) -> list[tuple[str, slice]]:
+    """(member name, its slice of the structure's interface points), in scenario order (the
+    structure participant concatenates the members' nodes in that order)."""
+    out, start = [], 0
+    for m in scenario.structure.members:
+        if m.type != "beam":
+            raise ValueError(
+                f"structure.members {m.name!r}: coupled runs support 2D beam members; "
+                f"type {m.type!r} (3D plates) is not coupled to the MPS fluid yet"
+            )
+        n = m.elements + 1
+        out.append((m.name, slice(start, start + n)))
+        start += n
+    return out
+
+
+class DisplacementProbe:
+    """Displacement of a structure point: linear interpolation of the member's nodal
+    displacements at the projection of ``position`` on its reference centre line (exact at a
+    node, the end node beyond an end), m."""
+
+    def __init__(self, probe, nodes: np.ndarray, offset: int) -> None:
+        self.probe = probe
+        x = np.asarray(probe.position, dtype=np.float64)
+        a, b = nodes[:-1], nodes[1:]
+        e = b - a
+        u = np.clip(np.einsum("kd,kd->k", x - a, e) / np.einsum("kd,kd->k", e, e), 0.0, 1.0)
+        d = np.linalg.norm(a + u[:, None] * e - x, axis=1)
+        k = int(np.argmin(d))
+        self.i0, self.i1, self.w = offset + k, offset + k + 1, float(u[k])
+
+    def value(self, displacement: np.ndarray) -> np.ndarray:
+        return (1.0 - self.w) * displacement[self.i0] + self.w * displacement[self.i1]
+
+
+def _split_state(state: dict) -> tuple[dict[str, np.ndarray], dict]:
+    """Arrays (names with '/' escaped as '|', HDF5 groups otherwise) and JSON numbers."""
+    arrays, numbers = {}, {}
+    for k, v in state.items():
+        if isinstance(v, np.ndarray):
+            arrays[k.replace("/", "|")] = v
+        elif isinstance(v, np.generic):
+            numbers[k] = v.item()
+        else:
+            numbers[k] = v
+    return arrays, numbers
+
+
+def _join_state(arrays: dict, numbers: dict) -> dict:
+    return {**numbers, **{k.replace("|", "/"): v for k, v in arrays.items()}}
+
+
+def _structure_state(structure) -> dict:
+    """Full state of the structure participant, local or remote."""
+    get = getattr(structure, "get_state", None)
+    return get() if get is not None else structure.checkpoint()
+
+
+def _load_structure_state(structure, state: dict) -> None:
+    put = getattr(structure, "set_state", None)
+    if put is not None:
+        put(state)
+    else:
+        structure.restore(state)
+
+
+def _member_energy(structure, member: str) -> np.ndarray:
+    parts = getattr(structure, "energy_parts", None)
+    e = parts(member) if parts is not None else structure.energy(member)
+    return np.array([float(x) for x in e])
+
+
+def serve_structure_role(loaded: LoadedScenario, config, log: Callable[[str], None]) -> int:
+    """The structure participant's process: build it and answer the fluid's requests until the
+    fluid finalises. Returns an exit code (0 done, 1 the fluid was lost or failed)."""
+    from mpsfem.coupler.launch import serve_structure
+    from mpsfem.structure_fem.participant import StructureParticipant
+
+    sc = loaded.scenario
+    structure = StructureParticipant(sc.structure, base_dir=loaded.path.parent)
+    try:
+        n = serve_structure(structure, config)
+    except CouplingError as exc:
+        log(f"structure participant stopped: {type(exc).__name__}: {exc}")
+        return 1
+    log(f"structure participant finished at t = {structure.time:.6g} s ({n} requests)")
+    return 0
+
+
+def run_coupled(
+    loaded: LoadedScenario,
+    out: Path,
+    end_time: float | None = None,
+    restart: Path | None = None,
+    progress: bool | None = None,
+    log: Callable[[str], None] | None = None,
+    transport: str | None = None,
+    participant: str | None = None,
+    child_argv: list[str] | None = None,
+) -> RunSummary | None:
+    """Run a coupled fluid-structure scenario to ``end_time`` (default: run.end_time).
+
+    ``transport`` overrides ``[coupling.transport] kind``; ``participant`` ("fluid" or
+    "structure") runs one side only (MPMD, zenoh); under ``mpirun -n 2`` without it rank 0 is
+    the fluid, rank 1 the structure; with zenoh and no ``participant`` this process starts the
+    structure as a child (``python -m mpsfem.cli`` with ``child_argv`` plus
+    ``--participant structure``). The fluid's process writes ``out`` and the checkpoints and
+    returns a :class:`RunSummary`; the structure's process returns None.
+    """
+    sc = loaded.scenario
+    if sc.fluid is None or sc.structure is None:
+        raise ValueError("a coupled run needs a [fluid] and a [structure] section")
+    log = log or (lambda msg: print(msg, file=sys.stderr, flush=True))
+    config = coupling_config(sc, transport)
+    members = member_nodes(sc)
+    kind = config.transport.kind
+    role = participant_role(kind, participant)
+    if role == "structure":
+        code = serve_structure_role(loaded, config, log)
+        if code:
+            raise RunFailed("the structure participant stopped early (see the message above)")
+        return None
+
+    child = None
+    remote = link = None
+    if kind == "inproc":
+        from mpsfem.structure_fem.participant import StructureParticipant
+
+        structure = StructureParticipant(sc.structure, base_dir=loaded.path.parent)
+    else:
+        if kind == "zenoh" and participant is None:
+            child = spawn_structure(child_argv or [], module="mpsfem.cli")
+        remote, link = connect_structure(config)
+        structure = remote
+    try:
+        return _fluid_side(
+            loaded, out, config, members, structure, remote, link, end_time, restart, progress, log
+        )
+    finally:
+        if child is not None:
+            try:
+                child.wait(timeout=30)
+            except Exception:  # noqa: BLE001 - a child that outlives the run is stopped
+                child.kill()
+                child.wait()
+
+
+def _fluid_side(
+    loaded, out, config, members, structure, remote, link, end_time, restart, progress, log
+) -> RunSummary:
+    """The fluid's process of a coupled run: the scheme, the outputs, the failure handling."""
+    sc = loaded.scenario
+    outs = sc.output
+    t_wall = time.perf_counter()
+    t_end = end_time if end_time is not None else sc.run.end_time
+    try:
+        mesh = structure.interface()
+        n_nodes = mesh.points.shape[0] if hasattr(mesh, "points") else 0
+        if members[-1][1].stop != n_nodes:
+            raise ValueError(
+                f"the structure interface has {n_nodes} points, the scenario's members "
+                f"{[m for m, _ in members]} give {members[-1][1].stop}"
+            )
+        fluid = FluidParticipant(
+            sc.fluid, mesh, base_dir=loaded.path.parent, member_names=[m for m, _ in members]
+        )
+        scheme = create_scheme(fluid, structure, config, log=log)
+        scheme.initialize()
+    except BaseException:
+        if remote is not None:
+            _end_peer(remote, link, failed=True)
+        raise
+    solver = fluid.solver
+    nodes = {name: np.asarray(mesh.points[sl]) for name, sl in members}
+    slices = dict(members)
+
+    fluid_kinds = ("pressure", "wave_gauge", "front", "force", "energy")
+    probes = [
+        p
+        for p in sc.probes
+        if p.kind in fluid_kinds and not (p.kind == "energy" and p.target in slices)
+    ]
+    member_energy = [p for p in sc.probes if p.kind == "energy" and p.target in slices]
+    disp = [
+        DisplacementProbe(p, nodes[p.target], slices[p.target].start)
+        for p in sc.probes
+        if p.kind == "displacement"
+    ]
+    every = list(probes) + member_energy + [d.probe for d in disp]
+    interval = {
+        p.name: (p.interval if p.interval is not None else outs.probe_interval) for p in every
+    }
+    next_probe = {p.name: 0.0 for p in every}
+    rec_interval = (
+        sc.structure.record_interval
+        if sc.structure.record_interval is not None
+        else outs.probe_interval
+    )
+    sched = {
+        "next_snapshot": 0.0,
+        "next_checkpoint": outs.checkpoint_interval if outs.checkpoint_interval > 0 else math.inf,
+        "next_record": 0.0,
+        "work_structure_total": 0.0,
+        "work_fluid_total": 0.0,
+    }
+    ckpt_path = default_checkpoint_path(out)
+    last_ckpt: Path | None = None
+
+    if restart is not None:
+        arrays, meta, _ = read_checkpoint(restart)
+        if meta.get("kind") != "coupled":
+            raise ValueError(f"{restart} is not a checkpoint of a coupled run")
+        fluid.load_state(_join_state(arrays["fluid"], meta["fluid"]))
+        _load_structure_state(structure, _join_state(arrays["structure"], meta["structure"]))
+        scheme.load_state_dict(_join_state(arrays["scheme"], meta["scheme"]))
+        next_probe.update(meta["next_probe"])
+        sched.update(meta["schedule"])
+        results = ResultsFile.open_append(out, truncate_after=scheme.t)
+        last_ckpt = Path(restart)
+        log(f"restarted from {restart} at t = {scheme.t:.6g} s (window {scheme.index})")
+    else:
+        results = ResultsFile.create(out, loaded.text, loaded.overrides, sc.model_dump(mode="json"))
+    for p in probes:
+        unit, comps = _probe_meta(p, solver.dim)
+        results.add_probe(p.name, p.kind, unit, comps, getattr(p, "position", None))
+    for p in member_energy:
+        results.add_probe(p.name, "energy", "J", ("kinetic", "strain"), attrs={"target": p.target})
+    for d in disp:
+        p = d.probe
+        comps = ("ux", "uy", "uz")[: solver.dim]
+        results.add_probe(p.name, "displacement", "m", comps, p.position, {"target": p.target})
+    for name, xyz in nodes.items():
+        results.add_structure(name, xyz)
+    results.h5.attrs["transport"] = config.transport.kind
+    results.h5.attrs["coupling_scheme"] = config.scheme
+
+    def write_ckpt() -> Path:
+        f_arr, f_num = _split_state(fluid.state())
+        s_arr, s_num = _split_state(_structure_state(structure))
+        c_arr, c_num = _split_state(scheme.state_dict())
+        meta = {
+            "kind": "coupled",
+            "fluid": f_num,
+            "structure": s_num,
+            "scheme": c_num,
+            "next_probe": next_probe,
+            "schedule": sched,
+        }
+        arrays = {"fluid": f_arr, "structure": s_arr, "scheme": c_arr}
+        path = write_checkpoint(ckpt_path, arrays, meta, loaded.text)
+        # a restarted run starts with a fresh preconditioner; so does this one from here on
+        reset_preconditioner(solver.pressure)
+        return path
+
+    def sample(force: bool = False) -> None:
+        t = scheme.t
+        for p in every:
+            if not (force or t >= next_probe[p.name] - 1e-12):
+                continue
+            if p.kind == "displacement":
+                d = next(x for x in disp if x.probe is p)
+                val = d.value(scheme.d)
+            elif p.kind == "energy" and p.target in slices:
+                val = _member_energy(structure, p.target)
+            else:
+                val = fluid.probe_value(p)
+            results.append_probe(p.name, t, val)
+            next_probe[p.name] = t + interval[p.name] if interval[p.name] > 0 else t
+        if force or t >= sched["next_record"] - 1e-12:
+            for name, sl in slices.items():
+                results.append_structure(name, t, scheme.d[sl])
+            sched["next_record"] = t + rec_interval if rec_interval > 0 else t
+        if outs.snapshot_interval > 0 and (force or t >= sched["next_snapshot"] - 1e-12):
+            results.write_snapshot(t, solver.pos, solver.vel, solver.p, solver.kind)
+            sched["next_snapshot"] = t + outs.snapshot_interval
+            if outs.xdmf:
+                write_xdmf(results.h5, xdmf_path(out))
+
+    def record(rec) -> None:
+        sched["work_structure_total"] += rec.work_structure
+        sched["work_fluid_total"] += rec.work_fluid
+        extra = rec.results_row()
+        extra["work_structure_total"] = sched["work_structure_total"]
+        extra["energy_imbalance"] = (
+            rec.structure_energy - scheme.energy0 - sched["work_structure_total"]
+        )
+        extra["interface_work_error"] = sched["work_structure_total"] - sched["work_fluid_total"]
+        for k in TIMING_KEYS:
+            extra[f"wall_{k}"] = rec.timings.get(k, 0.0)
+        results.append_coupling(rec.time, rec.iterations, rec.residual, **extra)
+        if rec.warning:
+            log(f"warning: {rec.warning}")
+
+    bar = Progress(scheme.t, t_end, sc.run.progress if progress is None else progress, "coupled")
+    last_flush = time.perf_counter()
+    old_handlers = {s: signal.signal(s, _on_signal) for s in (signal.SIGTERM,) if _main_thread()}
+    window = scheme.window
+    good = scheme.state_dict()
+    try:
+        if restart is None:
+            sample(force=True)
+            last_ckpt = write_ckpt()
+        while t_end - scheme.t > TIME_EPS * window:
+            t_next = scheme.t0 + (scheme.index + 1) * window
+            if t_next > t_end - TIME_EPS * window:
+                t_next = t_end
+            good = scheme.state_dict()
+            if not scheme.implicit:  # the implicit scheme checkpoints both itself
+                fluid.checkpoint()
+                structure.checkpoint()
+            rec = scheme.advance_window(t_next)
+            record(rec)
+            sample()
+            if scheme.t >= sched["next_checkpoint"] - 1e-12:
+                sched["next_checkpoint"] += outs.checkpoint_interval
+                last_ckpt = write_ckpt()
+            now = time.perf_counter()
+            if now - last_flush > outs.flush_interval:
+                results.flush()
+                last_flush = now
+            bar.update(scheme.t, rec.window)
+    except (Exception, KeyboardInterrupt, _Terminated) as exc:
+        bar.close()
+        for s, h in old_handlers.items():
+            signal.signal(s, h)
+        failed_at = fluid.time
+        peer_alive = remote is None or not isinstance(exc, PeerLostError | PeerError)
+        try:
+            results.write_snapshot(failed_at, solver.pos, solver.vel, solver.p, solver.kind)
+        except Exception:  # noqa: BLE001 - the state may be unwritable; the checkpoint matters more
+            pass
+        where = "the last checkpoint"
+        if peer_alive:
+            try:
+                fluid.restore()
+                structure.restore()
+                scheme.load_state_dict(good)
+                last_ckpt = write_ckpt()
+                where = "a checkpoint of the last good window"
+            except (CouplingError, RuntimeError) as exc2:
+                log(f"no new checkpoint: {type(exc2).__name__}: {exc2}")
+                peer_alive = peer_alive and not isinstance(exc2, CouplingError)
+        results.close(status=f"failed: {type(exc).__name__}: {exc}")
+        msg = (
+            f"coupled run stopped at t = {failed_at:.6g} s: {type(exc).__name__}: {exc}\n"
+            f"  results (readable, up to the failure): {out}\n"
+            f"  {where} (t = {scheme.t:.6g} s): {last_ckpt}"
+        )
+        if remote is not None:
+            log(f"error: {msg}")
+            _end_peer(remote, link, failed=not peer_alive)
+        raise RunFailed(msg) from exc
+    bar.close()
+    for s, h in old_handlers.items():
+        signal.signal(s, h)
+    ckpt = write_ckpt()
+    results.h5.attrs["steps"] = solver.step_count
+    results.h5.attrs["windows"] = scheme.index
+    results.h5.attrs["stage_times"] = str(solver.times.as_dict())
+    if outs.xdmf and results.n_snapshots:
+        write_xdmf(results.h5, xdmf_path(out))
+    results.close(status="finished")
+    if remote is not None:
+        _end_peer(remote, link, failed=False)
+    return RunSummary(out, ckpt, scheme.t, solver.step_count, time.perf_counter() - t_wall)
+
+
+def _end_peer(remote, link, failed: bool) -> None:
+    """Let the structure's process end: ``finalize`` it and close the link, or, after losing it,
+    abort the transport (MPI: ends every rank, so nothing waits in MPI_Finalize)."""
+    if not failed:
+        try:
+            remote.finalize()
+            link.close()
+            return
+        except Exception:  # noqa: BLE001 - the peer went away meanwhile
+            pass
+    link.abort()
