@@ -526,8 +526,6 @@ def _fluid_side(
         for k in TIMING_KEYS:
             extra[f"wall_{k}"] = rec.timings.get(k, 0.0)
         results.append_coupling(rec.time, rec.iterations, rec.residual, **extra)
-        if rec.warning:
-            log(f"warning: {rec.warning}")
 
     bar = Progress(scheme.t, t_end, sc.run.progress if progress is None else progress, "coupled")
     last_flush = time.perf_counter()

@@ -1,7 +1,11 @@
-"""The same coupled case (mock participants, implicit IQN-ILS) gives bit-identical results on
-every transport and launch form."""
+"""The same coupled case gives bit-identical results on every transport and launch form: the mock
+participants (``coupler.demo``), and the MPS fluid with the FEM structure (``mpsfem run``). A
+structure process that dies stops the fluid's run with a message and a readable results file."""
 
 from __future__ import annotations
+
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -56,3 +60,106 @@ def test_bit_identical_across_transports(form, baseline, tmp_path):
 def test_mpi_needs_two_ranks():
     rc, out, err, _ = run(mpi_cmd(*DEMO, "--transport", "mpi", n=1), timeout=60)
     assert rc != 0 and "needs exactly 2 MPI ranks" in err
+
+
+# ---------------------------------------------------------------- the real solvers, mpsfem run
+import h5py  # noqa: E402
+from conftest import reap, spawn  # noqa: E402
+
+SCENE = str(Path(__file__).resolve().parents[2] / "scenarios" / "hydrostatic_plate_2d.toml")
+SETS = [
+    "--set", "fluid.spacing=0.05", "--set", "run.threads=1",
+    "--set", "output.snapshot_interval=0.001", "--set", "output.probe_interval=0",
+]  # fmt: skip
+RUN = ["-m", "mpsfem.cli", "run", SCENE, "--no-progress", *SETS]
+END = ["--end-time", "0.002"]  # ten implicit windows
+
+
+def zenoh_sets() -> list[str]:
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    return ["--set", f'coupling.transport={{kind = "zenoh", endpoint = "{ep}"}}']
+
+
+def launch_run(form: str, out: Path) -> None:
+    o = ["--out", str(out)]
+    if form == "inproc":
+        cmd = [PY, *RUN, *END, *o]
+    elif form == "mpi":
+        cmd = mpi_cmd(*RUN, *END, *o, "--transport", "mpi")
+    elif form == "mpi-mpmd":
+        cmd = [
+            MPIRUN, "-n", "1", PY, *RUN, *END, *o, "--transport", "mpi", "--participant", "fluid",
+            ":", "-n", "1", PY, *RUN, "--transport", "mpi", "--participant", "structure",
+        ]  # fmt: skip
+    elif form == "zenoh":  # the fluid starts the structure itself
+        cmd = [PY, *RUN, *END, *o, *zenoh_sets()]
+    else:  # zenoh, one program per participant
+        z = zenoh_sets()
+        structure = spawn([PY, *RUN, *z, "--participant", "structure"])
+        rc, _, err, _ = run([PY, *RUN, *END, *o, *z, "--participant", "fluid"], timeout=180)
+        src, _, serr = reap(structure, timeout=30)
+        assert rc == 0 and src == 0, err + serr
+        return
+    rc, _, err, _ = run(cmd, timeout=180)
+    assert rc == 0, err
+
+
+def h5_datasets(path: Path) -> dict[str, bytes]:
+    out = {}
+
+    def keep(name, obj):
+        if isinstance(obj, h5py.Dataset):
+            out[name] = obj[()].tobytes()
+
+    with h5py.File(path, "r") as h5:
+        assert h5.attrs["status"] == "finished"
+        h5.visititems(keep)
+    return out
+
+
+REAL_FORMS = ["zenoh", "zenoh-two"] + (["mpi", "mpi-mpmd"] if MPIRUN else [])
+
+
+@pytest.fixture(scope="module")
+def real_baseline(tmp_path_factory):
+    path = tmp_path_factory.mktemp("real") / "inproc.h5"
+    launch_run("inproc", path)
+    return h5_datasets(path)
+
+
+@pytest.mark.parametrize("form", REAL_FORMS)
+def test_real_coupled_run_bit_identical_across_transports(form, real_baseline, tmp_path):
+    """MPS fluid + FEM plate, implicit IQN-ILS: every dataset of the results file but the
+    wall-clock columns /coupling/wall_* is the same on every transport and launch form."""
+    path = tmp_path / f"{form}.h5"
+    launch_run(form, path)
+    other = h5_datasets(path)
+    keys = [k for k in real_baseline if not k.startswith("coupling/wall_")]
+    assert sorted(other) == sorted(real_baseline)
+    assert [k for k in keys if other[k] != real_baseline[k]] == []
+    assert len(keys) > 30
+
+
+def test_lost_structure_stops_the_fluid_within_10_s(tmp_path):
+    """The structure process is killed mid-run: the fluid stops with PeerLostError within the
+    transport timeout (10 s), and leaves a readable results file marked failed."""
+    out = tmp_path / "lost.h5"
+    z = zenoh_sets()
+    structure = spawn([PY, *RUN, *z, "--participant", "structure"])
+    fluid = spawn([PY, *RUN, "--end-time", "5.0", "--out", str(out), *z, "--participant", "fluid"])
+    t0 = time.monotonic()
+    while not out.exists() and time.monotonic() - t0 < 120:
+        time.sleep(0.2)
+    time.sleep(1.0)  # windows are running
+    assert fluid.poll() is None
+    structure.kill()
+    killed = time.monotonic()
+    rc, _, err = reap(fluid, timeout=30)
+    waited = time.monotonic() - killed
+    reap(structure)
+    assert rc == 1, err
+    assert "PeerLostError" in err and str(out) in err
+    assert waited < 10.0 + 5.0  # timeout plus process exit
+    with h5py.File(out, "r") as h5:
+        assert h5.attrs["status"].startswith("failed: PeerLostError")
+        assert h5["coupling/time"].shape[0] > 0

@@ -1,0 +1,149 @@
+"""Coupled runs of the real MPS fluid and FEM structure (``simulation.run_coupled``, inproc).
+
+Short runs of scenarios/hydrostatic_plate_2d.toml at a coarse spacing (l0 = 0.05 m: 20 x 40
+fluid particles): the results-file contract, the hydrostatic load at t0, bit-identical restart,
+and the failure paths (a window that does not converge stops the run with a message, a readable
+results file and a checkpoint that restarts; ``on_divergence = "continue"`` records a warning).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from mpsfem.results.checkpoint import read_checkpoint
+from mpsfem.scenario.loader import load_scenario
+from mpsfem.simulation import RunFailed, run_coupled
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENE = ROOT / "scenarios" / "hydrostatic_plate_2d.toml"
+FAST = [
+    "fluid.spacing=0.05",
+    "run.threads=1",
+    "output.snapshot_interval=0.002",
+    "output.checkpoint_interval=0.0008",  # every 4 windows
+    "output.probe_interval=0",
+    "structure.record_interval=0",
+]
+WINDOW = 2e-4
+RHO, G, H, L = 1000.0, 9.81, 2.0, 1.0
+
+
+def run(tmp_path, name, end, extra=(), restart=None, out=None):
+    loaded = load_scenario(SCENE, [*FAST, *extra])
+    out = out or tmp_path / f"{name}.h5"
+    return run_coupled(loaded, out, end, restart, progress=False, log=lambda m: None), out
+
+
+def datasets(path) -> dict[str, np.ndarray]:
+    out = {}
+
+    def keep(name, obj):
+        if isinstance(obj, h5py.Dataset):
+            out[name] = obj[()]
+
+    with h5py.File(path, "r") as h5:
+        h5.visititems(keep)
+    return out
+
+
+def same_bits(a: dict, b: dict, skip=("coupling/wall_",)) -> list[str]:
+    keys = [k for k in a if not k.startswith(skip)]
+    return [k for k in keys if k not in b or a[k].tobytes() != b[k].tobytes()] + sorted(
+        set(b) - set(a)
+    )
+
+
+@pytest.fixture(scope="module")
+def ten_windows(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("coupled")
+    summary, out = run(tmp, "full", 10 * WINDOW)
+    return summary, out
+
+
+def test_results_contract(ten_windows):
+    summary, out = ten_windows
+    assert summary.t == pytest.approx(10 * WINDOW)
+    with h5py.File(out, "r") as h5:
+        assert h5.attrs["status"] == "finished"
+        g = h5["structure/plate"]
+        assert g["nodes"].shape == (21, 2)
+        assert g["displacement"].shape == (11, 21, 2) and g["time"].shape == (11,)
+        c = h5["coupling"]
+        assert c["time"].shape == (10,) and np.allclose(c["time"][:], WINDOW * np.arange(1, 11))
+        assert (c["iterations"][:] >= 1).all() and (c["converged"][:] == 1).all()
+        for k in ("residual", "energy_imbalance", "interface_work_error", "work_structure"):
+            assert np.isfinite(c[k][:]).all(), k
+        mid = h5["probes/mid_deflection"]
+        assert list(mid.attrs["components"]) == ["ux", "uy"] and mid.attrs["unit"] == "m"
+        # the mid-span probe is the middle node (20 elements)
+        assert np.array_equal(mid["value"][:], g["displacement"][:, 10, :])
+        assert mid["value"][-1, 1] < 0.0  # the water pushes the plate down
+        assert list(h5["probes/plate_energy"].attrs["components"]) == ["kinetic", "strain"]
+        snap = h5["particles"][sorted(h5["particles"])[-1]]
+        kinds = set(np.unique(snap["kind"][:]).tolist())
+        assert {0, 1, 2, 3, 4} <= kinds
+
+
+def test_initial_load_is_the_water_column(ten_windows):
+    """At t0 the plate carries rho g (H + l0/2) L: the pressure layer sits half a spacing
+    below the wetted face and takes the hydrostatic pressure there."""
+    _, out = ten_windows
+    with h5py.File(out, "r") as h5:
+        f0 = h5["probes/plate_force/value"][0]
+    assert f0[1] == pytest.approx(-RHO * G * (H + 0.025) * L, rel=1e-12)
+    assert abs(f0[0]) < 1e-9 * abs(f0[1])
+
+
+def test_restart_is_bit_identical(tmp_path, ten_windows):
+    """Restart from a checkpoint time of the uninterrupted run (window 4; the running job takes
+    a fresh pressure preconditioner there too) continues it bit for bit."""
+    _, full = ten_windows
+    _, part = run(tmp_path, "part", 4 * WINDOW)
+    ckpt = part.with_name("part.ckpt.h5")
+    _, meta, _ = read_checkpoint(ckpt)
+    assert meta["kind"] == "coupled" and meta["scheme"]["index"] == 4
+    run(tmp_path, "part", 10 * WINDOW, restart=ckpt, out=part)
+    a, b = datasets(full), datasets(part)
+    assert len(a) > 30 and same_bits(a, b) == []
+
+
+def test_window_that_does_not_converge_stops_the_run(tmp_path):
+    strict = [
+        "coupling.convergence.max_iterations=2",
+        "coupling.convergence.relative_tolerance=1e-12",
+    ]
+    with pytest.raises(RunFailed) as err:
+        run(tmp_path, "stop", 10 * WINDOW, strict)
+    msg = str(err.value)
+    assert "not converged after max_iterations = 2" in msg and "window 0" in msg
+    out, ckpt = tmp_path / "stop.h5", tmp_path / "stop.ckpt.h5"
+    assert str(out) in msg and str(ckpt) in msg
+    with h5py.File(out, "r") as h5:
+        assert h5.attrs["status"].startswith("failed: CouplingNotConvergedError")
+        assert "coupling" not in h5 or h5["coupling/time"].shape[0] == 0
+    # the checkpoint holds the last good state (t0) and a relaxed run continues from it
+    _, meta, _ = read_checkpoint(ckpt)
+    assert meta["scheme"]["t"] == 0.0
+    summary, _ = run(tmp_path, "stop", 2 * WINDOW, restart=ckpt, out=out)
+    assert summary.t == pytest.approx(2 * WINDOW)
+
+
+def test_continue_on_divergence_records_a_warning(tmp_path):
+    lax = [
+        "coupling.convergence.max_iterations=2",
+        "coupling.convergence.relative_tolerance=1e-12",
+        'coupling.convergence.on_divergence="continue"',
+    ]
+    logged = []
+    loaded = load_scenario(SCENE, [*FAST, *lax])
+    out = tmp_path / "cont.h5"
+    run_coupled(loaded, out, 3 * WINDOW, progress=False, log=logged.append)
+    with h5py.File(out, "r") as h5:
+        assert h5.attrs["status"] == "finished"
+        assert (h5["coupling/converged"][:] == 0).all()
+        assert (h5["coupling/iterations"][:] == 2).all()
+    assert len([m for m in logged if "not converged" in m]) == 3
