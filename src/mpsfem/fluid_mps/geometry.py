@@ -218,8 +218,8 @@ def hydrostatic_pressure(
 
     ``h`` is the height against gravity; ``h_top`` is the top of the fluid column the particle
     belongs to (highest fluid particle of the same lattice column plus l0/2). Wall pressure
-    particles take the column of the nearest fluid particle across the horizontal axes; dummy
-    particles get 0.
+    particles within 2 l0 of the fluid take the column of the nearest fluid particle across the
+    horizontal axes; other wall and dummy particles get 0.
     """
     g = float(np.linalg.norm(gravity))
     p = np.zeros(len(pos))
@@ -239,12 +239,14 @@ def hydrostatic_pressure(
     np.maximum.at(top, inv, h[fluid])
     top += 0.5 * l0
     p[fluid] = rho * g * (top[inv] - h[fluid])
-    wall = kind == WALL
-    if wall.any():
+    wall = np.flatnonzero(kind == WALL)
+    if wall.size:
         from scipy.spatial import cKDTree
 
-        tree = cKDTree(horiz[fluid])
-        _, nearest = tree.query(horiz[wall])
+        # only walls the water touches (a fluid particle within 2 l0) start wet
+        dist, _ = cKDTree(pos[fluid]).query(pos[wall])
+        wall = wall[dist < 2.0 * l0]
+        _, nearest = cKDTree(horiz[fluid]).query(horiz[wall])
         p[wall] = rho * g * np.maximum(top[inv[nearest]] - h[wall], 0.0)
     return np.maximum(p, 0.0)
 

@@ -290,16 +290,41 @@ class FluidSolver:
         tm.explicit += c4 - c3
         if self.neumann:
             wall_boundary.mark_dry(
-                self.pos, self.kind, self.free_surface, self.dummy_src, nb.indptr, nb.indices,
+                self.pos,
+                self.kind,
+                self.free_surface,
+                self.dummy_src,
+                nb.indptr,
+                nb.indices,
                 self.re_n,
             )
             wall_boundary.ghost_rhs(
-                self.pos, self.vel, self.kind, self.free_surface, nb.indptr, nb.indices,
-                self.re_ppe, self.wcode, self.ppe_coef, self.re_n, self.n0_n,
-                self.spec.pressure.gamma, self.rho, dt, self.gravity, self.ghost_rhs,
+                self.pos,
+                self.vel,
+                self.kind,
+                self.free_surface,
+                nb.indptr,
+                nb.indices,
+                self.re_ppe,
+                self.wcode,
+                self.ppe_coef,
+                self.re_n,
+                self.n0_n,
+                self.spec.pressure.gamma,
+                self.rho,
+                dt,
+                self.gravity,
+                self.ghost_rhs,
             )
         info = self.pressure.solve(
-            self.pos, self.vel, self.kind, self.number_density, self.free_surface, nb, dt, self.p,
+            self.pos,
+            self.vel,
+            self.kind,
+            self.number_density,
+            self.free_surface,
+            nb,
+            dt,
+            self.p,
             self.ghost_rhs if self.neumann else None,
         )
         tm.assembly += info.assembly_time
@@ -311,19 +336,46 @@ class FluidSolver:
             np.maximum(self.p, 0.0, out=self.p)
         if self.neumann:
             wall_boundary.pressure_gradient_ghost(
-                self.pos, self.p, self.kind, self.free_surface, nb.indptr, nb.indices,
-                self.re_grad, self.wcode, self.n0_grad, self.grad_form, self.rho, self.gravity,
+                self.pos,
+                self.p,
+                self.kind,
+                self.free_surface,
+                nb.indptr,
+                nb.indices,
+                self.re_grad,
+                self.wcode,
+                self.n0_grad,
+                self.grad_form,
+                self.rho,
+                self.gravity,
                 self.grad_p,
             )
             wall_boundary.wall_pressure(
-                self.pos, self.p, self.kind, self.free_surface, nb.indptr, nb.indices,
-                self.re_n, self.wcode, self.rho, self.gravity,
+                self.pos,
+                self.p,
+                self.kind,
+                self.free_surface,
+                nb.indptr,
+                nb.indices,
+                self.re_n,
+                self.wcode,
+                self.rho,
+                self.gravity,
             )
         else:
             extrapolate_dummy_pressure(self.pos, self.p, self.dummy_src, self.rho, self.gravity)
             operators.pressure_gradient(
-                self.pos, self.p, self.kind, nb.indptr, nb.indices, self.re_grad, self.wcode,
-                self.n0_grad, self.grad_form, False, self.grad_p,
+                self.pos,
+                self.p,
+                self.kind,
+                nb.indptr,
+                nb.indices,
+                self.re_grad,
+                self.wcode,
+                self.n0_grad,
+                self.grad_form,
+                False,
+                self.grad_p,
             )
         time_integration.correct(self.pos, self.vel, self.kind, self.grad_p, self.rho, dt)
         self.t += dt
@@ -353,6 +405,14 @@ class FluidSolver:
             f"{self.upper.tolist()} at t = {self.t:.6g} s (step {self.step_count}): position "
             f"{self.pos[i].tolist()}, velocity {self.vel[i].tolist()}"
         )
+
+    def dt_towards(self, t_end: float) -> float:
+        """The next step (s) on the way to ``t_end``: the stable dt, except that the last one or
+        two steps split the remainder equally (never a tiny last step: the pressure equation's
+        source term scales with 1/dt^2)."""
+        remaining = t_end - self.t
+        n_left = math.ceil(remaining / self.dt_next * (1.0 - 1e-12))
+        return remaining / n_left if n_left <= 2 else self.dt_next
 
     def substeps(self, window: float) -> tuple[int, float]:
         """Split ``window`` (s) into n equal steps no longer than the stable dt."""

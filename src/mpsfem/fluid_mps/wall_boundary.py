@@ -49,8 +49,22 @@ def ghost_jump(i, j, pos, rho, gravity):
 
 @njit(cache=True, parallel=True)
 def ghost_rhs(
-    pos, vel, kind, dry, indptr, indices, re, wcode, coef, re_div, n0_div, gamma, rho, dt,
-    gravity, out,
+    pos,
+    vel,
+    kind,
+    dry,
+    indptr,
+    indices,
+    re,
+    wcode,
+    coef,
+    re_div,
+    n0_div,
+    gamma,
+    rho,
+    dt,
+    gravity,
+    out,
 ):
     """Known part of each fluid row of the pressure equation from its wet boundary neighbours:
 

@@ -70,7 +70,7 @@ class ResultsFile:
         scenario_resolved: dict | None = None,
     ) -> ResultsFile:
         """Create (truncate) ``path`` and write the root attributes."""
-        h5 = h5py.File(path, "w", libver="latest")
+        h5 = h5py.File(path, "w")
         h5.attrs["scenario"] = scenario_text
         h5.attrs["overrides"] = json.dumps(list(overrides))
         h5.attrs["scenario_resolved"] = json.dumps(scenario_resolved or {})
@@ -90,7 +90,7 @@ class ResultsFile:
         Rows and snapshots with time > ``truncate_after`` are removed first, so a restarted run
         continues the series exactly where its checkpoint was taken.
         """
-        h5 = h5py.File(path, "a", libver="latest")
+        h5 = h5py.File(path, "a")
         h5.attrs["status"] = "running"
         out = cls(h5)
         if truncate_after is not None:

@@ -49,10 +49,11 @@ class PressureSection(Section):
         "particles are ghosts of each fluid particle carrying the projection method's wall "
         "condition (docs/architecture.md), walls are not unknowns",
     )
-    gradient: Literal["tanaka", "pmin"] = Field(
-        "tanaka",
-        description="pressure gradient: Tanaka's momentum-conserving form or the classic "
-        "p_j - p_min form",
+    gradient: Literal["pmin", "tanaka"] = Field(
+        "pmin",
+        description="pressure gradient: 'pmin', the p_j - p_min form (thesis eq. 2-11 with the "
+        "neighbourhood minimum; repulsive, stable), or 'tanaka', the momentum-conserving form of "
+        "eq. 2-12 (not zero-order consistent: unstable near a free surface in our tests)",
     )
     gamma: float = Field(
         0.01,
@@ -131,7 +132,11 @@ class CollisionSection(Section):
 
     enabled: bool = Field(True, description="switch the collision model on")
     distance: float = Field(
-        0.5, gt=0.0, lt=1.0, description="pairs closer than distance x l0 collide"
+        0.8,
+        gt=0.0,
+        lt=1.0,
+        description="pairs closer than distance x l0 collide (0.8: below it our dam break at "
+        "L/40 grows voids and stops; docs/validation.md)",
     )
     restitution: float = Field(0.2, ge=0.0, le=1.0, description="restitution coefficient")
 

@@ -1,0 +1,153 @@
+"""Dam-break benchmark: run time against front error at about 4k, 16k and 64k fluid particles.
+
+Prints a table and writes benchmarks/results/dam_break.csv with, per resolution: particles, steps,
+wall time, microseconds per particle-step, the stage breakdown (neighbour search, explicit
+operators, pressure assembly, pressure solve, I/O), pressure-solve iterations per step, peak
+memory per particle (slope of peak RSS between the two largest runs, interpreter baseline
+excluded) and the RMS relative front error against Koshizuka & Oka (1996) over 0.5 <= T <= 3.
+
+Each resolution runs in its own process so that peak RSS is measured per run.
+
+    python benchmarks/bench_dam_break.py [--sizes 4k,16k,64k] [--end-time 0.27] [--threads 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import resource
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+L, G = 0.146, 9.81
+# column L x 2L: n = (L / l0) * (2 L / l0) fluid particles
+SPACINGS = {"4k": L / 45, "16k": L / 90, "64k": L / 180}
+
+
+def front_error(times: np.ndarray, front: np.ndarray) -> float:
+    ref = np.loadtxt(
+        ROOT / "reference_data" / "dam_break_front_koshizuka_oka_1996.csv",
+        delimiter=",",
+        comments="#",
+        skiprows=3,
+    )
+    T, Z = times * np.sqrt(2 * G / L), front / L
+    sel = (ref[:, 0] >= 0.5) & (ref[:, 0] <= 3.0) & (ref[:, 0] <= T[-1])
+    z = np.interp(ref[sel, 0], T, Z)
+    return float(np.sqrt(np.mean(((z - ref[sel, 1]) / ref[sel, 1]) ** 2)))
+
+
+def one_run(spacing: float, end_time: float, threads: int) -> dict:
+    """Run in this process and return the measurements (called in a child process)."""
+    import numba
+
+    from mpsfem.fluid_mps.solver import FluidSolver
+    from mpsfem.scenario.loader import load_scenario
+
+    numba.set_num_threads(threads)
+    base_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    loaded = load_scenario(ROOT / "scenarios" / "dam_break_2d.toml", [f"fluid.spacing={spacing}"])
+    sc = loaded.scenario
+    front = next(p for p in sc.probes if p.kind == "front")
+    solver = FluidSolver(sc.fluid)
+    # warm-up: compile every kernel on a short run of the same scene, then start afresh
+    warm = FluidSolver(sc.fluid)
+    for _ in range(3):
+        warm.step(warm.dt_next)
+        warm.probe_value(front)
+    del warm
+    times, fronts = [0.0], [solver.probe_value(front)]
+    io = 0.0
+    t0 = time.perf_counter()
+    while solver.t < end_time - 1e-12:
+        solver.step(min(solver.dt_next, end_time - solver.t))
+        c = time.perf_counter()
+        times.append(solver.t)
+        fronts.append(solver.probe_value(front))
+        io += time.perf_counter() - c
+    wall = time.perf_counter() - t0
+    tm = solver.times
+    steps = solver.step_count
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB on Linux
+    return {
+        "spacing": spacing,
+        "particles": int(solver.n_fluid),
+        "all_particles": int(solver.n),
+        "steps": steps,
+        "wall_s": wall,
+        "us_per_particle_step": wall / (steps * solver.n_fluid) * 1e6,
+        "neighbours_s": tm.neighbours,
+        "explicit_s": tm.explicit,
+        "assembly_s": tm.assembly,
+        "solve_s": tm.solve,
+        "probes_io_s": io,
+        "iterations_per_step": float(np.mean(tm.iterations)),
+        "peak_rss_kib": peak,
+        "base_rss_kib": base_rss,
+        "front_rms_error": front_error(np.array(times), np.array(fronts)),
+        "threads": threads,
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", default="4k,16k,64k")
+    ap.add_argument("--end-time", type=float, default=0.27)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--child", type=float, help=argparse.SUPPRESS)
+    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "dam_break.csv")
+    args = ap.parse_args()
+    if args.child is not None:
+        print(json.dumps(one_run(args.child, args.end_time, args.threads)))
+        return
+    rows = []
+    for size in args.sizes.split(","):
+        cmd = [
+            sys.executable,
+            __file__,
+            "--child",
+            str(SPACINGS[size]),
+            "--end-time",
+            str(args.end_time),
+            "--threads",
+            str(args.threads),
+        ]
+        out = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
+        row = json.loads(out.strip().splitlines()[-1])
+        rows.append(row)
+        print(
+            f"{row['particles']:>7d} fluid  {row['steps']:>5d} steps  {row['wall_s']:8.1f} s  "
+            f"{row['us_per_particle_step']:6.2f} us/particle-step  "
+            f"nb {row['neighbours_s']:.1f} expl {row['explicit_s']:.1f} asm {row['assembly_s']:.1f} "
+            f"solve {row['solve_s']:.1f} io {row['probes_io_s']:.1f} s  "
+            f"{row['iterations_per_step']:.1f} it/step  front error {row['front_rms_error'] * 100:.1f} %",
+            flush=True,
+        )
+    if len(rows) >= 2:
+        a, b = rows[-2], rows[-1]
+        slope = (
+            (b["peak_rss_kib"] - a["peak_rss_kib"])
+            * 1024
+            / (b["all_particles"] - a["all_particles"])
+        )
+        for r in rows:
+            r["bytes_per_particle_slope"] = slope
+        print(
+            f"peak memory per particle (slope {a['particles']} -> {b['particles']}): {slope:.0f} B"
+        )
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    with args.out.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
