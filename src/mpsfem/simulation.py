@@ -593,6 +593,8 @@ def _fluid_side(
     results.h5.attrs["steps"] = solver.step_count
     results.h5.attrs["windows"] = scheme.index
     results.h5.attrs["stage_times"] = str(solver.times.as_dict())
+    results.h5.attrs["fluid_coupling_times"] = str(fluid.times)
+    results.h5.attrs["particles"] = solver.n
     if outs.xdmf and results.n_snapshots:
         write_xdmf(results.h5, xdmf_path(out))
     results.close(status="finished")

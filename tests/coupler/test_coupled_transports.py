@@ -157,6 +157,7 @@ def test_lost_structure_stops_the_fluid_within_10_s(tmp_path):
     rc, _, err = reap(fluid, timeout=30)
     waited = time.monotonic() - killed
     reap(structure)
+    print(f"the fluid stopped {waited:.2f} s after the structure was killed")
     assert rc == 1, err
     assert "PeerLostError" in err and str(out) in err
     assert waited < 10.0 + 5.0  # timeout plus process exit

@@ -23,6 +23,7 @@ for bit whatever happened in between.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -93,6 +94,9 @@ class FluidParticipant:
         self._d = np.zeros((n, self.solver.dim))
         self._v = np.zeros((n, self.solver.dim))
         self._ckpt: dict | None = None
+        #: wall time (s) of the fluid side's coupling work: placing the structure particles,
+        #: the neighbour filter (inside the MPS step), the force evaluation
+        self.times = {"place": 0.0, "filter": 0.0, "forces": 0.0}
         if fluid.hydrostatic_start:
             self._initial_structure_pressure()
 
@@ -135,12 +139,18 @@ class FluidParticipant:
         """``"forces"``: fluid on structure at the interface points, N (N/m in 2D)."""
         if name != "forces":
             raise KeyError(f"the fluid has no {name!r}; readable: 'forces'")
-        return self.surface.forces(self.solver.p)
+        tic = time.perf_counter()
+        f = self.surface.forces(self.solver.p)
+        self.times["forces"] += time.perf_counter() - tic
+        return f
 
     def advance(self, dt: float) -> float:
         """Move the structure particles to the written state and take one MPS step of ``dt``."""
+        tic = time.perf_counter()
         self.surface.place(self.solver, self._d, self._v)
+        self.times["place"] += time.perf_counter() - tic
         self.solver.step(dt)
+        self.times["filter"] = self.filter.seconds
         return dt
 
     def max_dt(self) -> float:

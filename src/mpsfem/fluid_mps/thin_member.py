@@ -30,6 +30,8 @@ The filter keeps each row's ascending order, so the list stays a function of the
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 from numba import njit, prange
 
@@ -242,6 +244,7 @@ class ThinMemberFilter:
         self.member_of: np.ndarray | None = None
         self._keep = np.zeros(0, dtype=np.int8)
         self.dropped = 0  # pairs dropped by the last call
+        self.seconds = 0.0  # wall time spent in the filter so far
 
     def bind(self, solver) -> None:
         s = self.surface
@@ -265,6 +268,13 @@ class ThinMemberFilter:
     def __call__(self, nb: NeighbourList, pos: np.ndarray, kind: np.ndarray) -> NeighbourList:
         if self.member_of is None:
             raise RuntimeError("ThinMemberFilter used before bind(solver)")
+        tic = time.perf_counter()
+        try:
+            return self._filter(nb, pos, kind)
+        finally:
+            self.seconds += time.perf_counter() - tic
+
+    def _filter(self, nb: NeighbourList, pos: np.ndarray, kind: np.ndarray) -> NeighbourList:
         anchors, aptr = self.surface.anchors(pos)
         reach = nb.radius + self._extra + self.surface.l0
         classify_sides(pos, anchors, aptr, reach, self._side)

@@ -1,0 +1,227 @@
+"""Coupling overhead of a real coupled run at about 20k particles, per transport.
+
+scenarios/hydrostatic_plate_2d.toml at l0 = 0.01 m (20 000 fluid particles, about 23 000 in all),
+implicit IQN-ILS, run with ``mpsfem run`` over inproc, mpi (``mpirun -n 2``) and zenoh (the fluid
+starts the structure). From the per-window wall times in ``/coupling/wall_*`` (windows after the
+first ``--skip``):
+
+* fluid: the MPS sub-steps, including the fluid side's coupling work (placing the structure
+  particles, the thin-member neighbour filter, the forces; reported separately from the root
+  attribute ``fluid_coupling_times``);
+* structure: the structure's steps plus, for mpi / zenoh, the transport (remote calls); the
+  transport share is this minus the inproc structure time;
+* mapping, acceleration.
+
+overhead = (mapping + acceleration + transport) / window time, and with the fluid-side coupling
+work added ("overhead incl. fluid side"). Writes benchmarks/results/coupling_overhead.csv.
+
+``--sweep``: the added-mass stress test instead. The plate's density is set so that the mass
+ratio (rho_s h) / (rho_w H) runs from 10 down to 0.01 (self-weight off: the static deflection is
+the water's, 6.43e-5 m), at l0 = 0.05 m for 0.03 s (150 windows); each ratio runs explicit,
+implicit Aitken and implicit IQN-ILS coupling. Divergence is the code's own verdict (the
+explicit scheme's added-mass detector, CouplingDivergedError; a window not converged in
+max_iterations stops a run only with on_divergence = "stop"; the scenario continues and records
+it: column windows_not_converged). Writes benchmarks/results/coupling_added_mass.csv
+(iterations per window: mean and max).
+
+    .venv/bin/python benchmarks/bench_coupling_overhead.py [--windows 25] [--threads 1]
+    .venv/bin/python benchmarks/bench_coupling_overhead.py --sweep
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import csv
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENE = ROOT / "scenarios" / "hydrostatic_plate_2d.toml"
+BIN = Path(sys.executable).parent
+MPIRUN = str(BIN / "mpirun") if (BIN / "mpirun").exists() else shutil.which("mpirun")
+WINDOW = 2e-4
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def launch(transport: str, out: Path, windows: int, threads: int, spacing: float) -> None:
+    sets = [
+        f"fluid.spacing={spacing}",
+        f"run.threads={threads}",
+        "output.snapshot_interval=0",
+        "output.checkpoint_interval=0",
+        "output.probe_interval=0.001",
+    ]
+    if transport == "zenoh":
+        sets.append(
+            f'coupling.transport={{kind = "zenoh", endpoint = "tcp/127.0.0.1:{free_port()}"}}'
+        )
+    args = ["-m", "mpsfem.cli", "run", str(SCENE), "--no-progress", "--out", str(out)]
+    args += ["--end-time", repr(windows * WINDOW)]
+    for s in sets:
+        args += ["--set", s]
+    if transport == "mpi":
+        cmd = [MPIRUN, "-n", "2", sys.executable, *args, "--transport", "mpi"]
+    else:
+        cmd = [sys.executable, *args]
+    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OPENBLAS_NUM_THREADS="1")
+    p = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=3600)
+    if p.returncode != 0:
+        raise RuntimeError(f"{transport}: {p.stderr[-2000:]}")
+
+
+def measure(path: Path, skip: int) -> dict[str, float]:
+    with h5py.File(path, "r") as h5:
+        c = h5["coupling"]
+        cols = {k: c[f"wall_{k}"][skip:] for k in ("fluid", "structure", "mapping", "acceleration")}
+        it = c["iterations"][skip:]
+        n_win = int(h5.attrs["windows"])
+        fluid_side = ast.literal_eval(h5.attrs["fluid_coupling_times"])
+        n_part = int(h5.attrs["particles"])
+    out = {k: float(np.mean(v)) for k, v in cols.items()}
+    out["iterations"] = float(np.mean(it))
+    # the fluid-side coupling work is only known for the whole run: per window on average
+    out["fluid_side"] = sum(fluid_side.values()) / n_win
+    out["filter"] = fluid_side["filter"] / n_win
+    out["n_particles"] = n_part
+    return out
+
+
+RATIOS = (10.0, 3.0, 1.0, 0.3, 0.1, 0.03, 0.01)
+SCHEMES = (("explicit", None), ("implicit", "aitken"), ("implicit", "iqn-ils"))
+
+
+def sweep(out: Path, spacing: float, end_time: float, threads: int) -> None:
+    """The added-mass stress test on the hydrostatic plate (see the module docstring)."""
+    from mpsfem.scenario.loader import load_scenario
+    from mpsfem.simulation import RunFailed, run_coupled
+
+    rho_w, H, h = 1000.0, 2.0, 0.05
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for ratio in RATIOS:
+            rho_s = ratio * rho_w * H / h
+            for scheme, accel in SCHEMES:
+                sets = [
+                    f"fluid.spacing={spacing}",
+                    f"run.threads={threads}",
+                    f"structure.members.0.material.density={rho_s!r}",
+                    "structure.members.0.self_weight=false",
+                    "output.snapshot_interval=0",
+                    "output.checkpoint_interval=0",
+                    "output.probe_interval=0",
+                    f'coupling.scheme="{scheme}"',
+                ]
+                if accel:
+                    sets.append(f'coupling.acceleration={{kind = "{accel}"}}')
+                loaded = load_scenario(SCENE, sets)
+                path = Path(tmp) / f"r{ratio}_{scheme}_{accel}.h5"
+                verdict = "stable"
+                try:
+                    run_coupled(loaded, path, end_time, progress=False, log=lambda m: None)
+                except RunFailed as exc:
+                    cause = exc.__cause__
+                    verdict = f"{type(cause).__name__}: {str(cause).split(':')[0]}"
+                with h5py.File(path, "r") as h5:
+                    it = h5["coupling/iterations"][:] if "coupling" in h5 else np.zeros(0)
+                    conv = h5["coupling/converged"][:] if "coupling" in h5 else np.zeros(0)
+                    w = h5["probes/mid_deflection/value"][:, 1]
+                    tw = h5["probes/mid_deflection/time"][:]
+                row = {
+                    "mass_ratio": ratio,
+                    "rho_s": rho_s,
+                    "scheme": scheme,
+                    "acceleration": accel or "",
+                    "verdict": verdict,
+                    "windows": int(it.size),
+                    "iterations_mean": round(float(it.mean()), 3) if it.size else "",
+                    "iterations_max": int(it.max()) if it.size else "",
+                    "windows_not_converged": int((conv == 0).sum()),
+                    "mid_deflection_mean": float(w[tw >= 0.5 * end_time].mean())
+                    if verdict == "stable"
+                    else "",
+                }
+                rows.append(row)
+                print(row, flush=True)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with open(out, "w", newline="") as f:
+        wr = csv.DictWriter(f, fieldnames=list(rows[0]))
+        wr.writeheader()
+        wr.writerows(rows)
+    print(f"wrote {out}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sweep", action="store_true", help="added-mass stress test instead")
+    ap.add_argument("--end-time", type=float, default=0.03, help="sweep: simulated time, s")
+    ap.add_argument("--windows", type=int, default=25)
+    ap.add_argument("--skip", type=int, default=5, help="warm-up windows left out")
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--spacing", type=float, default=0.01)
+    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks/results/coupling_overhead.csv")
+    args = ap.parse_args()
+    if args.sweep:
+        spacing = args.spacing if args.spacing != 0.01 else 0.05
+        sweep(ROOT / "benchmarks/results/coupling_added_mass.csv", spacing, args.end_time, 1)
+        return
+    transports = ["inproc"] + (["mpi"] if MPIRUN else []) + ["zenoh"]
+    rows = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for tr in transports:
+            path = Path(tmp) / f"{tr}.h5"
+            launch(tr, path, args.windows, args.threads, args.spacing)
+            rows[tr] = measure(path, args.skip)
+    base = rows["inproc"]["structure"]
+    table = []
+    for tr, r in rows.items():
+        total = r["fluid"] + r["structure"] + r["mapping"] + r["acceleration"]
+        transport = max(r["structure"] - base, 0.0)
+        coupling = r["mapping"] + r["acceleration"] + transport
+        table.append(
+            {
+                "transport": tr,
+                "spacing_m": args.spacing,
+                "particles": r["n_particles"],
+                "threads": args.threads,
+                "windows": args.windows - args.skip,
+                "iterations_per_window": round(r["iterations"], 3),
+                "window_ms": round(1e3 * total, 3),
+                "fluid_ms": round(1e3 * r["fluid"], 3),
+                "structure_ms": round(1e3 * min(r["structure"], base), 3),
+                "transport_ms": round(1e3 * transport, 3),
+                "mapping_ms": round(1e3 * r["mapping"], 3),
+                "acceleration_ms": round(1e3 * r["acceleration"], 3),
+                "fluid_side_ms": round(1e3 * r["fluid_side"], 3),
+                "filter_ms": round(1e3 * r["filter"], 3),
+                "overhead_pct": round(100 * coupling / total, 2),
+                "overhead_incl_fluid_side_pct": round(
+                    100 * (coupling + r["fluid_side"]) / total, 2
+                ),
+            }
+        )
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    with open(args.out, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(table[0]))
+        w.writeheader()
+        w.writerows(table)
+    for row in table:
+        print(row)
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
