@@ -393,7 +393,7 @@ def _fluid_side(
     t_end = end_time if end_time is not None else sc.run.end_time
     try:
         mesh = structure.interface()
-        n_nodes = mesh.points.shape[0] if hasattr(mesh, "points") else 0
+        n_nodes = int(np.asarray(mesh.points).shape[0])
         if members[-1][1].stop != n_nodes:
             raise ValueError(
                 f"the structure interface has {n_nodes} points, the scenario's members "

@@ -147,3 +147,19 @@ def test_continue_on_divergence_records_a_warning(tmp_path):
         assert (h5["coupling/converged"][:] == 0).all()
         assert (h5["coupling/iterations"][:] == 2).all()
     assert len([m for m in logged if "not converged" in m]) == 3
+
+
+def test_explicit_added_mass_instability_is_detected(tmp_path):
+    """scenarios/added_mass_plate_2d.toml (mass ratio 0.01, explicit coupling): the code stops
+    the run at the added-mass instability, with the checkpoint one window back."""
+    loaded = load_scenario(ROOT / "scenarios" / "added_mass_plate_2d.toml", ["run.threads=1"])
+    out = tmp_path / "am.h5"
+    with pytest.raises(RunFailed) as err:
+        run_coupled(loaded, out, progress=False, log=lambda m: None)
+    msg = str(err.value)
+    assert "CouplingDivergedError" in msg and "added-mass instability" in msg
+    with h5py.File(out, "r") as h5:
+        assert h5.attrs["status"].startswith("failed: CouplingDivergedError")
+        n = h5["coupling/time"].shape[0]
+    _, meta, _ = read_checkpoint(tmp_path / "am.ckpt.h5")
+    assert 4 <= n < 30 and meta["scheme"]["index"] == n
