@@ -115,6 +115,7 @@ def test_window_that_does_not_converge_stops_the_run(tmp_path):
     strict = [
         "coupling.convergence.max_iterations=2",
         "coupling.convergence.relative_tolerance=1e-12",
+        'coupling.convergence.on_divergence="stop"',  # the scenario continues by default
     ]
     with pytest.raises(RunFailed) as err:
         run(tmp_path, "stop", 10 * WINDOW, strict)
