@@ -9,7 +9,7 @@ import threading
 
 import numpy as np
 import pytest
-from conftest import PY, free_port, mpi_cmd, needs_mpi, reap, run, spawn
+from conftest import MPIRUN, PY, free_port, mpi_cmd, needs_mpi, reap, run, spawn
 
 from mpsfem.coupler.errors import PeerLostError
 from mpsfem.coupler.transport import Message, decode, encode
@@ -98,8 +98,6 @@ def test_mpi_round_trip_bit_exact():
 
 @needs_mpi
 def test_mpi_mpmd_form():
-    from conftest import MPIRUN
-
     cmd = [
         MPIRUN, "-n", "1", PY, *PINGPONG, "--transport", "mpi", "--role", "fluid", ":",
         "-n", "1", PY, *PINGPONG, "--transport", "mpi", "--role", "structure",
@@ -111,8 +109,6 @@ def test_mpi_mpmd_form():
 
 @needs_mpi
 def test_mpi_same_role_twice_is_an_error():
-    from conftest import MPIRUN
-
     cmd = [
         MPIRUN, "-n", "1", PY, *PINGPONG, "--transport", "mpi", "--role", "fluid", ":",
         "-n", "1", PY, *PINGPONG, "--transport", "mpi", "--role", "fluid",
