@@ -41,7 +41,7 @@ def run(tmp_path, scenarios_dir, spacing, end=0.27, snapshots=0.0):
 @pytest.mark.xfail(
     strict=True,
     reason="front runs 12-14 % RMS ahead of Koshizuka & Oka at L/20 and L/40 (issue target 10 %); "
-    "the gap is nearly resolution-independent (docs/validation.md)",
+    "the gap is nearly resolution-independent (docs/fluid.md)",
 )
 def test_front_against_koshizuka_oka(tmp_path, scenarios_dir, reference_dir):
     out = run(tmp_path, scenarios_dir, L / 40)

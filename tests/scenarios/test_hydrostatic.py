@@ -32,7 +32,7 @@ def settled(request):
     strict=True,
     reason="still water gathers spurious velocities of ~0.1 m/s within 1 s (fluid volume drifts "
     "by ~1.5 %); the gauge mean is ~8 % high and particles splash above the surface "
-    "(docs/validation.md, open in issue 2)",
+    "(docs/fluid.md, open in issue 2)",
 )
 def test_gauge_pressure_within_2_percent(settled):
     _, t, p = settled[:3]
@@ -46,7 +46,7 @@ def test_gauge_pressure_within_2_percent(settled):
     strict=True,
     reason="still water gathers spurious velocities of ~0.1 m/s within 1 s (fluid volume drifts "
     "by ~1.5 %); the gauge mean is ~8 % high and particles splash above the surface "
-    "(docs/validation.md, open in issue 2)",
+    "(docs/fluid.md, open in issue 2)",
 )
 def test_profile_linear_with_slope_rho_g(settled):
     solver = settled[0]
@@ -65,7 +65,7 @@ def test_profile_linear_with_slope_rho_g(settled):
     strict=True,
     reason="still water gathers spurious velocities of ~0.1 m/s within 1 s (fluid volume drifts "
     "by ~1.5 %); the gauge mean is ~8 % high and particles splash above the surface "
-    "(docs/validation.md, open in issue 2)",
+    "(docs/fluid.md, open in issue 2)",
 )
 def test_no_particle_leaves_the_tank(settled):
     solver = settled[0]
