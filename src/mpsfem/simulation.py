@@ -109,6 +109,7 @@ def run_fluid(
             "next_snapshot": next_snap,
             "next_checkpoint": next_ckpt,
         }
+        results.flush()  # the file holds every sample up to the checkpoint before it exists
         path = write_checkpoint(ckpt_path, {"fluid": solver.state()}, meta, loaded.text)
         # the restarted run starts with a fresh preconditioner; so does this one from here on,
         # which keeps both bit-identical
@@ -485,6 +486,7 @@ def _fluid_side(
             "schedule": sched,
         }
         arrays = {"fluid": f_arr, "structure": s_arr, "scheme": c_arr}
+        results.flush()  # the file holds every sample up to the checkpoint before it exists
         path = write_checkpoint(ckpt_path, arrays, meta, loaded.text)
         # a restarted run starts with a fresh preconditioner; so does this one from here on
         reset_preconditioner(solver.pressure)

@@ -41,16 +41,8 @@ __all__ = ["FluidParticipant", "reset_preconditioner"]
 
 def reset_preconditioner(pressure) -> None:
     """Drop the pressure solver's reusable preconditioner so the next solve rebuilds it (the
-    same state a freshly built solver is in). Uses ``pressure.reset()`` where the solver has one;
-    otherwise clears the AMG hierarchy (``levels``) it would otherwise reuse."""
-    fn = getattr(pressure, "reset", None)
-    if callable(fn):
-        fn()
-        return
-    if hasattr(pressure, "levels"):
-        pressure.levels = None
-        pressure._rebuild_next = False
-        pressure.base_rate = None
+    same state a freshly built solver is in)."""
+    pressure.reset()
 
 
 class FluidParticipant:

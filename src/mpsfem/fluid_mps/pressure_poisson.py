@@ -807,6 +807,11 @@ class PressureSolver:
         self.last_info = info
         return info
 
+    def reset(self) -> None:
+        """Forget state reused between solves (a preconditioner), so that the next solve starts
+        as a fresh solver would: a checkpointed run and its restart then see the same sequence of
+        preconditioners and stay bit-identical."""
+
     def _solve(self, A, b, x, info):  # pragma: no cover - abstract
         raise NotImplementedError
 
@@ -943,6 +948,10 @@ class AMGPCG(PressureSolver):
         self.base_rate = None
         self.rebuilds = 0
         self._rebuild_next = False
+
+    def reset(self) -> None:
+        """Rebuild the AMG hierarchy at the next solve."""
+        self._rebuild_next = True
 
     def _build(self, A):
         import pyamg
