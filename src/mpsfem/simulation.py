@@ -142,11 +142,7 @@ def run_fluid(
             for k, v in solver.state().items():
                 np.copyto(good[k], v)
             good_meta = solver.meta()
-            dt = solver.dt_next
-            remaining = t_end - solver.t
-            n_left = math.ceil(remaining / dt * (1.0 - 1e-12))
-            if n_left <= 2:  # land on t_end in equal steps, never a tiny last one
-                dt = remaining / n_left
+            dt = solver.dt_towards(t_end)
             solver.step(dt)
             sample()
             if solver.t >= next_ckpt - 1e-12:
