@@ -158,19 +158,96 @@ class FluidBlock(Section):
         return self
 
 
-class WallMotion(Section):
-    """Prescribed rigid motion of a wall (displacement added to its initial position)."""
+# keys each moving wall kind reads (besides kind and direction)
+_MOTION_KEYS = {
+    "harmonic": {"amplitude", "period", "phase"},
+    "table": {"file"},
+    "solitary": {"amplitude", "depth", "start_time"},
+    "regular": {"wave_height", "period", "depth", "ramp_periods", "start_time"},
+}
+BREAKING_RATIO = 0.78  # depth-limited breaking, wave height / depth (McCowan 1894)
 
-    kind: Literal["none", "harmonic", "table"] = Field(
+
+class WallMotion(Section):
+    """Prescribed rigid motion of a wall (displacement added to its initial position).
+
+    Piston wavemakers (docs/wave_tank.md): 'solitary' (Goring 1978) and 'regular' (linear piston
+    theory). Each kind uses only its own keys; setting another kind's key is an error."""
+
+    kind: Literal["none", "harmonic", "table", "solitary", "regular"] = Field(
         "none",
         description="'none'; 'harmonic': x(t) = amplitude sin(2 pi t / period + phase) along "
-        "direction; 'table': displacement along direction from a CSV (t, x), linear interpolation",
+        "direction; 'table': displacement along direction from a CSV (t, x), linear "
+        "interpolation, velocity = the slope of the current segment (0 outside the table); "
+        "'solitary': Goring piston paddle for a solitary wave of amplitude A on depth d; "
+        "'regular': linear piston paddle for waves of height wave_height and period on depth d",
     )
     direction: Vector = Field([1.0, 0.0], description="unit direction of the motion")
-    amplitude: float = Field(0.0, description="harmonic amplitude, m")
-    period: float = Field(1.0, gt=0.0, description="harmonic period, s")
-    phase: float = Field(0.0, description="harmonic phase, rad")
-    file: str | None = Field(None, description="CSV file of (time s, displacement m) rows")
+    amplitude: float = Field(
+        0.0,
+        description="'harmonic': displacement amplitude, m; 'solitary': wave amplitude A (crest "
+        "above still water), m, with 0 < A/depth < 0.78",
+    )
+    period: float = Field(1.0, gt=0.0, description="'harmonic', 'regular': period, s")
+    phase: float = Field(0.0, description="'harmonic': phase, rad")
+    file: str | None = Field(None, description="'table': CSV file of (time s, displacement m) rows")
+    depth: float | None = Field(
+        None, gt=0.0, description="'solitary', 'regular': still-water depth d at the paddle, m"
+    )
+    wave_height: float | None = Field(
+        None,
+        gt=0.0,
+        description="'regular': wave height H (crest to trough), m, with H/depth < 0.78 (the "
+        "paddle stroke follows from the linear piston transfer function)",
+    )
+    ramp_periods: float = Field(
+        2.0,
+        ge=0.0,
+        description="'regular': the stroke grows over this many periods by a half-cosine ramp, "
+        "so the paddle starts at rest (0 = no ramp: the paddle starts at full speed)",
+    )
+    start_time: float = Field(
+        0.0,
+        ge=0.0,
+        description="'solitary', 'regular': the paddle rests until this time, s. 'solitary' "
+        "then moves through its stroke S = sqrt(16 A d / 3) in T = 2 (3.8 + A/d) / (k c) "
+        "(crest at the paddle's mid-stroke at start_time + T/2) and stops",
+    )
+
+    @model_validator(mode="after")
+    def _check(self) -> WallMotion:
+        if self.kind == "none":
+            return self
+        allowed = _MOTION_KEYS[self.kind] | {"kind", "direction"}
+        unused = sorted(self.model_fields_set - allowed)
+        if unused:
+            raise ValueError(
+                f"motion.{unused[0]} is not used by kind = {self.kind!r}; its keys are: "
+                f"{', '.join(sorted(allowed))}"
+            )
+        if self.kind == "table" and not self.file:
+            raise ValueError("kind = 'table' needs motion.file (a CSV of t, x rows)")
+        if self.kind in ("solitary", "regular") and self.depth is None:
+            raise ValueError(f"kind = {self.kind!r} needs motion.depth (still-water depth, m)")
+        if self.kind == "solitary":
+            ratio = self.amplitude / self.depth
+            if not 0.0 < ratio < BREAKING_RATIO:
+                raise ValueError(
+                    f"motion.amplitude = {self.amplitude} on motion.depth = {self.depth} gives "
+                    f"A/d = {ratio:.4g}: must be in (0, {BREAKING_RATIO}) (a solitary wave "
+                    "breaks beyond A/d ~ 0.78)"
+                )
+        if self.kind == "regular":
+            if self.wave_height is None:
+                raise ValueError("kind = 'regular' needs motion.wave_height (crest to trough, m)")
+            ratio = self.wave_height / self.depth
+            if not ratio < BREAKING_RATIO:
+                raise ValueError(
+                    f"motion.wave_height = {self.wave_height} on motion.depth = {self.depth} "
+                    f"gives H/d = {ratio:.4g}: must be below {BREAKING_RATIO} (depth-limited "
+                    "breaking)"
+                )
+        return self
 
 
 class Wall(Section):
@@ -191,6 +268,34 @@ class Wall(Section):
             raise ValueError(f"lower {self.lower} and upper {self.upper} differ in length")
         if any(u <= lo for lo, u in zip(self.lower, self.upper, strict=True)):
             raise ValueError(f"upper {self.upper} must exceed lower {self.lower} in every axis")
+        return self
+
+
+class SpongeZone(Section):
+    """A wave-absorbing sponge layer (thesis eq. 3-9): inside the zone the momentum equation gets
+    the source f_s = -rho alpha_s (x - x_s) / L_s u, growing linearly from 0 at the inner edge
+    ``start`` to alpha_s at the outer edge ``end`` (docs/wave_tank.md)."""
+
+    axis: int = Field(0, ge=0, le=2, description="axis across the zone: 0 = x, 1 = y, 2 = z")
+    start: float = Field(description="inner edge x_s (no damping there), m along axis")
+    end: float = Field(
+        description="outer edge (full damping), m along axis; below start for a zone at the "
+        "low end of the axis; the zone length is L_s = |end - start|"
+    )
+    coefficient: float = Field(
+        50.0,
+        gt=0.0,
+        description="alpha_s, 1/s: damping rate at the outer edge (thesis: 50); overlapping "
+        "zones add",
+    )
+
+    @model_validator(mode="after")
+    def _check(self) -> SpongeZone:
+        if self.end == self.start:
+            raise ValueError(
+                f"start = end = {self.start}: the zone needs a length, end != start (end is "
+                "the outer edge)"
+            )
         return self
 
 
@@ -223,6 +328,9 @@ class FluidSection(Section):
     collision: CollisionSection = Field(default_factory=CollisionSection, description="collision")
     blocks: list[FluidBlock] = Field(min_length=1, description="fluid regions")
     walls: list[Wall] = Field(default_factory=list, description="rigid walls and obstacles")
+    sponges: list[SpongeZone] = Field(
+        default_factory=list, description="wave-absorbing sponge layers (thesis eq. 3-9)"
+    )
 
     @model_validator(mode="after")
     def _check(self) -> FluidSection:
@@ -239,8 +347,9 @@ class FluidSection(Section):
                 raise ValueError(f"walls[{i}].lower {w.lower} must have {d} components")
             if len(w.motion.direction) != d:
                 raise ValueError(f"walls[{i}].motion.direction must have {d} components")
-            if w.motion.kind == "table" and not w.motion.file:
-                raise ValueError(f"walls[{i}].motion.kind = 'table' needs motion.file")
+        for i, z in enumerate(self.sponges):
+            if z.axis >= d:
+                raise ValueError(f"sponges[{i}].axis = {z.axis} must be below dim = {d}")
         tanks = [w for w in self.walls if w.shape == "tank"]
         eps = 1e-9
         for i, b in enumerate(self.blocks):
