@@ -1,4 +1,16 @@
-"""Prescribed rigid motion of wall patches: displacement s(t) along a fixed direction."""
+"""Prescribed rigid motion of wall patches: displacement s(t) along a fixed direction.
+
+Kinds (schema: ``mpsfem.scenario.fluid.WallMotion``; formulas: docs/wave_tank.md):
+
+- ``harmonic``: s = amplitude sin(2 pi t / period + phase);
+- ``table``: s from a CSV of (t, s) rows, linear interpolation; the velocity is the slope of the
+  segment containing t (at a knot, the segment that starts there), 0 before the first and from
+  the last row on, where the position is held;
+- ``solitary``: Goring (1978) piston paddle (:class:`~mpsfem.fluid_mps.wavemaker.SolitaryPaddle`);
+- ``regular``: linear piston paddle (:class:`~mpsfem.fluid_mps.wavemaker.RegularPaddle`).
+
+Every law is shifted so that s(0) = 0: the wall starts where the scenario puts it.
+"""
 
 from __future__ import annotations
 
@@ -7,13 +19,18 @@ from pathlib import Path
 
 import numpy as np
 
+from mpsfem.fluid_mps.wavemaker import RegularPaddle, SolitaryPaddle
 from mpsfem.scenario.fluid import WallMotion
 
 
 class MotionLaw:
     """s(t) (m) and ds/dt (m/s) of one wall patch along its unit direction."""
 
-    def __init__(self, spec: WallMotion, base_dir: Path | None = None) -> None:
+    def __init__(
+        self, spec: WallMotion, base_dir: Path | None = None, gravity: float | None = None
+    ) -> None:
+        """``base_dir``: where a relative ``motion.file`` is looked up; ``gravity``: |g| (m/s^2)
+        of the fluid section, needed by the wavemakers ('solitary', 'regular')."""
         self.kind = spec.kind
         d = np.asarray(spec.direction, dtype=np.float64)
         norm = float(np.linalg.norm(d))
@@ -21,6 +38,7 @@ class MotionLaw:
             raise ValueError("motion.direction = [0, ...]: must be a non-zero vector")
         self.direction = d / norm
         self.spec = spec
+        self.paddle: SolitaryPaddle | RegularPaddle | None = None
         if spec.kind == "table":
             path = Path(spec.file)
             if base_dir is not None and not path.is_absolute():
@@ -28,12 +46,32 @@ class MotionLaw:
             if not path.is_file():
                 raise ValueError(f"motion.file = {spec.file!r}: no such file")
             data = np.loadtxt(path, delimiter=",", comments="#", ndmin=2)
-            if data.shape[1] < 2 or np.any(np.diff(data[:, 0]) <= 0):
+            if data.shape[0] < 2 or data.shape[1] < 2 or np.any(np.diff(data[:, 0]) <= 0):
                 raise ValueError(
-                    f"motion.file = {spec.file!r}: needs two columns (t s, x m) with increasing t"
+                    f"motion.file = {spec.file!r}: needs two columns (t s, x m), at least two "
+                    "rows, with increasing t"
                 )
-            self.t_table, self.s_table = data[:, 0], data[:, 1]
+            self.t_table, self.s_table = data[:, 0].copy(), data[:, 1].copy()
             self.v_table = np.diff(self.s_table) / np.diff(self.t_table)
+        elif spec.kind in ("solitary", "regular"):
+            if gravity is None or not gravity > 0.0:
+                raise ValueError(
+                    f"motion.kind = {spec.kind!r} needs gravity: the magnitude of fluid.gravity "
+                    f"(got {gravity}); it must be > 0"
+                )
+            if spec.kind == "solitary":
+                self.paddle = SolitaryPaddle(
+                    spec.amplitude, spec.depth, gravity, start_time=spec.start_time
+                )
+            else:
+                self.paddle = RegularPaddle(
+                    spec.wave_height,
+                    spec.period,
+                    spec.depth,
+                    gravity,
+                    ramp_periods=spec.ramp_periods,
+                    start_time=spec.start_time,
+                )
         self._s0 = 0.0
         self._s0 = self(0.0)[0]  # the wall starts where the scenario puts it
 
@@ -44,6 +82,9 @@ class MotionLaw:
     def __call__(self, t: float) -> tuple[float, float]:
         """(displacement from the initial position m, velocity m/s) at time t (s)."""
         s = self.spec
+        if self.paddle is not None:
+            x, v = self.paddle(t)
+            return x - self._s0, v
         if self.kind == "harmonic":
             w = 2.0 * math.pi / s.period
             return (
