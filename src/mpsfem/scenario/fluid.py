@@ -172,13 +172,14 @@ class WallMotion(Section):
     """Prescribed rigid motion of a wall (displacement added to its initial position).
 
     Piston wavemakers (docs/wave_tank.md): 'solitary' (Goring 1978) and 'regular' (linear piston
-    theory). Each kind uses only its own keys; setting another kind's key is an error."""
+    theory). A moving kind accepts only its own keys (listed in the error otherwise)."""
 
     kind: Literal["none", "harmonic", "table", "solitary", "regular"] = Field(
         "none",
         description="'none'; 'harmonic': x(t) = amplitude sin(2 pi t / period + phase) along "
         "direction; 'table': displacement along direction from a CSV (t, x), linear "
-        "interpolation, velocity = the slope of the current segment (0 outside the table); "
+        "interpolation, velocity = the slope of the current segment (0 before the first row "
+        "and from the last row on, where the position is held); "
         "'solitary': Goring piston paddle for a solitary wave of amplitude A on depth d; "
         "'regular': linear piston paddle for waves of height wave_height and period on depth d",
     )
@@ -280,7 +281,7 @@ class SpongeZone(Section):
     start: float = Field(description="inner edge x_s (no damping there), m along axis")
     end: float = Field(
         description="outer edge (full damping), m along axis; below start for a zone at the "
-        "low end of the axis; the zone length is L_s = |end - start|"
+        "low end of the axis; the zone length is L_s = abs(end - start)"
     )
     coefficient: float = Field(
         50.0,
