@@ -86,6 +86,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     docs = sub.add_parser("docs", help="write docs/scenarios.md from the scenario schema")
     docs.add_argument("--out", type=Path, default=Path("docs/scenarios.md"))
+
+    from mpsfem.tools.commands import add_tool_parsers
+
+    add_tool_parsers(sub)  # plot, sweep
     return parser
 
 
@@ -183,6 +187,10 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_validate(args)
         if args.command == "docs":
             return _cmd_docs(args)
+        if args.command in ("plot", "sweep"):
+            from mpsfem.tools.commands import run_tool
+
+            return run_tool(args)
         if args.command in ("structure", "modes"):
             from mpsfem.structure_fem.standalone import cli_main
 
