@@ -229,6 +229,15 @@ class SweepResult:
         return not self.problems and all(o.status == "finished" for o in self.outcomes)
 
 
+def choose_jobs(requested: int | None, n_cases: int, cpus: int) -> tuple[int, int]:
+    """(cases at once, NUMBA_NUM_THREADS per child): ``requested`` or ``cpus // 2`` (at least 1),
+    never more than ``n_cases``; threads ``max(1, cpus // jobs)`` so children do not
+    oversubscribe the machine."""
+    jobs = requested if requested is not None else max(1, cpus // 2)
+    jobs = max(1, min(jobs, n_cases))
+    return jobs, max(1, cpus // jobs)
+
+
 def run_sweep(plan: SweepPlan, jobs: int | None = None, log=print) -> SweepResult:
     """Run the cases of ``plan`` that are not complete (``jobs`` at once, default
     ``max(1, cpu_count // 2)``, at most the number of cases to run) and write ``summary.csv`` and
@@ -250,11 +259,7 @@ def run_sweep(plan: SweepPlan, jobs: int | None = None, log=print) -> SweepResul
             todo.append(case)
             if why:
                 notes.append(f"{tag[case.index]} rerun   {case.label}: {why}")
-    cpus = os.cpu_count() or 1
-    if jobs is None:
-        jobs = max(1, cpus // 2)
-    jobs = max(1, min(jobs, len(todo) or 1))
-    threads = max(1, cpus // jobs)
+    jobs, threads = choose_jobs(jobs, len(todo), os.cpu_count() or 1)
     plan.out_dir.mkdir(parents=True, exist_ok=True)
     shape = " x ".join(f"{len(a.values)} {a.key}" for a in plan.axes)
     log(
