@@ -7,26 +7,35 @@ Kept free of heavy imports (numpy, h5py, matplotlib load only when a tool runs),
 from __future__ import annotations
 
 import argparse
+import textwrap
 from pathlib import Path
 
 from mpsfem.tools import REFERENCE_FORMAT
+
+PLOT_DESCRIPTION = textwrap.fill(
+    "One PNG per series: probes (probe-<name>.png, one axis per component), structure members "
+    "(structure-<member>.png: the node with the largest displacement, and the largest |u| over "
+    "the nodes) and coupling windows (coupling.png).",
+    78,
+)
+PLOT_EPILOG = (
+    textwrap.fill(f"Reference CSV: {REFERENCE_FORMAT}. Example:", 78)
+    + "\n  # tip deflection, measured\n  time,uy\n  0.00,0.0\n  0.05,-1.8e-3\n"
+    + textwrap.fill(
+        "Header names that are component names (ux, uy, fx, ...) select those components; "
+        "otherwise the value columns go to the components in order. See docs/tools.md.",
+        78,
+    )
+)
 
 
 def add_plot_parser(sub) -> argparse.ArgumentParser:
     p = sub.add_parser(
         "plot",
         help="PNG plots of the probe, structure and coupling histories of a results file",
-        description="One PNG per series: probes (probe-<name>.png, one axis per component), "
-        "structure members (structure-<member>.png: the node with the largest displacement and "
-        "the largest |u| over the nodes) and coupling windows (coupling.png).",
+        description=PLOT_DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="Reference CSV: " + REFERENCE_FORMAT + ". Example:\n"
-        "  # tip deflection, measured\n"
-        "  time,uy\n"
-        "  0.00,0.0\n"
-        "  0.05,-1.8e-3\n"
-        "Header names that are component names (ux, uy, fx, ...) select those components; "
-        "otherwise the value\ncolumns go to the components in order. See docs/tools.md.",
+        epilog=PLOT_EPILOG,
     )
     p.add_argument("results", type=Path, help="results file (.h5)")
     p.add_argument(
