@@ -175,7 +175,7 @@ def plot_results(
     out = Path(out_dir) if out_dir is not None else results.with_name(f"{results.stem}_plots")
     out.mkdir(parents=True, exist_ok=True)
     return [
-        render_series(s, out / file_name(n), overlays[n], results.name) for n, s in series.items()
+        render_series(s, out / file_name(n), overlays[n], str(results)) for n, s in series.items()
     ]
 
 

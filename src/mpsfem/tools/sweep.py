@@ -298,7 +298,10 @@ def run_sweep(plan: SweepPlan, jobs: int | None = None, log=print) -> SweepResul
             children.done(proc)
         wall = time.perf_counter() - t0
         ok, why, run_wall = completed(plan, case)
-        if rc == 0 and ok:
+        if children.stopping:
+            out = CaseOutcome(case, "failed", False, wall, run_wall, rc, "stopped by interrupt")
+            say(f"{tag[case.index]} stopped {case.label} after {wall:.2f} s")
+        elif rc == 0 and ok:
             out = CaseOutcome(case, "finished", False, wall, run_wall, rc)
             say(f"{tag[case.index]} done    {case.label} in {wall:.2f} s")
         else:
@@ -387,5 +390,9 @@ def cli_main(args) -> int:
     except ToolError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    result = run_sweep(plan, args.jobs, log=lambda m: print(m, flush=True))
+    try:
+        result = run_sweep(plan, args.jobs, log=lambda m: print(m, flush=True))
+    except KeyboardInterrupt:
+        print("sweep: interrupted; the running cases were stopped", file=sys.stderr)
+        return 130
     return 0 if result.ok else 1
