@@ -1,5 +1,7 @@
 """`mpsfem plot`: one valid PNG per series, reference CSV overlay, clear errors."""
 
+import subprocess
+import sys
 from pathlib import Path
 
 import matplotlib.image
@@ -162,6 +164,23 @@ def test_errors_are_clear(results, tmp_path, capsys):
     assert main(["plot", str(not_h5)]) == 2
     assert "is not an HDF5 results file" in capsys.readouterr().err
     assert not (tmp_path / "x_plots").exists()  # nothing written on an error
+
+
+def test_file_held_by_a_writer(results):
+    """A results file another process holds open for writing (a run in progress) is named so."""
+    code = "import h5py, sys; f = h5py.File(sys.argv[1], 'a'); print('open', flush=True); input()"
+    writer = subprocess.Popen(
+        [sys.executable, "-c", code, str(results)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert writer.stdout.readline().strip() == "open"
+        with pytest.raises(ToolError, match="open for writing by another process"):
+            open_results(results)
+    finally:
+        writer.communicate("\n", timeout=30)
 
 
 def test_plot_of_a_real_structure_run(tmp_path, monkeypatch, capsys):

@@ -56,6 +56,10 @@ def open_results(path: str | Path) -> h5py.File:
     try:
         return h5py.File(path, "r")
     except OSError as exc:
+        if "lock" in str(exc):
+            raise ToolError(
+                f"{path} is open for writing by another process (a run still going?): {exc}"
+            ) from None
         raise ToolError(f"{path} is not an HDF5 results file ({exc})") from None
 
 
