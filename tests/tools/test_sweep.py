@@ -124,6 +124,10 @@ def test_bad_grid_rejected_before_any_case(tmp_path):
     assert rc == 2 and "--grid coupling.scheme = 'implicit': not a TOML literal" in err
     rc, _, err = _sweep("--grid", THICKNESS, "--set", "structure.members.0.thickness=0.03")
     assert rc == 2 and "also given by --set" in err
+    rc, _, err = _sweep("--grid", THICKNESS, "--end-time", "1", "--set", "run.end_time=2")
+    assert rc == 2 and "give the end time once" in err
+    rc, _, err = _sweep("--grid", "run.end_time=0.1,0.2", "--end-time", "1")
+    assert rc == 2 and "--grid run.end_time: also given by --end-time" in err
     rc, _, err = _sweep("--grid", THICKNESS, "--peak", "tip:uz", "--out", str(folder))
     assert rc == 2 and "--peak tip:uz: probe 'tip' has components ux, uy" in err
     rc, _, err = _sweep("--grid", THICKNESS, "--peak", "tipp", "--out", str(folder))

@@ -111,6 +111,8 @@ def plan_sweep(
     if end_time is not None:
         if not end_time > 0:
             raise ScenarioError([f"--end-time = {end_time}: must be > 0"])
+        if "run.end_time" in {_key_of(o) for o in base}:
+            raise ScenarioError(["--end-time and --set run.end_time: give the end time once"])
         base.append(f"run.end_time={end_time!r}")
     problems = []
     set_keys = {_key_of(o) for o in base}
