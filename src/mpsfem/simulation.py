@@ -188,20 +188,7 @@ def run_fluid(
 
 def _restore_solver(solver: FluidSolver, arrays: dict, meta: dict) -> None:
     """``FluidSolver.restore`` (particle arrays, time, step, next dt; fresh preconditioner)."""
-    for name in ("pos", "vel", "p"):
-        src = arrays[name]
-        dst = getattr(solver, name)
-        if src.shape != dst.shape:
-            raise ValueError(
-                f"checkpoint array {name} has shape {src.shape}, the scenario gives "
-                f"{dst.shape}: the checkpoint belongs to another scenario"
-            )
-        if src is not dst:
-            dst[...] = src
-    solver.t = float(meta["t"])
-    solver.step_count = int(meta["step"])
-    solver.dt_next = float(meta["dt_next"])
-    reset_preconditioner(solver.pressure)
+    solver.restore(arrays, meta)
 
 
 def _main_thread() -> bool:

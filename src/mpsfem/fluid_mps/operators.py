@@ -41,7 +41,14 @@ from .kernels import weight
 
 TANAKA = 0
 PMIN = 1
-GRADIENTS: dict[str, int] = {"tanaka": TANAKA, "pmin": PMIN}
+CORRECTED = 2
+CORRECTED_PMIN = 3
+GRADIENTS: dict[str, int] = {
+    "tanaka": TANAKA,
+    "pmin": PMIN,
+    "corrected": CORRECTED,
+    "corrected_pmin": CORRECTED_PMIN,
+}
 
 
 def gradient_code(name) -> int:

@@ -169,6 +169,7 @@ class FluidParticipant:
             "pos": s.pos,
             "vel": s.vel,
             "p": s.p,
+            "grad_p": s.grad_p,
             "d": self._d,
             "v": self._v,
             "t": s.t,
@@ -179,7 +180,9 @@ class FluidParticipant:
     def load_state(self, state: dict) -> None:
         """Inverse of :meth:`state` (copies the arrays in)."""
         s = self.solver
-        for name in ("pos", "vel", "p"):
+        for name in ("pos", "vel", "p", "grad_p"):
+            if name == "grad_p" and name not in state:
+                continue  # states saved before the surface values existed
             src = np.asarray(state[name])
             dst = getattr(s, name)
             if src.shape != dst.shape:

@@ -22,7 +22,13 @@ from pathlib import Path
 
 import numpy as np
 
-from mpsfem.fluid_mps import operators, probes, time_integration, wall_boundary
+from mpsfem.fluid_mps import (
+    operators,
+    probes,
+    surface_pressure,
+    time_integration,
+    wall_boundary,
+)
 from mpsfem.fluid_mps.collision import collide
 from mpsfem.fluid_mps.dummy_pressure import dummy_sources, extrapolate_dummy_pressure
 from mpsfem.fluid_mps.geometry import ExternalPatch, build_particles, hydrostatic_pressure
@@ -30,6 +36,7 @@ from mpsfem.fluid_mps.kernels import weight_code
 from mpsfem.fluid_mps.lattice import lattice_constants
 from mpsfem.fluid_mps.neighbours import NeighbourSearch
 from mpsfem.fluid_mps.pressure_poisson import make_pressure_solver
+from mpsfem.fluid_mps.sponge import SpongeLayer
 from mpsfem.fluid_mps.surface import make_surface_detector
 from mpsfem.fluid_mps.wall_motion import MotionLaw
 from mpsfem.scenario.fluid import FluidSection
@@ -151,14 +158,22 @@ class FluidSolver:
         self.free_surface = np.zeros(n, dtype=np.int8)
         self.lap_u = np.zeros((n, self.dim))
         self.grad_p = np.zeros((n, self.dim))
+        if spec.hydrostatic_start:  # the previous-step gradient the surface values start from
+            self.grad_p[self.kind == 0] = self.rho * self.gravity
+        self.surface_offset = self.neumann and spec.surface.pressure == "half_spacing"
+        self.p_surface = np.zeros(n)
         self.vel_before = np.zeros((n, self.dim))
 
         self.dummy_src = dummy_sources(
             self.pos, self.kind, [(pt.start, pt.stop) for pt in self.patches]
         )
+        g_abs = float(np.linalg.norm(self.gravity))
         self.motions = [
-            MotionLaw(pt.spec.motion, base_dir) for pt in self.patches if pt.spec is not None
+            MotionLaw(pt.spec.motion, base_dir, gravity=g_abs)
+            for pt in self.patches
+            if pt.spec is not None
         ]
+        self.sponge = SpongeLayer(spec.sponges, self.dim)
         rigid = [pt for pt in self.patches if pt.spec is not None]
         self.moving = [(pt, m) for pt, m in zip(rigid, self.motions, strict=True) if m.moves]
         self.wall_origin = {pt.name: self.pos[pt.start : pt.stop].copy() for pt, _ in self.moving}
@@ -255,11 +270,15 @@ class FluidSolver:
                 self.lap_coef,
                 self.lap_u,
             )
+            if self.sponge.active:  # thesis eq. 3-9, explicit with u^n
+                self.sponge.apply(self.pos, self.vel, self.n_fluid, dt)
             time_integration.predict(
                 self.pos, self.vel, self.kind, self.lap_u, self.nu, self.gravity, dt
             )
         else:
             c1 = c0
+            if self.sponge.active:  # thesis eq. 3-9, explicit with u^n
+                self.sponge.apply(self.pos, self.vel, self.n_fluid, dt)
             time_integration.predict_inviscid(self.pos, self.vel, self.kind, self.gravity, dt)
         c2 = time.perf_counter()
         tm.explicit += c2 - c1
@@ -316,6 +335,22 @@ class FluidSolver:
                 self.gravity,
                 self.ghost_rhs,
             )
+        if self.surface_offset:  # p = 0 half a spacing beyond the surface particles
+            surface_pressure.surface_values(
+                self.kind, self.free_surface, self.grad_p, self.l0, self.p_surface
+            )
+            surface_pressure.add_dirichlet_rhs(
+                self.pos,
+                self.kind,
+                self.free_surface,
+                self.p_surface,
+                nb.indptr,
+                nb.indices,
+                self.re_ppe,
+                self.wcode,
+                self.ppe_coef,
+                self.ghost_rhs,
+            )
         info = self.pressure.solve(
             self.pos,
             self.vel,
@@ -332,6 +367,10 @@ class FluidSolver:
         tm.iterations.append(info.iterations)
         self.last_iterations = info.iterations
         c5 = time.perf_counter()
+        if self.surface_offset:
+            surface_pressure.write_surface_values(
+                self.kind, self.free_surface, self.p_surface, self.p
+            )
         if self.spec.pressure.clamp_negative:
             np.maximum(self.p, 0.0, out=self.p)
         if self.neumann:
@@ -422,13 +461,15 @@ class FluidSolver:
     # ------------------------------------------------------------------ state for checkpoints
     def state(self) -> dict[str, np.ndarray]:
         """Arrays that, with ``meta()``, restore the solver exactly."""
-        return {"pos": self.pos, "vel": self.vel, "p": self.p}
+        return {"pos": self.pos, "vel": self.vel, "p": self.p, "grad_p": self.grad_p}
 
     def meta(self) -> dict:
         return {"t": self.t, "step": self.step_count, "dt_next": self.dt_next}
 
     def restore(self, arrays: dict[str, np.ndarray], meta: dict) -> None:
-        for name in ("pos", "vel", "p"):
+        for name in ("pos", "vel", "p", "grad_p"):
+            if name == "grad_p" and name not in arrays:
+                continue  # checkpoints written before the surface values existed
             src = arrays[name]
             if src.shape != getattr(self, name).shape:
                 raise ValueError(

@@ -100,25 +100,64 @@ def ghost_rhs(
         out[i] = coef * lap - cdiv * div
 
 
+@njit(cache=True, inline="always")
+def _corrected(m00, m01, m02, m11, m12, m22, v0, v1, v2, dim, fallback):
+    """(C^-1 v) for the symmetric moment matrix C = [[m00, m01, m02], [., m11, m12], [., ., m22]]
+    (its leading dim x dim block). When C is near singular (a particle with neighbours in fewer
+    than dim independent directions) the plain MPS normalisation ``fallback * v`` is returned."""
+    if dim == 2:
+        det = m00 * m11 - m01 * m01
+        tr = m00 + m11
+        if det <= 0.05 * tr * tr:  # eigenvalue ratio below ~0.05: ill-conditioned
+            return fallback * v0, fallback * v1, 0.0
+        return (m11 * v0 - m01 * v1) / det, (m00 * v1 - m01 * v0) / det, 0.0
+    c00 = m11 * m22 - m12 * m12
+    c01 = m02 * m12 - m01 * m22
+    c02 = m01 * m12 - m02 * m11
+    c11 = m00 * m22 - m02 * m02
+    c12 = m02 * m01 - m00 * m12
+    c22 = m00 * m11 - m01 * m01
+    det = m00 * c00 + m01 * c01 + m02 * c02
+    tr = m00 + m11 + m22
+    if det <= 0.01 * tr * tr * tr:
+        return fallback * v0, fallback * v1, fallback * v2
+    return (
+        (c00 * v0 + c01 * v1 + c02 * v2) / det,
+        (c01 * v0 + c11 * v1 + c12 * v2) / det,
+        (c02 * v0 + c12 * v1 + c22 * v2) / det,
+    )
+
+
 @njit(cache=True, parallel=True)
 def pressure_gradient_ghost(
     pos, p, kind, dry, indptr, indices, re, wcode, n0, form, rho, gravity, out
 ):
     """Pressure gradient on fluid particles (Pa/m) with wall/dummy neighbours as ghosts
-    p_j = p_i + D_ij. ``form`` 0: Tanaka's momentum-conserving sum of (p_j + p_i) (thesis eq.
-    2-12); 1: the p_j - p_min form (eq. 2-11 with p_i -> min over the fluid neighbours and i)."""
+    p_j = p_i + D_ij. ``form`` (operators.GRADIENTS):
+
+    0 ``tanaka``: d / n0 sum_j (p_j + p_i) r_ij w_ij / r_ij^2 (thesis eq. 2-12);
+    1 ``pmin``: d / n0 sum_j (p_j - p_min,i) r_ij w_ij / r_ij^2 (eq. 2-11 with p_i -> the minimum
+      over i and its fluid neighbours);
+    2 ``corrected``: C_i^-1 sum_j (p_j - p_i) r_ij w_ij / r_ij^2 with the moment matrix
+      C_i = sum_j w_ij r_ij r_ij^T / r_ij^2 (corrective matrix of Randles & Libersky 1996, used in
+      MPS by Khayyer & Gotoh 2011): exact for linear fields on any neighbourhood, so a particle
+      at a free surface or a wall corner feels the full hydrostatic gradient;
+    3 ``corrected_pmin``: C_i^-1 sum_j (p_j - p_min,i) r_ij w_ij / r_ij^2, the corrected form
+      plus the repulsive p_i - p_min part of eq. 2-11 (which vanishes for a full neighbourhood).
+
+    Near-singular C_i (fewer than dim independent neighbour directions) falls back to d / n0."""
     n, dim = pos.shape
     c = dim / n0
     re2 = re * re
+    corrected = form == 2 or form == 3
     for i in prange(n):
         for a in range(dim):
             out[i, a] = 0.0
         if kind[i] != 0:
             continue
         pref = p[i]
-        sgn = 1.0
-        if form == 1:
-            sgn = -1.0
+        sgn = -1.0 if form != 0 else 1.0
+        if form == 1 or form == 3:
             for k in range(indptr[i], indptr[i + 1]):
                 j = indices[k]
                 if kind[j] == 0 and p[j] < pref:
@@ -128,6 +167,8 @@ def pressure_gradient_ghost(
                         r2 += dx * dx
                     if r2 < re2:
                         pref = p[j]
+        v0 = v1 = v2 = 0.0
+        m00 = m01 = m02 = m11 = m12 = m22 = 0.0
         for k in range(indptr[i], indptr[i + 1]):
             j = indices[k]
             r2 = 0.0
@@ -145,11 +186,31 @@ def pressure_gradient_ghost(
                 pj = 0.0
             else:
                 pj = p[i] + ghost_jump(i, j, pos, rho, gravity)
-            f = (pj + sgn * pref) / r2 * weight(np.sqrt(r2), re, wcode)
-            for a in range(dim):
-                out[i, a] += f * (pos[j, a] - pos[i, a])
-        for a in range(dim):
-            out[i, a] *= c
+            w = weight(np.sqrt(r2), re, wcode) / r2
+            f = (pj + sgn * pref) * w
+            x0 = pos[j, 0] - pos[i, 0]
+            x1 = pos[j, 1] - pos[i, 1]
+            x2 = pos[j, 2] - pos[i, 2] if dim == 3 else 0.0
+            v0 += f * x0
+            v1 += f * x1
+            v2 += f * x2
+            if corrected:
+                m00 += w * x0 * x0
+                m01 += w * x0 * x1
+                m02 += w * x0 * x2
+                m11 += w * x1 * x1
+                m12 += w * x1 * x2
+                m22 += w * x2 * x2
+        if corrected:
+            v0, v1, v2 = _corrected(m00, m01, m02, m11, m12, m22, v0, v1, v2, dim, c)
+        else:
+            v0 *= c
+            v1 *= c
+            v2 *= c
+        out[i, 0] = v0
+        out[i, 1] = v1
+        if dim == 3:
+            out[i, 2] = v2
     return out
 
 

@@ -49,11 +49,15 @@ class PressureSection(Section):
         "particles are ghosts of each fluid particle carrying the projection method's wall "
         "condition (docs/architecture.md), walls are not unknowns",
     )
-    gradient: Literal["pmin", "tanaka"] = Field(
-        "pmin",
-        description="pressure gradient: 'pmin', the p_j - p_min form (thesis eq. 2-11 with the "
-        "neighbourhood minimum; repulsive, stable), or 'tanaka', the momentum-conserving form of "
-        "eq. 2-12 (not zero-order consistent: unstable near a free surface in our tests)",
+    gradient: Literal["corrected_pmin", "corrected", "pmin", "tanaka"] = Field(
+        "corrected_pmin",
+        description="pressure gradient: 'corrected_pmin', the p_j - p_min form of eq. 2-11 "
+        "multiplied by the inverse moment matrix C_i^-1 (exact for linear fields on any "
+        "neighbourhood, so surface and corner particles feel the full hydrostatic gradient; "
+        "docs/fluid.md); 'corrected', the same with p_j - p_i (no repulsive part); 'pmin', eq. "
+        "2-11 with the neighbourhood minimum (repulsive; half the gradient at a free surface); "
+        "'tanaka', the momentum-conserving form of eq. 2-12 (unstable near a free surface in our "
+        "tests)",
     )
     gamma: float = Field(
         0.01,
@@ -102,6 +106,14 @@ class SurfaceSection(Section):
         description="density_asymmetry only: surface when |F_i| > asymmetry |F|0, F the "
         "neighbour-asymmetry vector (thesis eqs. 2-19, 2-20) and |F|0 its value on a flat free "
         "surface of the initial lattice",
+    )
+    pressure: Literal["half_spacing", "zero"] = Field(
+        "half_spacing",
+        description="Dirichlet value of a free-surface particle: 'zero', p = 0 at the particle "
+        "(thesis); 'half_spacing', p = l0 / 2 |grad p| with the particle's pressure gradient of "
+        "the previous step, i.e. p = 0 half a spacing further out, where the fluid a surface "
+        "particle represents ends (removes a rho g l0 / 2 bias of the whole pressure field; 0 in "
+        "free fall)",
     )
 
     @model_validator(mode="after")
