@@ -142,23 +142,55 @@ def divergence(pos, u, kind, indptr, indices, re, wcode, n0, out, fluid_only=Fal
     return out
 
 
+@njit(cache=True, inline="always")
+def corrected_vector(m00, m01, m02, m11, m12, m22, v0, v1, v2, dim, fallback):
+    """(C^-1 v) for the symmetric moment matrix C = [[m00, m01, m02], [., m11, m12], [., ., m22]]
+    (its leading dim x dim block). When C is near singular (a particle with neighbours in fewer
+    than dim independent directions) the plain MPS normalisation ``fallback * v`` is returned."""
+    if dim == 2:
+        det = m00 * m11 - m01 * m01
+        tr = m00 + m11
+        if det <= 0.05 * tr * tr:  # eigenvalue ratio below ~0.05: ill-conditioned
+            return fallback * v0, fallback * v1, 0.0
+        return (m11 * v0 - m01 * v1) / det, (m00 * v1 - m01 * v0) / det, 0.0
+    c00 = m11 * m22 - m12 * m12
+    c01 = m02 * m12 - m01 * m22
+    c02 = m01 * m12 - m02 * m11
+    c11 = m00 * m22 - m02 * m02
+    c12 = m02 * m01 - m00 * m12
+    c22 = m00 * m11 - m01 * m01
+    det = m00 * c00 + m01 * c01 + m02 * c02
+    tr = m00 + m11 + m22
+    if det <= 0.01 * tr * tr * tr:
+        return fallback * v0, fallback * v1, fallback * v2
+    return (
+        (c00 * v0 + c01 * v1 + c02 * v2) / det,
+        (c01 * v0 + c11 * v1 + c12 * v2) / det,
+        (c02 * v0 + c12 * v1 + c22 * v2) / det,
+    )
+
+
 @njit(cache=True, parallel=True)
 def pressure_gradient(pos, p, kind, indptr, indices, re, wcode, n0, form, skip_dummy, out):
     """Pressure gradient (N, dim) on FLUID particles, 0 elsewhere.
 
-    ``form``: 0 Tanaka (eq. 2-12, p_j + p_i), 1 p_min (p_j - min p). See the module docstring for
-    dummy neighbours (``skip_dummy``).
+    ``form`` (:data:`GRADIENTS`): 0 Tanaka (eq. 2-12, p_j + p_i), 1 p_min (p_j - min p), 2
+    corrected (C_i^-1 sum (p_j - p_i) r w / r^2), 3 corrected p_min (C_i^-1 sum (p_j - p_min) r w
+    / r^2); C_i = sum w r r^T / r^2 (see wall_boundary.pressure_gradient_ghost). See the module
+    docstring for dummy neighbours (``skip_dummy``).
     """
     n, dim = pos.shape
     c = dim / n0
     re2 = re * re
+    corrected = form == 2 or form == 3
     for i in prange(n):
         for d in range(dim):
             out[i, d] = 0.0
         if kind[i] != 0:
             continue
-        if form == 1:
-            pref = p[i]
+        pref = p[i]
+        sgn = -1.0 if form != 0 else 1.0
+        if form == 1 or form == 3:
             for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
                 j = np.uint32(indices[k])
                 kj = kind[j]
@@ -171,10 +203,8 @@ def pressure_gradient(pos, p, kind, indptr, indices, re, wcode, n0, form, skip_d
                         r2 += dx * dx
                     if r2 < re2:
                         pref = p[j]
-            sgn = -1.0
-        else:
-            pref = p[i]
-            sgn = 1.0
+        v0 = v1 = v2 = 0.0
+        m00 = m01 = m02 = m11 = m12 = m22 = 0.0
         for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
             j = np.uint32(indices[k])
             kj = kind[j]
@@ -185,9 +215,29 @@ def pressure_gradient(pos, p, kind, indptr, indices, re, wcode, n0, form, skip_d
                 dx = pos[j, d] - pos[i, d]
                 r2 += dx * dx
             if r2 < re2 and r2 > 0.0:
-                a = (p[j] + sgn * pref) / r2 * weight(np.sqrt(r2), re, wcode)
-                for d in range(dim):
-                    out[i, d] += a * (pos[j, d] - pos[i, d])
-        for d in range(dim):
-            out[i, d] *= c
+                w = weight(np.sqrt(r2), re, wcode) / r2
+                a = (p[j] + sgn * pref) * w
+                x0 = pos[j, 0] - pos[i, 0]
+                x1 = pos[j, 1] - pos[i, 1]
+                x2 = pos[j, 2] - pos[i, 2] if dim == 3 else 0.0
+                v0 += a * x0
+                v1 += a * x1
+                v2 += a * x2
+                if corrected:
+                    m00 += w * x0 * x0
+                    m01 += w * x0 * x1
+                    m02 += w * x0 * x2
+                    m11 += w * x1 * x1
+                    m12 += w * x1 * x2
+                    m22 += w * x2 * x2
+        if corrected:
+            v0, v1, v2 = corrected_vector(m00, m01, m02, m11, m12, m22, v0, v1, v2, dim, c)
+        else:
+            v0 *= c
+            v1 *= c
+            v2 *= c
+        out[i, 0] = v0
+        out[i, 1] = v1
+        if dim == 3:
+            out[i, 2] = v2
     return out

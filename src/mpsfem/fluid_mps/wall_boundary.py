@@ -36,6 +36,7 @@ import numpy as np
 from numba import njit, prange
 
 from mpsfem.fluid_mps.kernels import weight
+from mpsfem.fluid_mps.operators import corrected_vector
 
 
 @njit(cache=True, inline="always")
@@ -98,34 +99,6 @@ def ghost_rhs(
             if r2 < rd2 and r2 > 0.0:
                 div += dot / r2 * weight(np.sqrt(r2), re_div, wcode)
         out[i] = coef * lap - cdiv * div
-
-
-@njit(cache=True, inline="always")
-def _corrected(m00, m01, m02, m11, m12, m22, v0, v1, v2, dim, fallback):
-    """(C^-1 v) for the symmetric moment matrix C = [[m00, m01, m02], [., m11, m12], [., ., m22]]
-    (its leading dim x dim block). When C is near singular (a particle with neighbours in fewer
-    than dim independent directions) the plain MPS normalisation ``fallback * v`` is returned."""
-    if dim == 2:
-        det = m00 * m11 - m01 * m01
-        tr = m00 + m11
-        if det <= 0.05 * tr * tr:  # eigenvalue ratio below ~0.05: ill-conditioned
-            return fallback * v0, fallback * v1, 0.0
-        return (m11 * v0 - m01 * v1) / det, (m00 * v1 - m01 * v0) / det, 0.0
-    c00 = m11 * m22 - m12 * m12
-    c01 = m02 * m12 - m01 * m22
-    c02 = m01 * m12 - m02 * m11
-    c11 = m00 * m22 - m02 * m02
-    c12 = m02 * m01 - m00 * m12
-    c22 = m00 * m11 - m01 * m01
-    det = m00 * c00 + m01 * c01 + m02 * c02
-    tr = m00 + m11 + m22
-    if det <= 0.01 * tr * tr * tr:
-        return fallback * v0, fallback * v1, fallback * v2
-    return (
-        (c00 * v0 + c01 * v1 + c02 * v2) / det,
-        (c01 * v0 + c11 * v1 + c12 * v2) / det,
-        (c02 * v0 + c12 * v1 + c22 * v2) / det,
-    )
 
 
 @njit(cache=True, parallel=True)
@@ -202,7 +175,7 @@ def pressure_gradient_ghost(
                 m12 += w * x1 * x2
                 m22 += w * x2 * x2
         if corrected:
-            v0, v1, v2 = _corrected(m00, m01, m02, m11, m12, m22, v0, v1, v2, dim, c)
+            v0, v1, v2 = corrected_vector(m00, m01, m02, m11, m12, m22, v0, v1, v2, dim, c)
         else:
             v0 *= c
             v1 *= c
