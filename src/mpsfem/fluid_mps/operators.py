@@ -170,15 +170,43 @@ def corrected_vector(m00, m01, m02, m11, m12, m22, v0, v1, v2, dim, fallback):
     )
 
 
-@njit(cache=True, parallel=True)
+_NO_GRAVITY = np.zeros(3)
+
+
 def pressure_gradient(pos, p, kind, indptr, indices, re, wcode, n0, form, skip_dummy, out):
-    """Pressure gradient (N, dim) on FLUID particles, 0 elsewhere.
+    """Pressure gradient (N, dim) on FLUID particles, 0 elsewhere; every neighbour carries its
+    own ``p`` (the ``pressure_layer`` wall model).
 
     ``form`` (:data:`GRADIENTS`): 0 Tanaka (eq. 2-12, p_j + p_i), 1 p_min (p_j - min p), 2
     corrected (C_i^-1 sum (p_j - p_i) r w / r^2), 3 corrected p_min (C_i^-1 sum (p_j - p_min) r w
-    / r^2); C_i = sum w r r^T / r^2 (see wall_boundary.pressure_gradient_ghost). See the module
-    docstring for dummy neighbours (``skip_dummy``).
+    / r^2); C_i = sum w r r^T / r^2 (see :func:`gradient_kernel`). See the module docstring for
+    dummy neighbours (``skip_dummy``).
     """
+    return gradient_kernel(
+        pos, p, kind, indptr, indices, re, wcode, n0, form, skip_dummy, False, kind, 0.0,
+        _NO_GRAVITY, out,
+    )  # fmt: skip
+
+
+@njit(cache=True, parallel=True)
+def gradient_kernel(
+    pos, p, kind, indptr, indices, re, wcode, n0, form, skip_dummy, ghost, dry, rho, gravity, out
+):
+    """The pressure gradient on FLUID particles (Pa/m) for both wall models.
+
+    ``ghost`` False: every neighbour carries its own p (dummies left out with ``skip_dummy``);
+    the p_min search runs over all of them. ``ghost`` True (the ``neumann`` wall model,
+    wall_boundary.py): a wet wall/dummy neighbour j is a ghost p_j = p_i + rho g . (x_j - x_i), a
+    dry wall particle has p = 0, a dry dummy is left out, and p_min runs over the fluid only.
+
+    ``form`` 0 ``tanaka``: d / n0 sum_j (p_j + p_i) r_ij w_ij / r_ij^2 (thesis eq. 2-12);
+    1 ``pmin``: d / n0 sum_j (p_j - p_min,i) r_ij w_ij / r_ij^2 (eq. 2-11, p_i -> the minimum);
+    2 ``corrected``: C_i^-1 sum_j (p_j - p_i) r_ij w_ij / r_ij^2 with the moment matrix
+    C_i = sum_j w_ij r_ij r_ij^T / r_ij^2 (corrective matrix of Randles & Libersky 1996, used in
+    MPS by Khayyer & Gotoh 2011): exact for linear fields on any neighbourhood;
+    3 ``corrected_pmin``: C_i^-1 sum_j (p_j - p_min,i) r_ij w_ij / r_ij^2 (exact where p_i is the
+    local minimum, the p_min form's repulsion elsewhere). A near-singular C_i (fewer than dim
+    independent neighbour directions) falls back to d / n0."""
     n, dim = pos.shape
     c = dim / n0
     re2 = re * re
@@ -194,6 +222,8 @@ def pressure_gradient(pos, p, kind, indptr, indices, re, wcode, n0, form, skip_d
             for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
                 j = np.uint32(indices[k])
                 kj = kind[j]
+                if ghost and kj != 0:
+                    continue
                 if skip_dummy and (kj == 2 or kj == 4):
                     continue
                 if p[j] < pref:
@@ -214,22 +244,34 @@ def pressure_gradient(pos, p, kind, indptr, indices, re, wcode, n0, form, skip_d
             for d in range(dim):
                 dx = pos[j, d] - pos[i, d]
                 r2 += dx * dx
-            if r2 < re2 and r2 > 0.0:
-                w = weight(np.sqrt(r2), re, wcode) / r2
-                a = (p[j] + sgn * pref) * w
-                x0 = pos[j, 0] - pos[i, 0]
-                x1 = pos[j, 1] - pos[i, 1]
-                x2 = pos[j, 2] - pos[i, 2] if dim == 3 else 0.0
-                v0 += a * x0
-                v1 += a * x1
-                v2 += a * x2
-                if corrected:
-                    m00 += w * x0 * x0
-                    m01 += w * x0 * x1
-                    m02 += w * x0 * x2
-                    m11 += w * x1 * x1
-                    m12 += w * x1 * x2
-                    m22 += w * x2 * x2
+            if r2 >= re2 or r2 == 0.0:
+                continue
+            pj = p[j]
+            if ghost and kj != 0:
+                if dry[j]:
+                    if kj == 2 or kj == 4:
+                        continue
+                    pj = 0.0
+                else:
+                    jump = 0.0
+                    for d in range(dim):
+                        jump += gravity[d] * (pos[j, d] - pos[i, d])
+                    pj = p[i] + rho * jump
+            w = weight(np.sqrt(r2), re, wcode) / r2
+            a = (pj + sgn * pref) * w
+            x0 = pos[j, 0] - pos[i, 0]
+            x1 = pos[j, 1] - pos[i, 1]
+            x2 = pos[j, 2] - pos[i, 2] if dim == 3 else 0.0
+            v0 += a * x0
+            v1 += a * x1
+            v2 += a * x2
+            if corrected:
+                m00 += w * x0 * x0
+                m01 += w * x0 * x1
+                m02 += w * x0 * x2
+                m11 += w * x1 * x1
+                m12 += w * x1 * x2
+                m22 += w * x2 * x2
         if corrected:
             v0, v1, v2 = corrected_vector(m00, m01, m02, m11, m12, m22, v0, v1, v2, dim, c)
         else:

@@ -36,7 +36,7 @@ import numpy as np
 from numba import njit, prange
 
 from mpsfem.fluid_mps.kernels import weight
-from mpsfem.fluid_mps.operators import corrected_vector
+from mpsfem.fluid_mps.operators import gradient_kernel
 
 
 @njit(cache=True, inline="always")
@@ -101,90 +101,15 @@ def ghost_rhs(
         out[i] = coef * lap - cdiv * div
 
 
-@njit(cache=True, parallel=True)
 def pressure_gradient_ghost(
     pos, p, kind, dry, indptr, indices, re, wcode, n0, form, rho, gravity, out
 ):
-    """Pressure gradient on fluid particles (Pa/m) with wall/dummy neighbours as ghosts
-    p_j = p_i + D_ij. ``form`` (operators.GRADIENTS):
-
-    0 ``tanaka``: d / n0 sum_j (p_j + p_i) r_ij w_ij / r_ij^2 (thesis eq. 2-12);
-    1 ``pmin``: d / n0 sum_j (p_j - p_min,i) r_ij w_ij / r_ij^2 (eq. 2-11 with p_i -> the minimum
-      over i and its fluid neighbours);
-    2 ``corrected``: C_i^-1 sum_j (p_j - p_i) r_ij w_ij / r_ij^2 with the moment matrix
-      C_i = sum_j w_ij r_ij r_ij^T / r_ij^2 (corrective matrix of Randles & Libersky 1996, used in
-      MPS by Khayyer & Gotoh 2011): exact for linear fields on any neighbourhood, so a particle
-      at a free surface or a wall corner feels the full hydrostatic gradient;
-    3 ``corrected_pmin``: C_i^-1 sum_j (p_j - p_min,i) r_ij w_ij / r_ij^2, the corrected form
-      plus the repulsive p_i - p_min part of eq. 2-11 (which vanishes for a full neighbourhood).
-
-    Near-singular C_i (fewer than dim independent neighbour directions) falls back to d / n0."""
-    n, dim = pos.shape
-    c = dim / n0
-    re2 = re * re
-    corrected = form == 2 or form == 3
-    for i in prange(n):
-        for a in range(dim):
-            out[i, a] = 0.0
-        if kind[i] != 0:
-            continue
-        pref = p[i]
-        sgn = -1.0 if form != 0 else 1.0
-        if form == 1 or form == 3:
-            for k in range(indptr[i], indptr[i + 1]):
-                j = indices[k]
-                if kind[j] == 0 and p[j] < pref:
-                    r2 = 0.0
-                    for a in range(dim):
-                        dx = pos[j, a] - pos[i, a]
-                        r2 += dx * dx
-                    if r2 < re2:
-                        pref = p[j]
-        v0 = v1 = v2 = 0.0
-        m00 = m01 = m02 = m11 = m12 = m22 = 0.0
-        for k in range(indptr[i], indptr[i + 1]):
-            j = indices[k]
-            r2 = 0.0
-            for a in range(dim):
-                dx = pos[j, a] - pos[i, a]
-                r2 += dx * dx
-            if r2 >= re2 or r2 == 0.0:
-                continue
-            kj = kind[j]
-            if kj == 0:
-                pj = p[j]
-            elif dry[j]:
-                if kj == 2 or kj == 4:
-                    continue
-                pj = 0.0
-            else:
-                pj = p[i] + ghost_jump(i, j, pos, rho, gravity)
-            w = weight(np.sqrt(r2), re, wcode) / r2
-            f = (pj + sgn * pref) * w
-            x0 = pos[j, 0] - pos[i, 0]
-            x1 = pos[j, 1] - pos[i, 1]
-            x2 = pos[j, 2] - pos[i, 2] if dim == 3 else 0.0
-            v0 += f * x0
-            v1 += f * x1
-            v2 += f * x2
-            if corrected:
-                m00 += w * x0 * x0
-                m01 += w * x0 * x1
-                m02 += w * x0 * x2
-                m11 += w * x1 * x1
-                m12 += w * x1 * x2
-                m22 += w * x2 * x2
-        if corrected:
-            v0, v1, v2 = corrected_vector(m00, m01, m02, m11, m12, m22, v0, v1, v2, dim, c)
-        else:
-            v0 *= c
-            v1 *= c
-            v2 *= c
-        out[i, 0] = v0
-        out[i, 1] = v1
-        if dim == 3:
-            out[i, 2] = v2
-    return out
+    """Pressure gradient on fluid particles (Pa/m) with wet wall/dummy neighbours as ghosts
+    p_j = p_i + D_ij, dry wall particles at p = 0 and dry dummies left out; ``form`` as in
+    :func:`mpsfem.fluid_mps.operators.gradient_kernel`."""
+    return gradient_kernel(
+        pos, p, kind, indptr, indices, re, wcode, n0, form, False, True, dry, rho, gravity, out
+    )
 
 
 @njit(cache=True, parallel=True)
