@@ -53,6 +53,7 @@ SPEED_GAUGES = (0.6, 1.6)  # crest speed between these two gauges, m
 CREST_GAUGES = (0.6, 1.0, 1.2, 1.6)  # gauges whose crest is measured, m
 REFLECTION_GAUGE = 1.0  # far enough upstream that incident and reflected wave separate, m
 SPONGE_START = 2.0  # inner edge of the sponge, m (scenario)
+TANK_END = 2.5  # end wall, m (scenario)
 SPONGE_GAUGE = 2.4  # inside the sponge, 0.1 m before the end wall, m
 GORING_HALF_SPAN = 3.8  # |k (x - c t)| at which the wave is truncated (thesis eq. 3-8)
 RMS_HALF_SPAN = 3.0  # RMS window |k c (t - t_c)| <= 3: the first-order eta >= 1 % of A
@@ -243,6 +244,18 @@ def reflection(
     return float(np.max(np.abs(smooth[sel] - still)) / wave.amplitude), (t_start, t_stop)
 
 
+def closed_tank_setup(wave: SolitaryWave, tank_end: float = TANK_END) -> float:
+    """Rise of the mean water level (m) once the wave's volume has spread over the whole tank:
+    the paddle pushes S' H (S' = tanh(3.8) S its travel) into the tank and stays there, and a
+    sponge only damps velocities, it cannot remove water. Spread over the tank from the paddle's
+    final face to the end wall: S' H / (L - S'). The wave carries exactly this volume
+    (integral of A sech^2 = 2 A / k = S H), so after the sponge has stopped the wave, the water
+    it piled up flows back as a long low wave of about this height: no sponge in a closed tank
+    can make the reflection metric smaller."""
+    travel = math.tanh(GORING_HALF_SPAN) * math.sqrt(16.0 * wave.amplitude * wave.depth / 3.0)
+    return travel * wave.depth / (tank_end - travel)
+
+
 def still_level(t: np.ndarray, eta: np.ndarray, start_time: float) -> float:
     """Mean gauge reading (m) over the second half of the still water before the paddle starts:
     the settled surface's offset from H (0 when the paddle starts at t = 0)."""
@@ -301,6 +314,7 @@ class CaseResult:
     still_water_offset_m: float  # at x = 1.0 m before the paddle starts
     reflection_pct: float
     reflection_window_s: str
+    closed_tank_setup_pct: float  # the wave's volume spread over the tank: reflection's floor
     sponge_max_pct: float
     steps: int
     wall_time_s: float
@@ -363,6 +377,7 @@ def analyse(path: Path) -> CaseResult:
         still_water_offset_m=still,
         reflection_pct=100.0 * refl,
         reflection_window_s=f"{window[0]:.2f}-{window[1]:.2f}",
+        closed_tank_setup_pct=100.0 * closed_tank_setup(wave) / wave.amplitude,
         sponge_max_pct=100.0 * sponge / wave.amplitude,
         steps=steps,
         wall_time_s=wall,
@@ -509,7 +524,8 @@ def plot_gauges(paths: dict[float, Path], label: str, out: Path) -> None:
 def print_table(rows: list[CaseResult]) -> None:
     head = (
         f"{'A/H':>4} {'status':>9} {'A_meas/A-1':>10} {'rms 1st':>8} {'rms 3rd':>8} "
-        f"{'c_meas':>7} {'vs c1':>7} {'vs c3':>7} {'refl':>6} {'sponge':>7} {'steps':>6} "
+        f"{'c_meas':>7} {'vs c1':>7} {'vs c3':>7} {'refl':>6} {'setup':>6} {'sponge':>7} "
+        f"{'steps':>6} "
         f"{'wall s':>7}"
     )
     print(head)
@@ -519,6 +535,7 @@ def print_table(rows: list[CaseResult]) -> None:
             f"{r.rms_first_order_pct:>7.2f}% {r.rms_grimshaw_pct:>7.2f}% "
             f"{r.crest_speed_m_s:>7.4f} {r.speed_error_first_order_pct:>+6.2f}% "
             f"{r.speed_error_grimshaw_pct:>+6.2f}% {r.reflection_pct:>5.2f}% "
+            f"{r.closed_tank_setup_pct:>5.2f}% "
             f"{r.sponge_max_pct:>6.2f}% {r.steps:>6d} {r.wall_time_s:>7.0f}"
         )
 
