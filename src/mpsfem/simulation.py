@@ -23,7 +23,7 @@ from mpsfem.coupler.coupling_scheme import create_scheme
 from mpsfem.coupler.errors import CouplingError, PeerError, PeerLostError
 from mpsfem.coupler.launch import connect_structure, participant_role, spawn_structure
 from mpsfem.coupler.time_window import TIME_EPS
-from mpsfem.fluid_mps.participant import FluidParticipant, reset_preconditioner
+from mpsfem.fluid_mps.participant import FluidParticipant
 from mpsfem.fluid_mps.probes import PROBE_UNITS
 from mpsfem.fluid_mps.solver import FluidSolver
 from mpsfem.progress import Progress
@@ -90,7 +90,7 @@ def run_fluid(
 
     if restart is not None:
         arrays, meta, _ = read_checkpoint(restart)
-        _restore_solver(solver, arrays["fluid"], meta["fluid"])
+        solver.restore(arrays["fluid"], meta["fluid"])
         next_probe.update(meta["next_probe"])
         next_snap = meta["next_snapshot"]
         next_ckpt = meta["next_checkpoint"]
@@ -113,7 +113,7 @@ def run_fluid(
         path = write_checkpoint(ckpt_path, {"fluid": solver.state()}, meta, loaded.text)
         # the restarted run starts with a fresh preconditioner; so does this one from here on,
         # which keeps both bit-identical
-        reset_preconditioner(solver.pressure)
+        solver.pressure.reset()
         return path
 
     def sample(force: bool = False) -> None:
@@ -162,7 +162,7 @@ def run_fluid(
             pass
         for k, v in good.items():
             np.copyto(solver.state()[k], v)
-        _restore_solver(solver, solver.state(), good_meta)
+        solver.restore(solver.state(), good_meta)
         ckpt = checkpoint()
         results.close(status=f"failed: {exc}")
         for s, h in old_handlers.items():
@@ -184,11 +184,6 @@ def run_fluid(
     wall = time.perf_counter() - t_wall
     results.close(status="finished")
     return RunSummary(out, ckpt, solver.t, solver.step_count, wall)
-
-
-def _restore_solver(solver: FluidSolver, arrays: dict, meta: dict) -> None:
-    """``FluidSolver.restore`` (particle arrays, time, step, next dt; fresh preconditioner)."""
-    solver.restore(arrays, meta)
 
 
 def _main_thread() -> bool:
@@ -472,7 +467,7 @@ def _fluid_side(
         results.flush()  # the file holds every sample up to the checkpoint before it exists
         path = write_checkpoint(ckpt_path, arrays, meta, loaded.text)
         # a restarted run starts with a fresh preconditioner; so does this one from here on
-        reset_preconditioner(solver.pressure)
+        solver.pressure.reset()
         return path
 
     def sample(force: bool = False) -> None:

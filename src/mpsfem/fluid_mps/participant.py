@@ -36,13 +36,7 @@ from mpsfem.fluid_mps.structure_surface import StructureSurface
 from mpsfem.fluid_mps.thin_member import ThinMemberFilter
 from mpsfem.scenario.fluid import FluidSection
 
-__all__ = ["FluidParticipant", "reset_preconditioner"]
-
-
-def reset_preconditioner(pressure) -> None:
-    """Drop the pressure solver's reusable preconditioner so the next solve rebuilds it (the
-    same state a freshly built solver is in)."""
-    pressure.reset()
+__all__ = ["FluidParticipant"]
 
 
 class FluidParticipant:
@@ -178,25 +172,11 @@ class FluidParticipant:
         }
 
     def load_state(self, state: dict) -> None:
-        """Inverse of :meth:`state` (copies the arrays in)."""
-        s = self.solver
-        for name in ("pos", "vel", "p", "grad_p"):
-            if name == "grad_p" and name not in state:
-                continue  # states saved before the surface values existed
-            src = np.asarray(state[name])
-            dst = getattr(s, name)
-            if src.shape != dst.shape:
-                raise ValueError(
-                    f"state array {name} has shape {src.shape}, this scenario gives {dst.shape}: "
-                    "the state belongs to another scenario"
-                )
-            np.copyto(dst, src)
+        """Inverse of :meth:`state` (copies the arrays in; the solver's part through
+        :meth:`FluidSolver.restore`, which also drops the reusable preconditioner)."""
+        self.solver.restore(state, state)
         self._d = np.array(state["d"], dtype=np.float64)
         self._v = np.array(state["v"], dtype=np.float64)
-        s.t = float(state["t"])
-        s.step_count = int(state["step"])
-        s.dt_next = float(state["dt_next"])
-        reset_preconditioner(s.pressure)
 
     # ------------------------------------------------------------------ extras
     @property
