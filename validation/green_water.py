@@ -1,0 +1,843 @@
+"""2D green water on deck (thesis ch. 4; references.md section 9; issue 5).
+
+Runs scenarios/green_water_2d.toml (rigid vertical plate) and scenarios/green_water_elastic_2d.toml
+(elastic plate, implicit IQN-ILS coupling) for the freeboards D/B = 0.1 ... 0.5 of thesis
+Table 4-2 at one particle spacing, each case an ``mpsfem run`` subprocess on NUMBA_NUM_THREADS
+threads (default 1). The deck, the plate and the gauges move with D: every case is the scenario
+file plus ``--set`` overrides (:func:`case_overrides`), which the results file records. Then it
+analyses every results file and writes
+
+* validation/results/green_water_<l0>.csv: peak pressure per gauge G1-G12, kind and freeboard,
+  with thesis Table 4-3 and the relative deviation (columns :data:`PEAK_COLUMNS`);
+* validation/results/green_water_<l0>_cases.csv: one row per case (particles, steps, wall time,
+  run-up, plate force and displacement peaks; :data:`CASE_COLUMNS`);
+* docs/figures/green_water_pressure_<l0>.png (gauge histories at D/B = 0.2, rigid and elastic),
+  green_water_peaks_<l0>.png (peak per gauge against Table 4-3, every freeboard),
+  green_water_corner_<l0>.png (corner peak against freeboard, thesis Fig. 4-7),
+  green_water_displacement_<l0>.png (mid-plate displacement of the elastic cases, thesis Fig. 4-9),
+  green_water_snapshots_<l0>.png (particles around the plate at D/B = 0.2);
+* docs/validation_green_water.md (set-up, tables, thesis comparison, wall times, discussion).
+
+Peak pressure: the largest value of the gauge record's centred running mean over
+:data:`PEAK_WINDOW` s (21 samples at the 5e-4 s probe interval), which removes the single-sample
+spikes of MPS pressure (one particle entering or leaving the gauge's radius) but keeps any load
+that lasts a few hundredths of a second; the raw maximum is reported next to it.
+
+Resumable: a case whose results file says ``status = finished`` is not run again; one that a kill
+left at ``running`` resumes from its checkpoint (``mpsfem run --restart``); a ``failed`` one is
+reported and only rerun with ``--retry-failed``.
+
+    python validation/green_water.py [--l0 0.005] [--freeboards 0.1,0.2,0.3,0.4,0.5]
+                                     [--kinds rigid,elastic] [--threads 1] [--analyse-only]
+                                     [--retry-failed]
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import subprocess
+import sys
+import tomllib
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from mpsfem.results.checkpoint import default_checkpoint_path
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIOS = {
+    "rigid": ROOT / "scenarios" / "green_water_2d.toml",
+    "elastic": ROOT / "scenarios" / "green_water_elastic_2d.toml",
+}
+RESULTS_DIR = ROOT / "validation" / "results"
+FIGURES_DIR = ROOT / "docs" / "figures"
+DOC = ROOT / "docs" / "validation_green_water.md"
+
+# ---------------------------------------------------------------- geometry (thesis ch. 4.1)
+DEPTH = 0.114  # H, m (thesis Table 4-1)
+AMPLITUDE = 0.0343  # A, m (thesis Table 4-1)
+GRAVITY = 9.81  # m/s^2
+RHO = 1000.0  # kg/m^3
+B = 0.25  # base dimension the freeboard is scaled with, m (thesis ch. 4.1)
+FREEBOARDS = (0.1, 0.2, 0.3, 0.4, 0.5)  # D/B (thesis Table 4-2)
+ELASTIC_FREEBOARD = 0.2  # the thesis's elastic case (ch. 4.3)
+BASE_FRONT = 1.2  # x of the base front, m (ours, scenario header)
+BASE_END = 1.95  # base back end = tank end, m (L = 0.75 m, thesis)
+PLATE_OFFSET = 0.23  # plate front face behind the base front, m (thesis)
+PLATE_THICKNESS = 0.04  # m (thesis)
+PLATE_HEIGHT = 0.25  # m (thesis)
+GAUGE_STEP = 0.04  # gauge spacing on deck and plate, m (ours, scenario)
+GAUGE_RADIUS = 1.2  # pressure probe radius, x l0 (ours, scenario)
+GAUGES = tuple(f"G{i}" for i in range(1, 13))
+WALL_INDEX = {"base": 2, "plate": 3}  # fluid.walls indices in the scenario files
+PEAK_WINDOW = 0.01  # running-mean window of the peak pressure, s
+
+# Thesis Table 4-3: maximum slamming pressure (Pa) per gauge (rows) and D/B (columns), rigid.
+TABLE_4_3 = {
+    "G1": (1201, 901, 693, 547, 409),
+    "G2": (1318, 997, 847, 452, 300),
+    "G3": (1468, 1100, 976, 568, 251),
+    "G4": (1551, 1132, 998, 624, 350),
+    "G5": (1675, 1300, 1027, 800, 504),
+    "G6": (1682, 1276, 1100, 768, 531),
+    "G7": (1683, 1274, 1059, 751, 473),
+    "G8": (1600, 1214, 978, 652, 376),
+    "G9": (1304, 908, 643, 450, 150),
+    "G10": (964, 637, 400, 203, 0),
+    "G11": (749, 406, 267, 63, 0),
+    "G12": (493, 223, 76, 0, 0),
+}
+
+
+def thesis_peak(gauge: str, d_over_b: float) -> float:
+    """Thesis Table 4-3 value (Pa) for a gauge and freeboard; NaN for a freeboard not listed."""
+    for i, f in enumerate(FREEBOARDS):
+        if abs(f - d_over_b) < 1e-9:
+            return float(TABLE_4_3[gauge][i])
+    return math.nan
+
+
+def spacing_for(l0: float, depth: float = DEPTH) -> float:
+    """The spacing nearest ``l0`` with a whole number of particle layers in the depth,
+    H / round(H / l0) (the lattice fills a block with round(size / l0) particles)."""
+    return depth / max(1, round(depth / l0))
+
+
+def deck_height(d_over_b: float) -> float:
+    """y of the deck, H + D, m."""
+    return DEPTH + d_over_b * B
+
+
+@dataclass(frozen=True)
+class Gauge:
+    name: str
+    x: float
+    y: float
+    face: str  # "deck", "corner", "plate"
+
+
+def gauge_layout(d_over_b: float, spacing: float, kind: str) -> list[Gauge]:
+    """Gauge points G1-G12 on the wall faces (scenario header): nominal 0.04 m apart on the deck
+    (G5 0.04 m, G1 0.20 m in front of the plate) and up the plate (G7 0.04 m, G12 0.24 m above
+    the deck), G6 at the corner; each moved (by < l0/2) onto the nearest column of the wall's
+    pressure layer: deck columns x = x_b + (i + 1/2) l0 (the base box's lattice), plate rows
+    y = H + D + (j + 1/2) l0 for the rigid plate box, H + D + (a + 1/2) h, h = 0.25 / round(0.25
+    / l0), for the elastic member's surface columns (fluid_mps/structure_surface.py)."""
+    yd = deck_height(d_over_b)
+    xp = BASE_FRONT + PLATE_OFFSET
+    out = []
+    for k, name in zip(range(5, 0, -1), GAUGES[:5], strict=True):
+        i = round((xp - GAUGE_STEP * k - BASE_FRONT) / spacing - 0.5)
+        out.append(Gauge(name, BASE_FRONT + (i + 0.5) * spacing, yd, "deck"))
+    out.append(Gauge("G6", xp, yd, "corner"))
+    row = spacing if kind == "rigid" else PLATE_HEIGHT / round(PLATE_HEIGHT / spacing)
+    for k, name in zip(range(1, 7), GAUGES[6:], strict=True):
+        j = round(GAUGE_STEP * k / row - 0.5)
+        out.append(Gauge(name, xp, yd + (j + 0.5) * row, "plate"))
+    return out
+
+
+def _probe_index(kind: str) -> dict[str, int]:
+    with SCENARIOS[kind].open("rb") as f:
+        data = tomllib.load(f)
+    return {p["name"]: i for i, p in enumerate(data.get("probes", []))}
+
+
+def case_overrides(kind: str, d_over_b: float, spacing: float) -> list[str]:
+    """``--set`` items that turn the scenario file into the case (kind, D/B) at ``spacing``:
+    the spacing, the base box (lower corner at H + D - n l0, n = floor((H + D) / l0), so that
+    the deck face is exactly at H + D), the plate (box or member) on the deck, the gauges, the
+    deck wave gauges' reference level and the mid-plate displacement probe."""
+    yd = deck_height(d_over_b)
+    xp = BASE_FRONT + PLATE_OFFSET
+    n = math.floor(yd / spacing + 1e-9)
+    idx = _probe_index(kind)
+    items = [
+        f"fluid.spacing={spacing!r}",
+        f"fluid.walls.{WALL_INDEX['base']}.lower=[{BASE_FRONT!r}, {yd - n * spacing!r}]",
+        f"fluid.walls.{WALL_INDEX['base']}.upper=[{BASE_END!r}, {yd!r}]",
+    ]
+    if kind == "rigid":
+        items += [
+            f"fluid.walls.{WALL_INDEX['plate']}.lower=[{xp!r}, {yd!r}]",
+            f"fluid.walls.{WALL_INDEX['plate']}.upper=[{xp + PLATE_THICKNESS!r}, "
+            f"{yd + PLATE_HEIGHT!r}]",
+        ]
+    else:
+        xc = xp + 0.5 * PLATE_THICKNESS
+        items += [
+            f"structure.members.0.start=[{xc!r}, {yd!r}]",
+            f"structure.members.0.end=[{xc!r}, {yd + PLATE_HEIGHT!r}]",
+            f"probes.{idx['plate_mid']}.position=[{xc!r}, {yd + 0.5 * PLATE_HEIGHT!r}]",
+        ]
+    for g in gauge_layout(d_over_b, spacing, kind):
+        items.append(f"probes.{idx[g.name]}.position=[{g.x!r}, {g.y!r}]")
+        items.append(f"probes.{idx[g.name]}.radius={GAUGE_RADIUS * spacing!r}")
+    for name in ("deck_G1", "deck_plate"):
+        items.append(f"probes.{idx[name]}.reference_level={yd!r}")
+    items.append(f'title="green water, {kind} plate, D/B = {d_over_b:g}, l0 = {spacing:.6g} m"')
+    return items
+
+
+# ---------------------------------------------------------------------- results files
+def read_status(path: Path) -> str | None:
+    """The results file's ``status`` attribute, None if there is no file; 'locked' when another
+    process is writing it."""
+    if not path.is_file():
+        return None
+    try:
+        with h5py.File(path, "r") as h5:
+            return str(h5.attrs.get("status", "unknown"))
+    except OSError as exc:
+        if "lock" in str(exc).lower():
+            return "locked"
+        return f"unreadable: {exc}"
+
+
+def case_path(l0_label: str, kind: str, d_over_b: float) -> Path:
+    return RESULTS_DIR / f"green_water_{l0_label}_{kind}_DB{d_over_b:.2f}.h5"
+
+
+def running_mean(v: np.ndarray, n: int) -> np.ndarray:
+    """Centred running mean over n (odd) samples; the n // 2 samples at each end are NaN."""
+    out = np.full(v.shape, np.nan)
+    h = n // 2
+    if v.size >= n:
+        out[h : v.size - h] = np.convolve(v, np.ones(n) / n, mode="valid")
+    return out
+
+
+def peak(t: np.ndarray, p: np.ndarray, window: float = PEAK_WINDOW) -> tuple[float, float, float]:
+    """(peak Pa, its time s, raw maximum Pa) of a pressure record: the largest value of the
+    centred running mean over ``window`` s (n = 2 round(window / 2 dt) + 1 samples, dt the
+    median sampling interval); NaN samples (no particle in the gauge) count as 0 (dry)."""
+    v = np.nan_to_num(np.asarray(p, dtype=np.float64), nan=0.0)
+    dt = float(np.median(np.diff(t)))
+    n = 2 * max(1, round(0.5 * window / dt)) + 1
+    smooth = running_mean(v, n)
+    if not np.isfinite(smooth).any():
+        return math.nan, math.nan, float(np.max(v)) if v.size else math.nan
+    i = int(np.nanargmax(smooth))
+    return float(smooth[i]), float(t[i]), float(np.max(v))
+
+
+@dataclass
+class PeakRow:
+    """One row of green_water_<l0>.csv (Pa, s, m, %)."""
+
+    kind: str
+    d_over_b: float
+    gauge: str
+    x_m: float
+    y_m: float
+    peak_pa: float  # running mean over PEAK_WINDOW
+    t_peak_s: float
+    raw_max_pa: float
+    thesis_pa: float  # Table 4-3 (rigid)
+    deviation_pct: float  # 100 (peak / thesis - 1); NaN where the thesis lists 0
+
+
+@dataclass
+class CaseRow:
+    """One row of green_water_<l0>_cases.csv."""
+
+    kind: str
+    d_over_b: float
+    freeboard_m: float
+    l0_m: float
+    status: str
+    fluid_particles: int
+    particles: int
+    steps: int
+    wall_time_s: float
+    t_overtopping_s: float  # first time water is on the deck at G1 (deck_G1 gauge finite)
+    max_layer_g1_m: float  # thickest layer over G1 (0.02 s running mean)
+    max_runup_front_m: float  # highest surface 0.01 m in front of the base, above still water
+    plate_fx_peak_n_m: float  # running mean over PEAK_WINDOW, N/m
+    t_plate_fx_peak_s: float
+    mid_disp_peak_mm: float  # elastic: largest |u_x| at mid-plate (NaN for rigid)
+    t_mid_disp_peak_s: float
+    coupling_windows: int
+    coupling_iterations: int
+    unconverged_windows: int
+
+
+PEAK_COLUMNS = tuple(f.name for f in fields(PeakRow))
+CASE_COLUMNS = tuple(f.name for f in fields(CaseRow))
+
+
+def _probe(h5: h5py.File, name: str) -> tuple[np.ndarray, np.ndarray]:
+    g = h5["probes"][name]
+    return g["time"][:], g["value"][:]
+
+
+def analyse(path: Path, kind: str, d_over_b: float) -> tuple[CaseRow, list[PeakRow]]:
+    """Every measurement of one results file (definitions: :func:`peak`, :class:`CaseRow`)."""
+    with h5py.File(path, "r") as h5:
+        resolved = json.loads(h5.attrs["scenario_resolved"])
+        status = str(h5.attrs.get("status", "unknown"))
+        steps = int(h5.attrs.get("steps", -1))
+        wall = float(h5.attrs.get("wall_time", math.nan))
+        l0 = float(resolved["fluid"]["spacing"])
+        probes = {p["name"]: p for p in resolved["probes"]}
+        records = {g: _probe(h5, g) for g in GAUGES}
+        layer = _probe(h5, "deck_G1")
+        runup = _probe(h5, "gauge_front")
+        fx = _probe(h5, "plate_force")
+        disp = _probe(h5, "plate_mid") if "plate_mid" in h5["probes"] else None
+        snaps = h5["particles"]
+        first = snaps[next(iter(snaps))] if len(snaps) else None
+        n_fluid = int(np.count_nonzero(first["kind"][:] == 0)) if first is not None else -1
+        n_all = int(first["kind"].shape[0]) if first is not None else -1
+        if "coupling" in h5 and "iterations" in h5["coupling"]:
+            c = h5["coupling"]
+            iters = c["iterations"][:]
+            conv = c["converged"][:] if "converged" in c else np.ones_like(iters, dtype=bool)
+            windows, total_it, bad = iters.size, int(iters.sum()), int(np.count_nonzero(~conv))
+        else:
+            windows = total_it = bad = 0
+    rows = []
+    for g in GAUGES:
+        t, p = records[g]
+        pk, tp, raw = peak(t, p)
+        th = thesis_peak(g, d_over_b)
+        dev = 100.0 * (pk / th - 1.0) if th > 0 else math.nan
+        x, y = probes[g]["position"]
+        rows.append(PeakRow(kind, d_over_b, g, x, y, pk, tp, raw, th, dev))
+    tl, vl = layer
+    wet = np.flatnonzero(np.isfinite(vl))
+    t_over = float(tl[wet[0]]) if wet.size else math.nan
+    dtl = float(np.median(np.diff(tl)))
+    lay = running_mean(np.nan_to_num(vl, nan=0.0), 2 * max(1, round(0.01 / dtl)) + 1)
+    tr, vr = runup
+    fx_t, fx_v = fx
+    f_pk, f_t, _ = peak(fx_t, fx_v[:, 0])
+    d_pk = d_t = math.nan
+    if disp is not None:
+        td, vd = disp
+        i = int(np.nanargmax(np.abs(vd[:, 0])))
+        d_pk, d_t = 1e3 * float(vd[i, 0]), float(td[i])
+    case = CaseRow(
+        kind=kind,
+        d_over_b=d_over_b,
+        freeboard_m=d_over_b * B,
+        l0_m=l0,
+        status=status,
+        fluid_particles=n_fluid,
+        particles=n_all,
+        steps=steps,
+        wall_time_s=wall,
+        t_overtopping_s=t_over,
+        max_layer_g1_m=float(np.nanmax(lay)) if np.isfinite(lay).any() else math.nan,
+        max_runup_front_m=float(np.nanmax(vr)) if np.isfinite(vr).any() else math.nan,
+        plate_fx_peak_n_m=f_pk,
+        t_plate_fx_peak_s=f_t,
+        mid_disp_peak_mm=d_pk,
+        t_mid_disp_peak_s=d_t,
+        coupling_windows=windows,
+        coupling_iterations=total_it,
+        unconverged_windows=bad,
+    )
+    return case, rows
+
+
+# ---------------------------------------------------------------------- running
+def run_case(
+    kind: str, d_over_b: float, spacing: float, out: Path, threads: int, restart: Path | None
+) -> int:
+    """``mpsfem run`` of one case in a subprocess on ``threads`` numba threads; its exit code."""
+    cmd = [sys.executable, "-m", "mpsfem.cli", "run", str(SCENARIOS[kind]), "--out", str(out)]
+    for item in case_overrides(kind, d_over_b, spacing):
+        cmd += ["--set", item]
+    cmd.append("--no-progress")
+    if restart is not None:
+        cmd += ["--restart", str(restart)]
+    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads))
+    print(f"[{kind} D/B = {d_over_b:g}] {out.name}", flush=True)
+    return subprocess.run(cmd, env=env, cwd=ROOT, check=False).returncode
+
+
+def ensure_case(
+    kind: str, d_over_b: float, spacing: float, out: Path, threads: int, retry: bool
+) -> str:
+    """Run (or resume) one case unless its results file says finished; its final status."""
+    status = read_status(out)
+    ckpt = default_checkpoint_path(out)
+    tag = f"[{kind} D/B = {d_over_b:g}] {out.name}"
+    if status == "finished":
+        print(f"{tag}: finished, skipped")
+        return status
+    if status == "locked":
+        print(f"{tag}: locked (another run is writing it), skipped")
+        return status
+    if status is not None and status.startswith("failed") and not retry:
+        print(f"{tag}: {status} (rerun with --retry-failed)")
+        return status
+    restart = ckpt if status == "running" and ckpt.is_file() else None
+    if restart is not None:
+        print(f"{tag}: resuming from {ckpt.name}")
+    run_case(kind, d_over_b, spacing, out, threads, restart)
+    return read_status(out) or "missing"
+
+
+# ---------------------------------------------------------------------- output
+def _fmt(v: object) -> object:
+    return f"{v:.6g}" if isinstance(v, float) else v
+
+
+def write_csv(rows: list, columns: tuple[str, ...], path: Path) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=columns)
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: _fmt(v) for k, v in asdict(r).items()})
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_pressures(paths: dict[tuple[str, float], Path], label: str, out: Path) -> None:
+    """Gauge histories G1-G12 at the thesis's reference freeboard (its Figs. 4-5 and 4-10): the
+    running mean over PEAK_WINDOW, rigid solid, elastic dashed."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(4, 3, figsize=(9.0, 8.0), sharex=True)
+    for kind, style in (("rigid", "-"), ("elastic", "--")):
+        path = paths.get((kind, ELASTIC_FREEBOARD))
+        if path is None:
+            continue
+        with h5py.File(path, "r") as h5:
+            for ax, g in zip(axes.ravel(), GAUGES, strict=True):
+                t, p = _probe(h5, g)
+                dt = float(np.median(np.diff(t)))
+                sm = running_mean(np.nan_to_num(p, nan=0.0), 2 * round(0.5 * PEAK_WINDOW / dt) + 1)
+                ax.plot(t, p, color="0.8" if kind == "rigid" else "0.9", lw=0.4)
+                ax.plot(t, sm, style, color="C0" if kind == "rigid" else "C3", lw=0.9, label=kind)
+    for ax, g in zip(axes.ravel(), GAUGES, strict=True):
+        th = thesis_peak(g, ELASTIC_FREEBOARD)
+        ax.axhline(th, color="k", lw=0.6, ls=":", label="thesis peak")
+        ax.set_title(g, fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+    axes[0, 0].legend(fontsize=6)
+    for ax in axes[-1]:
+        ax.set_xlabel("t (s)", fontsize=8)
+    for ax in axes[:, 0]:
+        ax.set_ylabel("p (Pa)", fontsize=8)
+    fig.suptitle(
+        f"Gauge pressures, D/B = {ELASTIC_FREEBOARD}, l0 = {label} m (grey: raw; lines: "
+        f"{PEAK_WINDOW * 1e3:.0f} ms running mean; dotted: thesis Table 4-3 peak)",
+        fontsize=8,
+    )
+    fig.tight_layout()
+    fig.savefig(out, dpi=80)
+    plt.close(fig)
+
+
+def plot_peaks(peaks: list[PeakRow], label: str, out: Path) -> None:
+    """Peak pressure per gauge against Table 4-3, one panel per freeboard (thesis Fig. 4-6)."""
+    plt = _pyplot()
+    fbs = sorted({r.d_over_b for r in peaks})
+    fig, axes = plt.subplots(1, len(fbs), figsize=(2.6 * len(fbs), 2.8), squeeze=False, sharey=True)
+    idx = np.arange(1, 13)
+    for ax, fb in zip(axes[0], fbs, strict=True):
+        ax.plot(idx, [thesis_peak(g, fb) for g in GAUGES], "ks-", ms=3, lw=0.8, label="thesis")
+        for kind, c in (("rigid", "C0"), ("elastic", "C3")):
+            sel = {r.gauge: r.peak_pa for r in peaks if r.kind == kind and r.d_over_b == fb}
+            if sel:
+                ax.plot(idx, [sel[g] for g in GAUGES], "o-", color=c, ms=3, lw=0.8, label=kind)
+        ax.axvline(6, color="0.6", lw=0.5)
+        ax.set_title(f"D/B = {fb:g}", fontsize=8)
+        ax.set_xticks(idx)
+        ax.set_xlabel("gauge (1-5 deck, 6 corner, 7-12 plate)", fontsize=7)
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+    axes[0, 0].set_ylabel("peak pressure (Pa)", fontsize=8)
+    axes[0, 0].legend(fontsize=7)
+    fig.suptitle(f"Peak pressure per gauge, l0 = {label} m, against thesis Table 4-3", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out, dpi=80)
+    plt.close(fig)
+
+
+def plot_corner(peaks: list[PeakRow], label: str, out: Path) -> None:
+    """Corner-region peak (G5, G6, G7) against freeboard (thesis Fig. 4-7)."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(4.2, 3.0))
+    for g, c in (("G5", "C1"), ("G6", "C0"), ("G7", "C2")):
+        fbs = sorted({r.d_over_b for r in peaks if r.kind == "rigid" and r.gauge == g})
+        ours = [
+            next(r.peak_pa for r in peaks if r.kind == "rigid" and r.gauge == g and r.d_over_b == f)
+            for f in fbs
+        ]
+        ax.plot(fbs, ours, "o-", color=c, ms=4, label=f"{g} MPS")
+        ax.plot(FREEBOARDS, TABLE_4_3[g], "s:", color=c, ms=3, label=f"{g} thesis")
+    ax.set_xlabel("D/B", fontsize=8)
+    ax.set_ylabel("peak pressure (Pa)", fontsize=8)
+    ax.tick_params(labelsize=7)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=6, ncol=2)
+    ax.set_title(f"Corner peaks against freeboard, rigid, l0 = {label} m", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+
+
+def plot_displacement(paths: dict[tuple[str, float], Path], label: str, out: Path) -> None:
+    """Mid-plate displacement u_x(t) of every elastic case (thesis Fig. 4-9), with the plate
+    force on a second axis."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6.0, 3.2))
+    ax2 = ax.twinx()
+    for i, ((kind, fb), path) in enumerate(sorted(paths.items())):
+        if kind != "elastic":
+            continue
+        with h5py.File(path, "r") as h5:
+            td, vd = _probe(h5, "plate_mid")
+            tf, vf = _probe(h5, "plate_force")
+        ax.plot(td, 1e3 * vd[:, 0], color=f"C{i}", lw=1.0, label=f"u_x, D/B = {fb:g}")
+        dt = float(np.median(np.diff(tf)))
+        ax2.plot(
+            tf,
+            running_mean(vf[:, 0], 2 * round(0.5 * PEAK_WINDOW / dt) + 1),
+            color=f"C{i}",
+            lw=0.6,
+            ls=":",
+            label=f"F_x, D/B = {fb:g}",
+        )
+    ax.set_xlabel("t (s)", fontsize=8)
+    ax.set_ylabel("mid-plate u_x (mm)", fontsize=8)
+    ax2.set_ylabel("plate force F_x (N/m, dotted)", fontsize=8)
+    ax.tick_params(labelsize=7)
+    ax2.tick_params(labelsize=7)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper left")
+    ax.set_title(f"Elastic plate: mid-plate displacement, l0 = {label} m", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+
+
+def plot_snapshots(path: Path, label: str, out: Path, times: tuple[float, ...]) -> None:
+    """Particles near the deck and the plate at a few times (thesis Fig. 4-3): fluid coloured by
+    pressure, walls grey, structure black."""
+    plt = _pyplot()
+    with h5py.File(path, "r") as h5:
+        snaps = h5["particles"]
+        st = {k: float(snaps[k].attrs["time"]) for k in snaps}
+        picks = []
+        for t in times:
+            k = min(st, key=lambda k: abs(st[k] - t))
+            if k not in picks:
+                picks.append(k)
+        fig, axes = plt.subplots(1, len(picks), figsize=(2.6 * len(picks), 2.9), squeeze=False)
+        for ax, k in zip(axes[0], picks, strict=True):
+            s = snaps[k]
+            pos, kd, p = s["pos"][:], s["kind"][:], s["p"][:]
+            box = (pos[:, 0] > 1.0) & (pos[:, 0] < 1.6) & (pos[:, 1] < 0.55)
+            f = box & (kd == 0)
+            w = box & ((kd == 1) | (kd == 2))
+            m = box & ((kd == 3) | (kd == 4))
+            ax.scatter(pos[w, 0], pos[w, 1], s=0.3, c="0.7", lw=0)
+            ax.scatter(pos[m, 0], pos[m, 1], s=0.3, c="k", lw=0)
+            sc = ax.scatter(pos[f, 0], pos[f, 1], s=0.6, c=p[f], cmap="viridis", vmin=0, vmax=2000)
+            ax.set_aspect("equal")
+            ax.set_xlim(1.0, 1.6)
+            ax.set_ylim(0.0, 0.55)
+            ax.set_title(f"t = {st[k]:.2f} s", fontsize=8)
+            ax.tick_params(labelsize=6)
+        fig.colorbar(sc, ax=axes[0].tolist(), shrink=0.8, label="p (Pa)")
+    fig.suptitle(f"{path.stem}", fontsize=8)
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+
+
+# ---------------------------------------------------------------------- document
+DISCUSSION = """\
+"""
+
+
+def _f(v: float, fmt: str = ".0f") -> str:
+    return "-" if not math.isfinite(v) else format(v, fmt)
+
+
+def write_doc(
+    cases: list[CaseRow], peaks: list[PeakRow], label: str, spacing: float, figures: list[str]
+) -> None:
+    """docs/validation_green_water.md from the analysed cases."""
+    n_layers = round(DEPTH / spacing)
+    lines = [
+        "# Validation: green water on deck (issue 5; thesis ch. 4)",
+        "",
+        "Generated by `python validation/green_water.py --l0 " + label + "` (do not edit by "
+        "hand: the text lives in the script). Scenarios `scenarios/green_water_2d.toml` (rigid "
+        "plate) and `scenarios/green_water_elastic_2d.toml` (elastic plate); results "
+        f"`validation/results/green_water_{label}.csv` (peaks) and "
+        f"`validation/results/green_water_{label}_cases.csv` (cases); tests "
+        "`tests/scenarios/test_green_water.py`.",
+        "",
+        "## Set-up",
+        "",
+        "| | value | source |",
+        "|---|---|---|",
+        "| water | H = 0.114 m, rho = 1000 kg/m^3, nu = 1e-6 m^2/s, g = 9.81 m/s^2 | thesis "
+        "Table 4-1 |",
+        "| wave | solitary, A = 0.0343 m (A/H = 0.3), Goring piston paddle (docs/wave_tank.md), "
+        "at rest until 0.2 s | A: Table 4-1; paddle law: thesis ch. 3; start time ours |",
+        "| base | L = 0.75 m, from x = 1.2 m (the base front) to the tank's end wall at 1.95 m, "
+        "standing on the floor, deck at y = H + D | length, B = 0.25 m: thesis ch. 4.1; "
+        "position and the floor: ours (below) |",
+        "| plate | 0.25 m tall, 0.04 m thick, front face 0.23 m behind the base front "
+        "(x = 1.43 m) | thesis ch. 4.1 |",
+        "| freeboard | D = 0.025, 0.05, 0.075, 0.1, 0.125 m (D/B = 0.1 ... 0.5) | thesis "
+        "Table 4-2 |",
+        "| elastic plate | 50 beam elements, clamped at the deck, simply supported at the top, "
+        "rho = 1100 kg/m^3, E = 35 MPa, A = b t, I = b t^3/12 per unit width, a1 = 0, "
+        "a2 = 1.97e-4 s (zeta_1 = 5 %) | Table 4-4; section and a2 ours "
+        "(scenarios/structure_green_water_plate.toml) |",
+        "| coupling | implicit, IQN-ILS, window 1e-3 s (structure dt 1e-4 s), rtol 1e-3, "
+        "non-converged windows accepted with a warning | ours |",
+        f"| spacing | l0 = H/{n_layers} = {spacing:.6g} m | thesis 0.005 m, made exact for H "
+        "(the lattice needs a whole number of layers) |",
+        "| gauges | G1-G5 on the deck 0.04 m apart (G1 0.20 m, G5 0.04 m in front of the plate), "
+        "G6 at the corner, G7-G12 up the plate 0.04 m apart (0.04 ... 0.24 m above the deck), "
+        "each on the wall face, snapped to the nearest wall-particle column; radius 1.2 l0 "
+        "(3 pressure-layer particles + the first fluid layer) | names and faces: thesis Fig. 4-2; "
+        "positions ours |",
+        f"| peak | largest {PEAK_WINDOW * 1e3:.0f} ms centred running mean of the gauge "
+        "record (sampled every 5e-4 s); raw maximum in the CSV | ours |",
+        "| run | 3.4 s; the crest reaches the base front at about 1.95 s | ours (scenario "
+        "header: nothing re-reflected by the paddle is back before 3.6 s) |",
+        "",
+        "Choices where the thesis is silent (all in the scenario files):",
+        "",
+        "- **The base stands on the floor.** The thesis gives the base as 0.75 m long and "
+        "B = 0.25 m, and changes D by moving the structure vertically. Any deck height H + D "
+        "= 0.139 ... 0.239 m is below B, so a 0.25 m base reaches below the floor in every case: "
+        "the wave meets a vertical wall from the floor to the deck.",
+        "- **Base front 1.2 m from the paddle** (its figure 4-2 shows the tank only as a picture): "
+        "the wave is fully formed there (crest within 1 % of A from 0.6 m on in our plain tank, "
+        "docs/validation_wave_tank.md) and whatever the base reflects cannot come back from the "
+        "paddle before 3.6 s, after every peak. The thesis's times (water on the deck at "
+        "3.15 s at D/B = 0.2) are therefore not ours (about 1.9 s); only the time between events "
+        "compares.",
+        "- **Fluid particles.** 242 x 23 = 5566 here; the thesis reports 81729 at l0 = 0.005 m, "
+        "i.e. 2.04 m^2 of water, a 17.9 m long tank at H = 0.114 m, which its ch. 3 tank "
+        "(2.5 m) and its ch. 4 figures do not suggest; we cannot reproduce that count.",
+        "- **Gauge positions**: evenly spaced, as drawn in Fig. 4-2(b), with the spacing ours.",
+        "",
+    ]
+    rigid = {(r.gauge, r.d_over_b): r for r in peaks if r.kind == "rigid"}
+    fbs = sorted({r.d_over_b for r in peaks if r.kind == "rigid"})
+    if fbs:
+        lines += [
+            "## Peak pressure per gauge, rigid plate, against thesis Table 4-3",
+            "",
+            "Each cell: ours / thesis (Pa), deviation. Peak = largest "
+            f"{PEAK_WINDOW * 1e3:.0f} ms running mean.",
+            "",
+            "| gauge | " + " | ".join(f"D/B = {f:g}" for f in fbs) + " |",
+            "|---|" + "---|" * len(fbs),
+        ]
+        for g in GAUGES:
+            cells = []
+            for f in fbs:
+                r = rigid.get((g, f))
+                if r is None:
+                    cells.append("-")
+                    continue
+                dev = f"{r.deviation_pct:+.0f} %" if math.isfinite(r.deviation_pct) else "n/a"
+                cells.append(f"{_f(r.peak_pa)} / {_f(r.thesis_pa)} ({dev})")
+            lines.append(f"| {g} | " + " | ".join(cells) + " |")
+        lines += [""]
+        lines += [
+            "Raw maxima (single samples, Pa), rigid:",
+            "",
+            "| gauge | " + " | ".join(f"D/B = {f:g}" for f in fbs) + " |",
+            "|---|" + "---|" * len(fbs),
+        ]
+        for g in GAUGES:
+            cells = [_f(rigid[(g, f)].raw_max_pa) if (g, f) in rigid else "-" for f in fbs]
+            lines.append(f"| {g} | " + " | ".join(cells) + " |")
+        lines += [""]
+    elastic = [r for r in peaks if r.kind == "elastic"]
+    if elastic:
+        efbs = sorted({r.d_over_b for r in elastic})
+        lines += [
+            "## Elastic plate against the rigid one",
+            "",
+            "Peak pressure (Pa): elastic / rigid, relative difference (thesis ch. 4.3: deck "
+            "gauges G1-G4 about +5 %, G5-G7 equal, plate gauges G8-G12 5-10 % lower).",
+            "",
+            "| gauge | " + " | ".join(f"D/B = {f:g}" for f in efbs) + " |",
+            "|---|" + "---|" * len(efbs),
+        ]
+        el = {(r.gauge, r.d_over_b): r for r in elastic}
+        for g in GAUGES:
+            cells = []
+            for f in efbs:
+                e, rr = el.get((g, f)), rigid.get((g, f))
+                if e is None:
+                    cells.append("-")
+                elif rr is None or not rr.peak_pa > 0:
+                    cells.append(f"{_f(e.peak_pa)} / -")
+                else:
+                    cells.append(
+                        f"{_f(e.peak_pa)} / {_f(rr.peak_pa)} ({100 * (e.peak_pa / rr.peak_pa - 1):+.0f} %)"
+                    )
+            lines.append(f"| {g} | " + " | ".join(cells) + " |")
+        lines += [""]
+    lines += [
+        "## Cases",
+        "",
+        "| kind | D/B | status | fluid / all particles | steps | wall time | water on deck "
+        "(G1) from | thickest layer at G1 | run-up at the base front | plate F_x peak | "
+        "mid-plate u_x peak | coupling windows / iterations / not converged |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for c in sorted(cases, key=lambda c: (c.kind != "rigid", c.d_over_b)):
+        disp = (
+            f"{c.mid_disp_peak_mm:.3f} mm at {c.t_mid_disp_peak_s:.2f} s"
+            if math.isfinite(c.mid_disp_peak_mm)
+            else "-"
+        )
+        coup = (
+            f"{c.coupling_windows} / {c.coupling_iterations} / {c.unconverged_windows}"
+            if c.coupling_windows
+            else "-"
+        )
+        lines.append(
+            f"| {c.kind} | {c.d_over_b:g} | {c.status} | {c.fluid_particles} / {c.particles} | "
+            f"{c.steps} | {_f(c.wall_time_s)} s | {_f(c.t_overtopping_s, '.2f')} s | "
+            f"{_f(1e3 * c.max_layer_g1_m, '.1f')} mm | {_f(1e3 * c.max_runup_front_m, '.1f')} mm | "
+            f"{_f(c.plate_fx_peak_n_m, '.1f')} N/m at {_f(c.t_plate_fx_peak_s, '.2f')} s | "
+            f"{disp} | {coup} |"
+        )
+    lines += [
+        "",
+        "Wall time: one numba thread (`NUMBA_NUM_THREADS=1`), one case at a time on the shared "
+        "2-core development machine while other developers' jobs ran.",
+        "",
+    ]
+    for fig in figures:
+        lines += [f"![{fig}](figures/{fig})", ""]
+    lines += ["## Discussion", "", DISCUSSION.strip(), ""]
+    DOC.write_text("\n".join(lines))
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--l0", default="0.005", help="particle spacing, m (default 0.005)")
+    ap.add_argument("--freeboards", default=",".join(f"{f:g}" for f in FREEBOARDS), help="D/B list")
+    ap.add_argument("--kinds", default="rigid,elastic", help="rigid, elastic or both")
+    ap.add_argument("--threads", type=int, default=1, help="numba threads per run (default 1)")
+    ap.add_argument("--analyse-only", action="store_true", help="do not run, only analyse")
+    ap.add_argument("--retry-failed", action="store_true", help="rerun failed cases")
+    args = ap.parse_args(argv)
+    l0 = float(args.l0)
+    if not l0 > 0.0:
+        ap.error(f"--l0 = {args.l0}: must be > 0")
+    fbs = [float(f) for f in args.freeboards.split(",")]
+    for f in fbs:
+        if not 0.0 < f <= 1.0:
+            ap.error(f"--freeboards: D/B = {f} must lie in (0, 1]")
+    kinds = [k.strip() for k in args.kinds.split(",")]
+    for k in kinds:
+        if k not in SCENARIOS:
+            ap.error(f"--kinds: {k!r} is not one of {sorted(SCENARIOS)}")
+    spacing = spacing_for(l0)
+    print(f"l0 = {l0:g} m -> {spacing:.7g} m: {round(DEPTH / l0)} layers over H = {DEPTH} m")
+    RESULTS_DIR.mkdir(parents=True, exist_ok=True)
+    # run in priority order: every rigid case first, then the elastic ones (the thesis's
+    # elastic freeboard first)
+    order = [(k, f) for k in kinds for f in fbs]
+    order.sort(key=lambda c: (c[0] != "rigid", c[1] != ELASTIC_FREEBOARD))
+    if not args.analyse_only:
+        for kind, f in order:
+            ensure_case(
+                kind, f, spacing, case_path(args.l0, kind, f), args.threads, args.retry_failed
+            )
+    # analyse every case of this l0 that has a results file (also ones not asked for now)
+    paths: dict[tuple[str, float], Path] = {}
+    for kind in SCENARIOS:
+        for f in FREEBOARDS:
+            p = case_path(args.l0, kind, f)
+            st = read_status(p)
+            if st is not None and st not in ("locked",) and not st.startswith("unreadable"):
+                paths[(kind, f)] = p
+    cases, peaks = [], []
+    for (kind, f), p in sorted(paths.items()):
+        try:
+            c, rows = analyse(p, kind, f)
+        except (KeyError, ValueError, OSError) as exc:
+            print(f"[{kind} D/B = {f:g}] {p.name}: cannot analyse ({exc})")
+            continue
+        cases.append(c)
+        peaks += rows
+    if not cases:
+        print("nothing to analyse")
+        return 1
+    write_csv(peaks, PEAK_COLUMNS, RESULTS_DIR / f"green_water_{args.l0}.csv")
+    write_csv(cases, CASE_COLUMNS, RESULTS_DIR / f"green_water_{args.l0}_cases.csv")
+    FIGURES_DIR.mkdir(parents=True, exist_ok=True)
+    figs = []
+    done = {
+        k: p for k, p in paths.items() if any(c.kind == k[0] and c.d_over_b == k[1] for c in cases)
+    }
+    if any(k[1] == ELASTIC_FREEBOARD for k in done):
+        name = f"green_water_pressure_{args.l0}.png"
+        plot_pressures(done, args.l0, FIGURES_DIR / name)
+        figs.append(name)
+    name = f"green_water_peaks_{args.l0}.png"
+    plot_peaks(peaks, args.l0, FIGURES_DIR / name)
+    figs.append(name)
+    if sum(1 for c in cases if c.kind == "rigid") >= 2:
+        name = f"green_water_corner_{args.l0}.png"
+        plot_corner(peaks, args.l0, FIGURES_DIR / name)
+        figs.append(name)
+    if any(k[0] == "elastic" for k in done):
+        name = f"green_water_displacement_{args.l0}.png"
+        plot_displacement(done, args.l0, FIGURES_DIR / name)
+        figs.append(name)
+    ref = done.get(("rigid", ELASTIC_FREEBOARD))
+    if ref is not None:
+        name = f"green_water_snapshots_{args.l0}.png"
+        c = next(c for c in cases if c.kind == "rigid" and c.d_over_b == ELASTIC_FREEBOARD)
+        t0 = c.t_overtopping_s if math.isfinite(c.t_overtopping_s) else 2.0
+        plot_snapshots(
+            ref, args.l0, FIGURES_DIR / name, tuple(t0 + d for d in (0.0, 0.2, 0.4, 0.6))
+        )
+        figs.append(name)
+    write_doc(cases, peaks, args.l0, spacing, figs)
+    print(f"{'kind':>8} {'D/B':>4} {'status':>9} {'particles':>9} {'steps':>6} {'wall s':>7}")
+    for c in cases:
+        print(
+            f"{c.kind:>8} {c.d_over_b:>4g} {c.status[:9]:>9} {c.particles:>9d} {c.steps:>6d} "
+            f"{c.wall_time_s:>7.0f}"
+        )
+    print(f"{'gauge':>5} " + " ".join(f"{'DB' + format(f, 'g'):>14}" for f in FREEBOARDS))
+    rig = {(r.gauge, r.d_over_b): r for r in peaks if r.kind == "rigid"}
+    for g in GAUGES:
+        cells = []
+        for f in FREEBOARDS:
+            r = rig.get((g, f))
+            cells.append(f"{r.peak_pa:>6.0f}/{r.thesis_pa:>6.0f}" if r else f"{'-':>13}")
+        print(f"{g:>5} " + " ".join(f"{c:>14}" for c in cells))
+    print(f"wrote {DOC.relative_to(ROOT)} and validation/results/green_water_{args.l0}*.csv")
+    return 0 if all(c.status == "finished" for c in cases) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
