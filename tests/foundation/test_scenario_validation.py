@@ -113,3 +113,10 @@ def test_all_problems_reported_at_once():
 def test_missing_required_key():
     (msg,) = problems(BASE.replace("end_time = 1.0", ""))
     assert msg == "run.end_time: required key is missing"
+
+
+def test_wave_gauge_half_width_only_with_top_particle():
+    gauge = '[[probes]]\nname = "w"\nkind = "wave_gauge"\nposition = [0.1]\nhalf_width = 0.02\n'
+    (msg,) = problems(BASE + gauge)
+    assert msg.startswith("probes[1]") and "half_width = 0.02" in msg and "top_particle" in msg
+    load_scenario_text(BASE + gauge + 'method = "top_particle"\n')

@@ -93,8 +93,8 @@ def test_paddle_makes_the_design_crest_at_the_near_gauge(coarse_run):
 
     Tolerance from the resolution: a gauge reads the top particle's centre plus l0/2, so it
     knows the surface only to within a particle's cell; l0/2 = 0.0057 m is 17 % of A here.
-    Measured: +6.5 % (crest 0.002 s early); the same gauge at l0 = H/28 reads -0.2 %
-    (docs/validation_wave_tank.md). A paddle with a wrong stroke (A grows like S^2) or timing
+    Measured with the kernel gauge: +5.0 % (crest 0.002 s early); the top-particle gauge at
+    l0 = H/28 read -0.2 % (docs/validation_wave_tank.md). A paddle with a wrong stroke (A grows like S^2) or timing
     fails it. 0.1 s is a 15 % crest-speed error over the 0.53 m from the paddle's mid-stroke."""
     records, wave, start, status = coarse_run
     assert status == "finished"
@@ -113,8 +113,8 @@ def test_sponge_damps_the_wave(coarse_run):
     """The wave enters the sponge (at its inner edge the 0.11 s running mean of eta reaches at
     least 0.9 A) and 0.1 m before the end wall it stays below 0.6 A. Measured once without the
     sponge (fluid.sponges = []), the same run reads 1.55 A there by 2.8 s (the wall reflects the
-    wave: up to 2 A) and 1.00 A at the inner edge; with it 0.36 A and 1.43 A (the sponge's
-    inner part reflects: docs/validation_wave_tank.md)."""
+    wave: up to 2 A) and 1.00 A at the inner edge (top-particle gauge); with it 0.42 A and
+    1.35 A (kernel gauge; the sponge's inner part reflects: docs/validation_wave_tank.md)."""
     records, wave, start, _ = coarse_run
     peak = {}
     for x in (ENTRY, FAR):

@@ -160,10 +160,7 @@ class FluidParticipant:
         """Arrays and numbers that restore this participant exactly (views, not copies)."""
         s = self.solver
         return {
-            "pos": s.pos,
-            "vel": s.vel,
-            "p": s.p,
-            "grad_p": s.grad_p,
+            **s.state(),
             "d": self._d,
             "v": self._v,
             "t": s.t,

@@ -3,13 +3,17 @@
 One step (thesis ch. 2.1):
 
 1. walls move to their prescribed position at t + dt;
-2. explicit prediction u* = u + dt (nu lap u + g), r* = r + dt u* (viscosity only if nu > 0);
-3. neighbour search at r*; collision model (if on) on approaching fluid pairs;
+2. explicit prediction u* = u + dt (nu lap u + g), r* = r + dt u* (lap u from the end of the
+   previous step, item 8);
+3. neighbour search at r* (the only one of the step); collision model (if on) on approaching
+   fluid pairs;
 4. particle number density n*, free-surface detection;
 5. pressure Poisson equation with the mixed source term, solved by preconditioned CG;
 6. negative-pressure clamp (if on); pressure gradient; correction of u and r;
 7. checks (non-finite values, escaped particles) and the next dt from the Courant number and the
-   viscous limit.
+   viscous limit;
+8. if nu > 0: lap u^{n+1} on this step's neighbour list (state, checkpointed), for the next
+   step's prediction.
 """
 
 from __future__ import annotations
@@ -185,7 +189,9 @@ class FluidSolver:
         self.times = StageTimes()
         self.last_iterations = 0
         self._last_neighbours = None
+        self._lap_u_ready = False  # lap_u holds the viscous Laplacian of the current state
         self._uf_parent: np.ndarray | None = None
+        self._gauge_work: np.ndarray | None = None
         self._uf_size: np.ndarray | None = None
 
     # ------------------------------------------------------------------ set-up helpers
@@ -244,6 +250,34 @@ class FluidSolver:
             nb = self.neighbour_filter(nb, self.pos, self.kind)
         return nb
 
+    def _viscous_laplacian(self, nb) -> None:
+        """lap_u = Laplacian of the velocity (thesis eq. 2-13, re_lap) at the current positions.
+
+        The pair list may be the one built at this step's r* (the end-of-step call): the
+        distances are recomputed from the current positions, and a pair missing from it is one
+        that has come within re_lap during the pressure correction (a displacement of
+        dt^2 |grad p| / rho, a few hundredths of l0), where the kernel weight is ~0.85 delta / re.
+        This saves the second neighbour search of every viscous step.
+        """
+        operators.laplacian(
+            self.pos,
+            self.vel,
+            self.kind,
+            nb.indptr,
+            nb.indices,
+            self.re_lap,
+            self.wcode,
+            self.lap_coef,
+            self.lap_u,
+        )
+        self._lap_u_ready = True
+
+    def _ensure_lap_u(self) -> None:
+        """Compute lap_u at the current state where no step has left it (the first step, a
+        checkpoint without it); after bind-time set-up such as neighbour filters."""
+        if self.nu > 0.0 and not self._lap_u_ready:
+            self._viscous_laplacian(self._neighbours())
+
     def step(self, dt: float) -> None:
         """Advance the fluid by dt (s)."""
         if not dt >= self.spec.time_step.dt_min:
@@ -256,20 +290,9 @@ class FluidSolver:
         c0 = time.perf_counter()
         self.move_walls(self.t + dt)
         if self.nu > 0.0:
-            nb = self._neighbours()
+            self._ensure_lap_u()
             c1 = time.perf_counter()
             tm.neighbours += c1 - c0
-            operators.laplacian(
-                self.pos,
-                self.vel,
-                self.kind,
-                nb.indptr,
-                nb.indices,
-                self.re_lap,
-                self.wcode,
-                self.lap_coef,
-                self.lap_u,
-            )
             if self.sponge.active:  # thesis eq. 3-9, explicit with u^n
                 self.sponge.apply(self.pos, self.vel, self.n_fluid, dt)
             time_integration.predict(
@@ -420,6 +443,8 @@ class FluidSolver:
         self.t += dt
         self.step_count += 1
         self._check()
+        if self.nu > 0.0:  # nu lap u^{n+1} for the next step's prediction, on this step's list
+            self._viscous_laplacian(nb)
         self.dt_next = self.stable_dt()
         tm.explicit += time.perf_counter() - c5
 
@@ -461,15 +486,23 @@ class FluidSolver:
     # ------------------------------------------------------------------ state for checkpoints
     def state(self) -> dict[str, np.ndarray]:
         """Arrays that, with ``meta()``, restore the solver exactly."""
-        return {"pos": self.pos, "vel": self.vel, "p": self.p, "grad_p": self.grad_p}
+        self._ensure_lap_u()
+        return {
+            "pos": self.pos,
+            "vel": self.vel,
+            "p": self.p,
+            "grad_p": self.grad_p,
+            "lap_u": self.lap_u,
+        }
 
     def meta(self) -> dict:
         return {"t": self.t, "step": self.step_count, "dt_next": self.dt_next}
 
     def restore(self, arrays: dict[str, np.ndarray], meta: dict) -> None:
-        for name in ("pos", "vel", "p", "grad_p"):
-            if name == "grad_p" and name not in arrays:
-                continue  # checkpoints written before the surface values existed
+        self._lap_u_ready = "lap_u" in arrays  # else the next step recomputes it
+        for name in ("pos", "vel", "p", "grad_p", "lap_u"):
+            if name in ("grad_p", "lap_u") and name not in arrays:
+                continue  # checkpoints written before these were state
             src = arrays[name]
             if src.shape != getattr(self, name).shape:
                 raise ValueError(
@@ -493,10 +526,16 @@ class FluidSolver:
             )
         if probe.kind == "wave_gauge":
             up = self._up_axis()
-            hw = probe.half_width or 0.5 * l0
-            h = probes.surface_height(
-                self.pos, self.kind, np.asarray(probe.position, float), hw, up, l0
-            )
+            where = np.asarray(probe.position, float)
+            if probe.method == "top_particle":
+                hw = probe.half_width or 0.5 * l0
+                h = probes.surface_height(self.pos, self.kind, where, hw, up, l0)
+            else:
+                if self._gauge_work is None:
+                    self._gauge_work = np.empty(self.n, np.int64)
+                h = probes.surface_height_kernel(
+                    self.pos, self.kind, where, up, l0, self._gauge_work
+                )
             return h - probe.reference_level
         if probe.kind == "front":
             nb = self._last_neighbours

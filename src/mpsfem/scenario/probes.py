@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from mpsfem.scenario.base import Section
 
@@ -38,9 +38,29 @@ class WaveGaugeProbe(_Probe):
     kind: Literal["wave_gauge"]
     position: Vector = Field(description="x (2D) or (x, y) (3D) of the gauge, m")
     reference_level: float = Field(0.0, description="elevation is measured from this height, m")
-    half_width: float | None = Field(
-        None, gt=0.0, description="horizontal search half-width, m (default 0.5 l0)"
+    method: Literal["kernel", "top_particle"] = Field(
+        "kernel",
+        description=(
+            "'kernel': height where the kernel-summed fluid fraction along the vertical line "
+            "falls to 1/2 (Wendland C2, h = 1.5 l0; continuous in time; keep 3 l0 from walls); "
+            "'top_particle': highest fluid particle centre within half_width of the line plus "
+            "l0/2 (jumps by up to l0 when the top particle leaves the column)"
+        ),
     )
+    half_width: float | None = Field(
+        None,
+        gt=0.0,
+        description="horizontal search half-width, m (default 0.5 l0); 'top_particle' only",
+    )
+
+    @model_validator(mode="after")
+    def _half_width_needs_top_particle(self) -> WaveGaugeProbe:
+        if self.half_width is not None and self.method != "top_particle":
+            raise ValueError(
+                f"half_width = {self.half_width} is used by method = 'top_particle' only; "
+                f"method = {self.method!r} takes no half_width"
+            )
+        return self
 
 
 class FrontProbe(_Probe):
