@@ -16,6 +16,10 @@ mesh vertices). Data exchanged (SI units; in 2D per unit width):
 ``advance(dt)`` integrates exactly `dt`: in ceil(dt / max_dt()) equal Newmark sub-steps, the
 interface force rising linearly from the value of the previous window's end to the value just
 written (one sub-step: the written value at the end of the step, as Newmark wants F(t + dt)).
+The first ``"forces"`` written before any ``advance`` are the initial data (the coupler's
+``initialize`` writes the fluid load at t = 0, as preCICE's initial data): the start state is
+rebuilt under them (initial acceleration from equilibrium, M a0 = F0 - K u0; the static start
+solves K u0 = F0 with them included), and they are the window-start value of the first window.
 Self-weight acts always; the scenario's prescribed loads only when the participant is built with
 ``prescribed_loads=True`` (standalone runs).
 
@@ -127,10 +131,20 @@ class StructureParticipant:
         self._forces = np.zeros((sysm.n_points, self.dim))
         self._f_start = np.zeros(sysm.n)  # interface load at the start of the window
         self._f_new = np.zeros(sysm.n)  # interface load of the forces last written
-        F0 = self.external_load(0.0)
-        if section.initial_state == "static":
+        self._start(self._f_new)
+        self._initial_data_pending = True  # the first forces written are the load at t = 0
+        self._checkpoint: dict | None = None
+        self._interface = self._build_interface()
+
+    def _start(self, f_interface: np.ndarray) -> None:
+        """Initial state at t = 0 under the prescribed loads plus the interface load
+        ``f_interface`` (nodal, N): rest, or the static solution K u0 = F0; the acceleration from
+        equilibrium, M a0 = F0 - K u0 (Newmark needs a0 consistent with the load at t0, else the
+        first step puts a spurious free oscillation into an undamped member)."""
+        F0 = self.external_load(0.0) + f_interface
+        if self.section.initial_state == "static":
             try:
-                u0 = factorize(sysm.K.tocsc()).solve(F0)
+                u0 = factorize(self.system.K.tocsc()).solve(F0)
             except np.linalg.LinAlgError as exc:
                 raise ValueError(
                     'initial_state = "static" needs every member supported against rigid motion'
@@ -138,8 +152,7 @@ class StructureParticipant:
             self.integrator.initialize(F0, u0=u0)
         else:
             self.integrator.initialize(F0)
-        self._checkpoint: dict | None = None
-        self._interface = self._build_interface()
+        self._f_start = f_interface.copy()
 
     # ------------------------------------------------------------------ protocol
     def interface(self) -> Interface:
@@ -158,6 +171,9 @@ class StructureParticipant:
             raise FloatingPointError(f"non-finite force written at interface point {bad}")
         self._forces = arr.copy()
         self._f_new = self.system.nodal_load(self._forces)
+        if self._initial_data_pending:  # initial data (the coupler's initialize, at t = 0)
+            self._initial_data_pending = False
+            self._start(self._f_new)
 
     def read(self, name: str) -> np.ndarray:
         """Interface data at the current time: see the module docstring for names and shapes."""
@@ -182,6 +198,7 @@ class StructureParticipant:
         """Integrate over `dt` (sub-stepped to at most ``max_dt()``); returns the time advanced."""
         if not dt > 0 or not math.isfinite(dt):
             raise ValueError(f"advance(dt = {dt}): dt must be a positive finite number")
+        self._initial_data_pending = False
         n_sub = max(1, math.ceil(dt / self.dt - 1e-9))
         h = dt / n_sub
         t0 = self.integrator.state.t
@@ -227,6 +244,7 @@ class StructureParticipant:
             int(state["steps"]),
         )
         self._f_start = np.array(state["f_start"], dtype=float)
+        self._initial_data_pending = False
         self.write("forces", state["forces"])
 
     # ------------------------------------------------------------------ extras
