@@ -1,0 +1,940 @@
+"""2D bottom slamming of a horizontal plate by a solitary wave (thesis ch. 5.1; references.md 9).
+
+Runs scenarios/bottom_slamming_2d.toml (rigid plate, a fixed wall box) and
+scenarios/bottom_slamming_elastic_2d.toml (the plate as a coupled beam) for the thesis's 12 cases
+A/H = 0.2, 0.3, 0.4, 0.5 x D/H = 0.03, 0.06, 0.1 (thesis Table 5-5) at one particle spacing, each
+case an ``mpsfem run`` subprocess with ``--set`` overrides (amplitude, plate height, probe
+positions, end time, spacing, element count) on NUMBA_NUM_THREADS threads (default 1), one case
+after another. Then it analyses every results file and writes
+
+* validation/results/bottom_slamming_<l0>.csv: one row per case and kind (columns:
+  :data:`CSV_COLUMNS`);
+* docs/figures/bottom_slamming_forces_<l0>.png (uplift histories, rigid and elastic, per case),
+  docs/figures/bottom_slamming_mf_<l0>.png (peak uplift and MF = F_elastic / F_rigid against
+  A/H, with the thesis's MF values), docs/figures/bottom_slamming_displacement_<l0>.png (the
+  elastic plate's mid-span displacement);
+* docs/validation_bottom_slamming.md (set-up, results tables, thesis comparison, wall times and
+  the discussion kept in :data:`DISCUSSION`), generated from the CSV.
+
+Definitions: :func:`analyse` and docs/validation_bottom_slamming.md.
+
+Resumable: a case whose results file says ``status = finished`` is not run again; one left
+``running`` by a hard kill, or stopped by a signal (``failed: ... received signal ...``: the run
+loop then writes a checkpoint of its last good step), resumes from its checkpoint
+(``mpsfem run --restart``); another ``failed`` one is reported and only rerun with
+``--retry-failed`` (runs are deterministic: a rerun fails again unless something changed).
+
+    python validation/bottom_slamming.py [--l0 0.004] [--cases 0.3:0.03,0.3:0.06|all]
+                                         [--kinds rigid,elastic] [--threads 1]
+                                         [--analyse-only] [--retry-failed]
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import subprocess
+import sys
+import tomllib
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from wave_tank import (  # noqa: E402 - the wave tank's theory and file helpers
+    SolitaryWave,
+    predicted_crest_time,
+    read_status,
+    running_mean,
+    spacing_for,
+)
+
+from mpsfem.results.checkpoint import default_checkpoint_path  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIOS = {
+    "rigid": ROOT / "scenarios" / "bottom_slamming_2d.toml",
+    "elastic": ROOT / "scenarios" / "bottom_slamming_elastic_2d.toml",
+}
+KINDS = ("rigid", "elastic")
+RESULTS_DIR = ROOT / "validation" / "results"
+FIGURES_DIR = ROOT / "docs" / "figures"
+DOC = ROOT / "docs" / "validation_bottom_slamming.md"
+
+DEPTH = 0.114  # H, m (thesis ch. 5.1)
+GRAVITY = 9.81  # m/s^2
+DENSITY = 1000.0  # kg/m^3
+RATIOS = (0.2, 0.3, 0.4, 0.5)  # A/H (thesis Table 5-5)
+CLEARANCES = (0.03, 0.06, 0.1)  # D/H (thesis Table 5-5)
+PLATE_FRONT = 1.2  # m from the paddle's face at rest (thesis ch. 5.1)
+PLATE_LENGTH = 0.305  # m (thesis ch. 5.1)
+PLATE_THICKNESS = 0.015  # m (thesis ch. 5.1)
+PADDLE_WALL = 1  # index of the paddle in fluid.walls (both scenarios)
+PLATE_WALL = 2  # index of the rigid plate in fluid.walls (rigid scenario)
+PADDLE_START = 0.2  # s, the scenarios' paddle start_time
+AFTER_CREST = 0.6  # end time = crest at the front edge + this, s (scenario headers)
+FOOT = 3.0  # k |x - c t| of the wave's foot (eta = 1 % of A) used for the reflection timing
+PRESSURE_PROBES = {"p_front": 1.0 / 6.0, "p_mid": 0.5, "p_rear": 5.0 / 6.0}  # x / plate length
+GAUGES = (0.6, 1.0, 1.15)  # m (scenarios)
+SMOOTH_S = 0.011  # running mean of the force for the smoothed peak, s (11 samples at 1 ms)
+
+#: thesis ch. 5.1.3: MF = F_flexible,max / F_rigid,max, keyed by (A/H, D/H); A/H = 0.4 is given
+#: only as a figure (Fig. 5-13; the text says MF falls from 0.3 to 0.4 for D/H = 0.03 and 0.06)
+THESIS_MF = {
+    (0.2, 0.03): 1.24,
+    (0.2, 0.06): 1.87,
+    (0.2, 0.1): 1.35,
+    (0.3, 0.03): 3.23,
+    (0.3, 0.06): 5.28,
+    (0.3, 0.1): 3.66,
+    (0.5, 0.03): 4.31,
+    (0.5, 0.06): 6.35,
+    (0.5, 0.1): 5.89,
+}
+#: thesis ch. 5.1.2-5.1.3, A/H = 0.3, D/H = 0.1: first contact (Fig. 5-7), rigid peak when the
+#: crest reaches the front edge (Figs. 5-6, 5-7), the elastic plate's "second slam" (Fig. 5-11), s
+THESIS_TIMES = {"contact": 1.76, "rigid_peak": 1.96, "second_slam": 2.12}
+#: thesis Table 5-1: spacing (m), element length (m), fluid particles, elements
+THESIS_TABLE_5_1 = ((0.0015, 0.0015, 133474, 203), (0.002, 0.002, 76078, 152),
+                    (0.0025, 0.0025, 43136, 122))  # fmt: skip
+
+
+# ---------------------------------------------------------------------- cases
+@dataclass(frozen=True)
+class Case:
+    """One thesis case: wave amplitude A/H and clearance D/H of the plate's bottom above H."""
+
+    ratio: float
+    clearance: float
+
+    @property
+    def wave(self) -> SolitaryWave:
+        return SolitaryWave(self.ratio * DEPTH, DEPTH, GRAVITY)
+
+    @property
+    def bottom(self) -> float:
+        """Height of the plate's bottom face, H + D (m)."""
+        return DEPTH * (1.0 + self.clearance)
+
+    @property
+    def crest_time(self) -> float:
+        """When the design crest reaches the plate's front edge (s), paddle timing of
+        wave_tank.predicted_crest_time."""
+        return predicted_crest_time(self.wave, PADDLE_START, PLATE_FRONT)
+
+    @property
+    def end_time(self) -> float:
+        return round(self.crest_time + AFTER_CREST, 3)
+
+    @property
+    def reflection_time(self) -> float:
+        """When the foot (eta = 1 % of A, 3/k ahead of the crest) of the incident wave, sent
+        back by the sponge's inner edge (x_s = 2.0 m) at c0 = sqrt(g H), reaches the plate's
+        rear edge (s): the end of the window in which the peaks are taken."""
+        w = self.wave
+        c, c0 = w.c_first_order, math.sqrt(GRAVITY * DEPTH)
+        x_s, rear = 2.0, PLATE_FRONT + PLATE_LENGTH
+        return self.crest_time + (x_s - FOOT / w.k - PLATE_FRONT) / c + (x_s - rear) / c0
+
+    def label(self) -> str:
+        return f"AH{self.ratio:.2f}_DH{self.clearance:.2f}"
+
+
+def hydrostatic_uplift(case: Case, crest_x: float) -> float:
+    """Quasi-static uplift (N/m) with the crest of the undisturbed first-order wave at x:
+    rho g integral over the plate of max(eta(x') - D, 0) dx', the hydrostatic head of the water
+    the plate keeps below its bottom (long-wave estimate: the 0.305 m plate is short against
+    the wave, 2 x 3.8 / k = 1.5-2.2 m)."""
+    w = case.wave
+    x = np.linspace(PLATE_FRONT, PLATE_FRONT + PLATE_LENGTH, 2001)
+    eta = w.amplitude / np.cosh(w.k * (x - crest_x)) ** 2
+    head = np.maximum(eta - case.clearance * DEPTH, 0.0)
+    return float(DENSITY * GRAVITY * np.sum(0.5 * (head[1:] + head[:-1]) * np.diff(x)))
+
+
+def uplift_bounds(case: Case) -> tuple[float, float]:
+    """(lower, upper) physical bounds of the rigid plate's peak uplift (N/m), used by the tests.
+
+    lower: the quasi-static uplift with the crest at the front edge (the instant the thesis's
+    rigid peak occurs, Figs. 5-6, 5-7; the bottom is wet all along by then);
+    upper: the largest quasi-static uplift over all crest positions plus a slamming part
+    rho U w L: the wetted length grows at the wave speed U = c while the surface below meets the
+    plate at most at the first-order wave's largest rise speed w = c A k 4 / (3 sqrt 3)
+    (max of c d(eta)/dx), a Wagner-type pressure rho U w over the whole length L."""
+    xs = np.linspace(PLATE_FRONT - 0.5, PLATE_FRONT + PLATE_LENGTH + 0.5, 201)
+    quasi_max = max(hydrostatic_uplift(case, x) for x in xs)
+    return hydrostatic_uplift(case, PLATE_FRONT), quasi_max + _slam_scale(case)
+
+
+def _slam_scale(case: Case) -> float:
+    w = case.wave
+    rise = w.c_first_order * w.amplitude * w.k * 4.0 / (3.0 * math.sqrt(3.0))
+    return DENSITY * w.c_first_order * rise * PLATE_LENGTH
+
+
+def all_cases() -> list[Case]:
+    """The thesis's 12 cases, A/H = 0.3 first (the thesis's MF row), then the others."""
+    order = (0.3, 0.2, 0.4, 0.5)
+    return [Case(r, d) for r in order for d in CLEARANCES]
+
+
+def parse_cases(text: str) -> list[Case]:
+    """``all`` or comma-separated ``A/H:D/H`` pairs; ``A/H:*`` means every D/H."""
+    if text.strip() == "all":
+        return all_cases()
+    out: list[Case] = []
+    for item in text.split(","):
+        try:
+            r_text, d_text = item.split(":")
+            r = float(r_text)
+            ds = CLEARANCES if d_text.strip() == "*" else (float(d_text),)
+        except ValueError as exc:
+            raise ValueError(f"--cases item {item!r}: expected A/H:D/H, e.g. 0.3:0.06") from exc
+        if not 0.0 < r < 0.78:
+            raise ValueError(f"--cases {item!r}: A/H = {r} must lie in (0, 0.78)")
+        for d in ds:
+            if not 0.0 < d < 1.0:
+                raise ValueError(f"--cases {item!r}: D/H = {d} must lie in (0, 1)")
+            out.append(Case(r, d))
+    return out
+
+
+def elements_for(spacing: float) -> int:
+    """Beam elements: the largest count whose element length is >= the particle spacing
+    (the transpose mappings load the nodes unevenly below it, docs/coupler.md)."""
+    return max(1, math.floor(PLATE_LENGTH / spacing * (1.0 + 1e-9)))
+
+
+def probe_index(kind: str) -> dict[str, int]:
+    """Index of every probe in the kind's scenario, by name."""
+    with SCENARIOS[kind].open("rb") as f:
+        probes = tomllib.load(f)["probes"]
+    return {p["name"]: i for i, p in enumerate(probes)}
+
+
+def case_overrides(kind: str, case: Case, spacing: float) -> list[str]:
+    """The ``--set`` overrides that turn the kind's scenario into ``case`` at ``spacing``."""
+    y0 = case.bottom
+    idx = probe_index(kind)
+    items = [
+        f"fluid.spacing={spacing!r}",
+        f"fluid.walls.{PADDLE_WALL}.motion.amplitude={case.wave.amplitude!r}",
+        f"fluid.walls.{PADDLE_WALL}.motion.depth={DEPTH!r}",
+        f"run.end_time={case.end_time!r}",
+        f'title="bottom slamming ({kind}), A/H = {case.ratio:g}, D/H = {case.clearance:g}, '
+        f'l0 = {spacing:.6g} m"',
+    ]
+    for name, frac in PRESSURE_PROBES.items():
+        x = PLATE_FRONT + frac * PLATE_LENGTH
+        items.append(f"probes.{idx[name]}.position=[{x!r}, {y0!r}]")
+    if kind == "rigid":
+        items += [
+            f"fluid.walls.{PLATE_WALL}.lower=[{PLATE_FRONT!r}, {y0!r}]",
+            f"fluid.walls.{PLATE_WALL}.upper=[{PLATE_FRONT + PLATE_LENGTH!r}, "
+            f"{y0 + PLATE_THICKNESS!r}]",
+        ]
+    else:
+        yc = y0 + 0.5 * PLATE_THICKNESS
+        items += [
+            f"structure.members.0.start=[{PLATE_FRONT!r}, {yc!r}]",
+            f"structure.members.0.end=[{PLATE_FRONT + PLATE_LENGTH!r}, {yc!r}]",
+            f"structure.members.0.elements={elements_for(spacing)}",
+            f"probes.{idx['plate_mid']}.position=[{PLATE_FRONT + 0.5 * PLATE_LENGTH!r}, {yc!r}]",
+        ]
+    return items
+
+
+def case_path(l0_label: str, kind: str, case: Case) -> Path:
+    return RESULTS_DIR / f"bottom_slamming_{l0_label}_{kind}_{case.label()}.h5"
+
+
+# ---------------------------------------------------------------------- running
+def run_case(
+    kind: str, case: Case, spacing: float, out: Path, threads: int, restart: Path | None
+) -> int:
+    """``mpsfem run`` of one case in a subprocess on ``threads`` numba threads; its exit code."""
+    cmd = [sys.executable, "-m", "mpsfem.cli", "run", str(SCENARIOS[kind]), "--out", str(out)]
+    for item in case_overrides(kind, case, spacing):
+        cmd += ["--set", item]
+    cmd.append("--no-progress")
+    if restart is not None:
+        cmd += ["--restart", str(restart)]
+    env = dict(
+        os.environ,
+        NUMBA_NUM_THREADS=str(threads),
+        OMP_NUM_THREADS=str(threads),
+        OPENBLAS_NUM_THREADS="1",
+    )
+    print(f"[{kind} {case.label()}] {' '.join(cmd[2:])}", flush=True)
+    return subprocess.run(cmd, env=env, cwd=ROOT, check=False).returncode
+
+
+def resumable(status: str | None) -> bool:
+    """A run a kill interrupted: ``running`` (hard kill) or stopped by a signal."""
+    return status == "running" or (
+        status is not None and status.startswith("failed") and "received signal" in status
+    )
+
+
+def ensure_case(kind: str, case: Case, spacing: float, out: Path, threads: int, retry: bool) -> str:
+    """Run (or resume) one case unless its results file says finished; its final status."""
+    tag = f"[{kind} {case.label()}] {out.name}"
+    status = read_status(out)
+    ckpt = default_checkpoint_path(out)
+    if status == "finished":
+        print(f"{tag}: finished, skipped")
+        return status
+    if status == "locked":
+        print(f"{tag}: locked (another run is writing it), skipped")
+        return status
+    if status is not None and status.startswith("failed") and not resumable(status) and not retry:
+        print(f"{tag}: {status} (rerun with --retry-failed)")
+        return status
+    restart = ckpt if resumable(status) and ckpt.is_file() else None
+    if restart is not None:
+        print(f"{tag}: resuming from {ckpt.name}")
+    elif out.exists():
+        out.unlink()
+    run_case(kind, case, spacing, out, threads, restart)
+    return read_status(out) or "missing"
+
+
+# ---------------------------------------------------------------------- analysis
+@dataclass
+class CaseResult:
+    """One row of validation/results/bottom_slamming_<l0>.csv (forces N/m, times s, m)."""
+
+    kind: str
+    a_over_h: float
+    d_over_h: float
+    l0: float
+    status: str
+    fluid_particles: int
+    particles: int
+    elements: int  # beam elements (0 for the rigid plate)
+    t_end_s: float  # simulated so far
+    crest_time_s: float  # design crest at the plate's front edge
+    window_end_s: float  # peaks are taken before this (reflection timing)
+    contact_time_s: float  # uplift first above 2 % of its peak
+    peak_uplift: float  # max of the uplift samples in the window, N/m
+    peak_time_s: float
+    peak_uplift_smooth: float  # max of the 11 ms running mean, N/m
+    peak_over_rho_g_a_l: float  # peak_uplift / (rho g A L)
+    quasi_static_max: float  # largest hydrostatic_uplift over crest positions, N/m
+    first_peak: float  # elastic: the largest uplift before the plate's first upward peak
+    min_uplift: float  # most negative uplift in the window (green water on top), N/m
+    peak_horizontal: float  # max |fx| in the window, N/m
+    mid_disp_max_mm: float  # elastic: largest upward mid-span displacement
+    mid_disp_min_mm: float  # elastic: largest downward mid-span displacement
+    mid_disp_max_time_s: float
+    windows: int  # elastic: coupling windows
+    iterations: int  # elastic: coupling iterations in all
+    unconverged_windows: int  # elastic: accepted with on_divergence = "continue"
+    steps: int  # fluid steps
+    wall_time_s: float
+
+
+CSV_COLUMNS = tuple(f.name for f in fields(CaseResult))
+
+
+def _series(h5: h5py.File, name: str) -> tuple[np.ndarray, np.ndarray]:
+    g = h5["probes"][name]
+    return g["time"][:], g["value"][:]
+
+
+def analyse(path: Path) -> CaseResult:
+    """Every measurement of one results file.
+
+    * uplift = the y component of the fluid's pressure force on the plate (probe "uplift", N
+      per metre of width; both faces for the elastic member). The peak is the largest sample
+      (every 1 ms) from the start to the window end :attr:`Case.reflection_time` (or the end of
+      the record); "smooth" the largest value of its 11 ms centred running mean (MPS pressure
+      spikes last one or two steps).
+    * contact: the first sample above 2 % of the peak.
+    * first_peak (elastic): the largest uplift up to the time of the plate's first upward
+      displacement maximum (the thesis's "first slam"; after it the plate comes down on the
+      water: the "second slam"); NaN for the rigid plate.
+    """
+    with h5py.File(path, "r") as h5:
+        resolved = json.loads(h5.attrs["scenario_resolved"])
+        fluid = resolved["fluid"]
+        amp = fluid["walls"][PADDLE_WALL]["motion"]["amplitude"]
+        elastic = resolved.get("structure") is not None
+        if elastic:
+            member = resolved["structure"]["members"][0]
+            bottom = member["start"][1] - 0.5 * PLATE_THICKNESS
+            elements = int(member["elements"])
+        else:
+            bottom = fluid["walls"][PLATE_WALL]["lower"][1]
+            elements = 0
+        case = Case(round(amp / DEPTH, 6), round(bottom / DEPTH - 1.0, 6))
+        status = str(h5.attrs.get("status", "unknown"))
+        steps = int(h5.attrs.get("steps", 0))
+        wall = float(h5.attrs.get("wall_time", math.nan))
+        t, f = _series(h5, "uplift")
+        snaps = h5["particles"]
+        if len(snaps):
+            kinds = snaps[next(iter(snaps))]["kind"][:]
+            n_fluid, n_all = int(np.count_nonzero(kinds == 0)), int(kinds.size)
+        else:
+            n_fluid, n_all = -1, int(h5.attrs.get("particles", -1))
+        disp = _series(h5, "plate_mid") if elastic else None
+        if elastic and "coupling" in h5:
+            c = h5["coupling"]
+            windows = int(c["iterations"].shape[0])
+            iterations = int(np.sum(c["iterations"][:]))
+            unconverged = int(np.count_nonzero(c["converged"][:] == 0))
+        else:
+            windows = iterations = unconverged = 0
+    fy, fx = f[:, 1], f[:, 0]
+    w_end = case.reflection_time
+    sel = t <= w_end
+    if not sel.any():
+        raise ValueError(f"{path.name}: no uplift samples before {w_end:.3f} s")
+    i = int(np.argmax(np.where(sel, fy, -np.inf)))
+    peak, t_peak = float(fy[i]), float(t[i])
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 1e-3
+    smooth = running_mean(fy, 2 * max(1, int(round(0.5 * SMOOTH_S / dt))) + 1)
+    peak_smooth = float(np.nanmax(np.where(sel, smooth, np.nan)))
+    above = np.flatnonzero(sel & (fy > 0.02 * peak))
+    contact = float(t[above[0]]) if above.size and peak > 0 else math.nan
+    first_peak = math.nan
+    d_max = d_min = t_dmax = math.nan
+    if disp is not None:
+        td, u = disp
+        uy = u[:, 1]
+        dsel = td <= w_end
+        if dsel.any():
+            j = int(np.argmax(np.where(dsel, uy, -np.inf)))
+            d_max, t_dmax = float(uy[j]) * 1e3, float(td[j])
+            d_min = float(np.min(uy[dsel])) * 1e3
+            # first upward maximum of the mid-span: first local max above half the largest
+            k = np.flatnonzero(dsel[1:-1] & (uy[1:-1] >= uy[:-2]) & (uy[1:-1] > uy[2:])
+                               & (uy[1:-1] > 0.5 * uy[j])) + 1  # fmt: skip
+            t_first = float(td[k[0]]) if k.size else t_dmax
+            first = sel & (t <= t_first)
+            if first.any():
+                first_peak = float(np.max(fy[first]))
+    return CaseResult(
+        kind="elastic" if elastic else "rigid",
+        a_over_h=case.ratio,
+        d_over_h=case.clearance,
+        l0=fluid["spacing"],
+        status=status,
+        fluid_particles=n_fluid,
+        particles=n_all,
+        elements=elements,
+        t_end_s=float(t[-1]) if t.size else 0.0,
+        crest_time_s=case.crest_time,
+        window_end_s=w_end,
+        contact_time_s=contact,
+        peak_uplift=peak,
+        peak_time_s=t_peak,
+        peak_uplift_smooth=peak_smooth,
+        peak_over_rho_g_a_l=peak / (DENSITY * GRAVITY * amp * PLATE_LENGTH),
+        quasi_static_max=uplift_bounds(case)[1] - _slam_scale(case),
+        first_peak=first_peak,
+        min_uplift=float(np.min(fy[sel])),
+        peak_horizontal=float(np.max(np.abs(fx[sel]))),
+        mid_disp_max_mm=d_max,
+        mid_disp_min_mm=d_min,
+        mid_disp_max_time_s=t_dmax,
+        windows=windows,
+        iterations=iterations,
+        unconverged_windows=unconverged,
+        steps=steps,
+        wall_time_s=wall,
+    )
+
+
+def write_csv(rows: list[CaseResult], path: Path) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=CSV_COLUMNS)
+        w.writeheader()
+        for r in rows:
+            d = asdict(r)
+            w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in d.items()})
+
+
+def read_csv(path: Path) -> list[dict[str, str]]:
+    with path.open() as f:
+        return list(csv.DictReader(f))
+
+
+def magnification(rows: list[CaseResult]) -> dict[tuple[float, float], tuple[float, float]]:
+    """MF = F_elastic,max / F_rigid,max per (A/H, D/H): (raw peaks, smoothed peaks)."""
+    by = {(r.kind, r.a_over_h, r.d_over_h): r for r in rows}
+    out = {}
+    for (kind, a, d), r in by.items():
+        rigid = by.get(("rigid", a, d))
+        if kind == "elastic" and rigid is not None and rigid.peak_uplift > 0:
+            out[(a, d)] = (
+                r.peak_uplift / rigid.peak_uplift,
+                r.peak_uplift_smooth / rigid.peak_uplift_smooth,
+            )
+    return out
+
+
+# ---------------------------------------------------------------------- report
+def collect(l0_label: str) -> list[CaseResult]:
+    """Analyse every results file of this spacing that can be read (finished or not)."""
+    rows = []
+    for kind in KINDS:
+        for case in all_cases():
+            path = case_path(l0_label, kind, case)
+            status = read_status(path)
+            if status is None or status == "locked" or status.startswith("unreadable"):
+                continue
+            try:
+                rows.append(analyse(path))
+            except (KeyError, ValueError) as exc:
+                print(f"[{kind} {case.label()}] {path.name}: cannot analyse ({exc})")
+    return rows
+
+
+def report(l0_label: str) -> int:
+    """CSV, figures, doc and a printed table of every case of this spacing."""
+    rows = collect(l0_label)
+    if not rows:
+        print("nothing to analyse")
+        return 1
+    csv_path = RESULTS_DIR / f"bottom_slamming_{l0_label}.csv"
+    write_csv(rows, csv_path)
+    plot_forces(l0_label, rows, FIGURES_DIR / f"bottom_slamming_forces_{l0_label}.png")
+    plot_mf(l0_label, rows, FIGURES_DIR / f"bottom_slamming_mf_{l0_label}.png")
+    plot_displacement(l0_label, rows, FIGURES_DIR / f"bottom_slamming_displacement_{l0_label}.png")
+    print_table(rows)
+    write_doc(l0_label, csv_path, DOC)
+    print(f"wrote {_rel(csv_path)}, {_rel(DOC)} and docs/figures/bottom_slamming_*_{l0_label}.png")
+    return 0 if all(r.status == "finished" for r in rows) else 1
+
+
+def print_table(rows: list[CaseResult]) -> None:
+    mf = magnification(rows)
+    print(
+        f"{'kind':>7} {'A/H':>4} {'D/H':>5} {'status':>9} {'t_end':>6} {'peak':>8} {'t_peak':>7} "
+        f"{'smooth':>8} {'F/rgAL':>7} {'MF':>6} {'thesis':>6} {'steps':>6} {'wall s':>7}"
+    )
+    for r in sorted(rows, key=lambda r: (r.a_over_h, r.d_over_h, r.kind)):
+        m = (
+            mf.get((r.a_over_h, r.d_over_h), (math.nan, math.nan))[0]
+            if r.kind == "elastic"
+            else math.nan
+        )
+        th = THESIS_MF.get((r.a_over_h, r.d_over_h), math.nan) if r.kind == "elastic" else math.nan
+        print(
+            f"{r.kind:>7} {r.a_over_h:>4g} {r.d_over_h:>5g} {r.status[:9]:>9} {r.t_end_s:>6.3f} "
+            f"{r.peak_uplift:>8.2f} {r.peak_time_s:>7.3f} {r.peak_uplift_smooth:>8.2f} "
+            f"{r.peak_over_rho_g_a_l:>7.3f} {m:>6.2f} {th:>6.2f} {r.steps:>6d} {r.wall_time_s:>7.0f}"
+        )
+
+
+# ---------------------------------------------------------------------- figures
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_forces(l0_label: str, rows: list[CaseResult], out: Path) -> None:
+    """Uplift histories against t - t_c (t_c: design crest at the front edge), one panel per
+    case (rows D/H, columns A/H), rigid and elastic overlaid; the window end dotted."""
+    plt = _pyplot()
+    ratios = sorted({r.a_over_h for r in rows})
+    clears = sorted({r.d_over_h for r in rows})
+    fig, axes = plt.subplots(
+        len(clears), len(ratios), figsize=(3.0 * len(ratios), 2.3 * len(clears)), squeeze=False
+    )
+    for i, d in enumerate(clears):
+        for j, a in enumerate(ratios):
+            ax = axes[i][j]
+            case = Case(a, d)
+            for kind, color in (("rigid", "k"), ("elastic", "C3")):
+                path = case_path(l0_label, kind, case)
+                if not any(r.kind == kind and (r.a_over_h, r.d_over_h) == (a, d) for r in rows):
+                    continue
+                with h5py.File(path, "r") as h5:
+                    t, f = _series(h5, "uplift")
+                ax.plot(t - case.crest_time, f[:, 1], color=color, lw=0.7, label=kind)
+            ax.axvline(case.reflection_time - case.crest_time, color="0.5", ls=":", lw=0.8)
+            ax.axhline(0.0, color="0.6", lw=0.4)
+            ax.set_xlim(-0.4, AFTER_CREST)
+            ax.set_title(f"A/H = {a:g}, D/H = {d:g}", fontsize=8)
+            ax.tick_params(labelsize=7)
+            ax.grid(alpha=0.3)
+            if j == 0:
+                ax.set_ylabel("uplift (N/m)", fontsize=8)
+            if i == len(clears) - 1:
+                ax.set_xlabel("t - t_c (s)", fontsize=8)
+    axes[0][0].legend(fontsize=7)
+    fig.suptitle(f"Uplift force, l0 = {l0_label} m", fontsize=9)
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=80)
+    plt.close(fig)
+
+
+def plot_displacement(l0_label: str, rows: list[CaseResult], out: Path) -> None:
+    """The elastic plate's mid-span vertical displacement against t - t_c, every case."""
+    plt = _pyplot()
+    el = sorted((r for r in rows if r.kind == "elastic"), key=lambda r: (r.a_over_h, r.d_over_h))
+    if not el:
+        return
+    fig, ax = plt.subplots(figsize=(7.0, 3.2))
+    for n, r in enumerate(el):
+        case = Case(r.a_over_h, r.d_over_h)
+        with h5py.File(case_path(l0_label, "elastic", case), "r") as h5:
+            t, u = _series(h5, "plate_mid")
+        ax.plot(t - case.crest_time, u[:, 1] * 1e3, lw=0.8, color=f"C{n}",
+                label=f"A/H = {r.a_over_h:g}, D/H = {r.d_over_h:g}")  # fmt: skip
+    ax.axhline(0.0, color="0.6", lw=0.4)
+    ax.set_xlim(-0.4, AFTER_CREST)
+    ax.set_xlabel("t - t_c (s)", fontsize=8)
+    ax.set_ylabel("mid-span displacement (mm)", fontsize=8)
+    ax.tick_params(labelsize=7)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    ax.set_title(f"Elastic plate, mid-span (up +), l0 = {l0_label} m", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(out, dpi=80)
+    plt.close(fig)
+
+
+def plot_mf(l0_label: str, rows: list[CaseResult], out: Path) -> None:
+    """Left: peak uplift against A/H per D/H (rigid filled, elastic open). Right: MF against
+    A/H per D/H, ours (raw peaks: circles; 11 ms means: triangles) and the thesis's (crosses)."""
+    plt = _pyplot()
+    mf = magnification(rows)
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(9.0, 3.4))
+    for n, d in enumerate(CLEARANCES):
+        col = f"C{n}"
+        for kind, mk, fill in (("rigid", "o", col), ("elastic", "s", "none")):
+            sel = sorted((r.a_over_h, r.peak_uplift) for r in rows
+                         if r.kind == kind and r.d_over_h == d)  # fmt: skip
+            if sel:
+                a, f = zip(*sel, strict=True)
+                ax1.plot(a, f, marker=mk, color=col, mfc=fill, lw=0.8,
+                         label=f"{kind}, D/H = {d:g}")  # fmt: skip
+        ours = sorted((a, v[0], v[1]) for (a, dd), v in mf.items() if dd == d)
+        if ours:
+            a, raw, sm = zip(*ours, strict=True)
+            ax2.plot(a, raw, "o-", color=col, lw=0.8, label=f"ours, D/H = {d:g}")
+            ax2.plot(a, sm, "^", color=col, mfc="none", ms=5)
+        th = sorted((a, v) for (a, dd), v in THESIS_MF.items() if dd == d)
+        a, v = zip(*th, strict=True)
+        ax2.plot(a, v, "x--", color=col, lw=0.6, label=f"thesis, D/H = {d:g}")
+    ax2.axhline(1.0, color="0.5", lw=0.5)
+    ax1.set_xlabel("A/H", fontsize=8)
+    ax1.set_ylabel("peak uplift (N/m)", fontsize=8)
+    ax2.set_xlabel("A/H", fontsize=8)
+    ax2.set_ylabel("MF = F_elastic,max / F_rigid,max", fontsize=8)
+    for ax in (ax1, ax2):
+        ax.tick_params(labelsize=7)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=6)
+    fig.suptitle(f"Peak uplift and magnification factor, l0 = {l0_label} m", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(out, dpi=80)
+    plt.close(fig)
+
+
+# ---------------------------------------------------------------------- doc
+def _rel(path: Path) -> str:
+    try:
+        return str(path.relative_to(ROOT))
+    except ValueError:
+        return str(path)
+
+
+def _f(value: str, fmt: str) -> str:
+    """Format a CSV cell; '-' for NaN or missing."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return "-"
+    return "-" if not math.isfinite(v) else format(v, fmt)
+
+
+SETUP = (
+    ("tank", "2.5 m from the paddle's face at rest to the end wall, 0.3 m high; sponge "
+     "x = 2.0 ... 2.5 m, alpha_s = 50 1/s (eq. 3-9)", "thesis ch. 5.1 (Fig. 5-1), ch. 3.3; "
+     "height ours"),
+    ("water", "H = 0.114 m, rho = 1000 kg/m^3, nu = 1e-6 m^2/s, g = 9.81 m/s^2",
+     "thesis Tables 5-2, 5-4"),
+    ("waves", "A/H = 0.2, 0.3, 0.4, 0.5 from a Goring piston paddle (a 0.06 m box) at rest "
+     "until t = 0.2 s", "A/H: thesis Table 5-5; paddle law thesis eqs. 3-4 to 3-8; box and start "
+     "ours (scenarios/solitary_wave_2d.toml)"),
+    ("plate", "0.305 m long, 0.015 m thick, front edge at x = 1.2 m, bottom at H + D, "
+     "D/H = 0.03, 0.06, 0.1", "thesis ch. 5.1, Table 5-5"),
+    ("rigid plate", "a fixed 'box' wall: 75 x 4 particles, the fluid sees 0.3054 m x 0.0163 m",
+     "fixed: ours (the thesis does not say how its rigid plate is held)"),
+    ("elastic plate", "Euler-Bernoulli beam per unit width, E = 1 MPa, rho = 1040 kg/m^3, "
+     "A = b t, I = b t^3/12, simply supported at both ends, Rayleigh a1 = 1.665 1/s, "
+     "a2 = 0.00096 s, no self-weight (f_1 = 2.27 Hz dry, zeta_1 = 6.5 %)",
+     "thesis Tables 5-3, 5-7; section, supports, a2 reading and no self-weight ours "
+     "(scenarios/structure_bottom_slamming_2d.toml)"),
+    ("elements", "floor(0.305 m / l0): 74 of 4.12 mm at l0 = H/28", "ours (thesis: element "
+     "length = l0, 152 at 0.002 m)"),
+    ("coupling", "implicit, IQN-ILS, shape-function mapping, window = structure dt = 1 ms, "
+     "relative tolerance 1e-3, unconverged wet/dry windows accepted", "ours "
+     "(as scenarios/dam_break_elastic_obstacle_2d.toml)"),
+    ("spacing", "l0 = H/28 = 0.00407 m (the thesis: 0.002 m)", "ours: the issue's parameter "
+     "grid at 0.004 m, rounded to whole layers over H"),
+    ("time step", "Courant 0.2, dt_max = 1 ms", "ours"),
+    ("run", "until t_c + 0.6 s, t_c the design crest's arrival at the front edge "
+     "(1.95 s at A/H = 0.3)", "ours (scenario header: timing)"),
+)  # fmt: skip
+
+
+def write_doc(l0_label: str, csv_path: Path, out: Path) -> None:
+    """docs/validation_bottom_slamming.md from the CSV (and DISCUSSION)."""
+    rows = read_csv(csv_path)
+    by = {(r["kind"], float(r["a_over_h"]), float(r["d_over_h"])): r for r in rows}
+    order = sorted(by, key=lambda k: (k[1], k[2], k[0]))
+    L = []
+    L.append("# Validation: 2D bottom slamming of a horizontal plate (issue 5, thesis ch. 5.1)\n")
+    L.append(
+        "Generated by `validation/bottom_slamming.py` from "
+        f"`{_rel(csv_path)}`; do not edit by hand (the discussion is the script's "
+        "`DISCUSSION`). Scenarios `scenarios/bottom_slamming_2d.toml` (rigid plate) and "
+        "`scenarios/bottom_slamming_elastic_2d.toml` (elastic plate, coupled beam), tests "
+        "`tests/scenarios/test_bottom_slamming.py`. The wave tank is the one validated in "
+        "[validation_wave_tank.md](validation_wave_tank.md); sources: thesis ch. 5.1 "
+        "(`../shared/seeds/thesis_mps_fem_solitary_wave_slamming.txt`), "
+        "`../shared/references.md` section 9.\n"
+    )
+    L.append("## Set-up\n")
+    L.append("| | value | source |")
+    L.append("|---|---|---|")
+    for name, value, source in SETUP:
+        L.append(f"| {name} | {value} | {source} |")
+    L.append("")
+    L.append(DEFINITIONS)
+    # ---- rigid
+    L.append(f"## Results at l0 = {l0_label} m\n")
+    rig = [by[k] for k in order if k[0] == "rigid"]
+    ela = [by[k] for k in order if k[0] == "elastic"]
+    if rig:
+        L.append("### Rigid plate\n")
+        L.append("| A/H | D/H | status | peak uplift (N/m) | 11 ms mean peak | peak / (rho g A L) "
+                 "| t_peak - t_c (s) | contact - t_c (s) | most negative (N/m) | max abs(F_x) "
+                 "(N/m) |")  # fmt: skip
+        L.append("|---|---|---|---|---|---|---|---|---|---|")
+        for r in rig:
+            tc = float(r["crest_time_s"])
+            L.append(
+                f"| {_f(r['a_over_h'], 'g')} | {_f(r['d_over_h'], 'g')} | {r['status'][:30]} | "
+                f"**{_f(r['peak_uplift'], '.1f')}** | {_f(r['peak_uplift_smooth'], '.1f')} | "
+                f"{_f(r['peak_over_rho_g_a_l'], '.2f')} | "
+                f"{float(r['peak_time_s']) - tc:+.3f} | "
+                f"{float(r['contact_time_s']) - tc:+.3f} | {_f(r['min_uplift'], '.1f')} | "
+                f"{_f(r['peak_horizontal'], '.1f')} |"
+            )
+        L.append("")
+    if ela:
+        L.append("### Elastic plate\n")
+        L.append("| A/H | D/H | status | peak uplift (N/m) | 11 ms mean peak | first-slam peak "
+                 "| t_peak - t_c (s) | mid-span up / down (mm) | at t - t_c (s) | windows "
+                 "| iterations | unconverged windows |")  # fmt: skip
+        L.append("|---|---|---|---|---|---|---|---|---|---|---|---|")
+        for r in ela:
+            tc = float(r["crest_time_s"])
+            L.append(
+                f"| {_f(r['a_over_h'], 'g')} | {_f(r['d_over_h'], 'g')} | {r['status'][:30]} | "
+                f"**{_f(r['peak_uplift'], '.1f')}** | {_f(r['peak_uplift_smooth'], '.1f')} | "
+                f"{_f(r['first_peak'], '.1f')} | {float(r['peak_time_s']) - tc:+.3f} | "
+                f"{_f(r['mid_disp_max_mm'], '.2f')} / {_f(r['mid_disp_min_mm'], '.2f')} | "
+                f"{float(r['mid_disp_max_time_s']) - tc:+.3f} | {r['windows']} | "
+                f"{r['iterations']} | {r['unconverged_windows']} |"
+            )
+        L.append("")
+    # ---- MF
+    L.append("### Magnification factor MF = F_elastic,max / F_rigid,max\n")
+    L.append("Ours: raw peaks (11 ms running-mean peaks in brackets); thesis ch. 5.1.3 (its text "
+             "gives A/H = 0.2, 0.3 and 0.5; A/H = 0.4 only in Fig. 5-13).\n")  # fmt: skip
+    L.append("| A/H | " + " | ".join(f"D/H = {d:g}: ours | thesis" for d in CLEARANCES) + " |")
+    L.append("|---|" + "---|---|" * len(CLEARANCES))
+    for a in RATIOS:
+        cells = []
+        for d in CLEARANCES:
+            e, g = by.get(("elastic", a, d)), by.get(("rigid", a, d))
+            if e and g and float(g["peak_uplift"]) > 0:
+                mf = float(e["peak_uplift"]) / float(g["peak_uplift"])
+                mfs = float(e["peak_uplift_smooth"]) / float(g["peak_uplift_smooth"])
+                cells.append(f"**{mf:.2f}** ({mfs:.2f})")
+            else:
+                cells.append("not run")
+            th = THESIS_MF.get((a, d))
+            cells.append(f"{th:.2f}" if th is not None else "(figure only)")
+        L.append(f"| {a:g} | " + " | ".join(cells) + " |")
+    L.append("")
+    L.append(f"![uplift histories](figures/bottom_slamming_forces_{l0_label}.png)\n")
+    L.append(f"![peaks and MF](figures/bottom_slamming_mf_{l0_label}.png)\n")
+    if ela:
+        L.append(f"![mid-span displacement](figures/bottom_slamming_displacement_{l0_label}.png)\n")
+    # ---- thesis timing
+    key = ("rigid", 0.3, 0.1)
+    L.append("### Timing against the thesis (A/H = 0.3, D/H = 0.1)\n")
+    L.append("| event | thesis | ours |")
+    L.append("|---|---|---|")
+    r = by.get(key)
+    e = by.get(("elastic", 0.3, 0.1))
+    L.append(f"| first contact | {THESIS_TIMES['contact']} s (Fig. 5-7) | "
+             f"{_f(r['contact_time_s'], '.3f') + ' s' if r else 'not run'} |")  # fmt: skip
+    L.append(f"| rigid peak (crest at the front edge) | {THESIS_TIMES['rigid_peak']} s "
+             f"(Figs. 5-6, 5-7) | {_f(r['peak_time_s'], '.3f') + ' s' if r else 'not run'} "
+             f"(design crest at the front edge: {Case(0.3, 0.1).crest_time:.3f} s) |")  # fmt: skip
+    L.append(f"| elastic largest uplift (\"second slam\") | {THESIS_TIMES['second_slam']} s "
+             f"(Fig. 5-11) | {_f(e['peak_time_s'], '.3f') + ' s' if e else 'not run'} |")  # fmt: skip
+    L.append("")
+    # ---- wall time
+    L.append("## Cost\n")
+    L.append("One numba thread (`NUMBA_NUM_THREADS=1`), one case after another, on the shared "
+             "2-core development machine while other jobs ran.\n")  # fmt: skip
+    L.append("| kind | A/H | D/H | fluid particles | particles | fluid steps | simulated (s) | "
+             "wall time (s) | us per particle-step |")  # fmt: skip
+    L.append("|---|---|---|---|---|---|---|---|---|")
+    for k in order:
+        r = by[k]
+        steps, n = int(r["steps"]), int(r["particles"])
+        wall = float(r["wall_time_s"])
+        us = 1e6 * wall / (steps * n) if steps > 0 and n > 0 else math.nan
+        L.append(f"| {r['kind']} | {_f(r['a_over_h'], 'g')} | {_f(r['d_over_h'], 'g')} | "
+                 f"{r['fluid_particles']} | {r['particles']} | {steps} | "
+                 f"{_f(r['t_end_s'], '.3f')} | {wall:.0f} | {_f(str(us), '.2f')} |")  # fmt: skip
+    L.append("")
+    L.append(resolution_cost(rows))
+    L.append(DISCUSSION)
+    L.append(RUNNING)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text("\n".join(L).rstrip() + "\n")
+
+
+def resolution_cost(rows: list[dict[str, str]]) -> str:
+    """Extrapolated cost of the thesis's resolution study (Table 5-1) from the measured runs:
+    particles scale with (l0_ours / l0)^2; steps lie between the measured count (dt_max-bound)
+    and the measured count x l0_ours / l0 (Courant-bound everywhere); cost per particle-step as
+    measured (us per particle and fluid step, the elastic runs' including the coupling)."""
+    out = ["### Resolution study (thesis Table 5-1): not run, estimated cost\n"]
+    ref = {}
+    for kind in KINDS:
+        sel = [r for r in rows if r["kind"] == kind and r["status"] == "finished"
+               and int(r["steps"]) > 0 and int(r["particles"]) > 0]  # fmt: skip
+        if sel:
+            r = next((x for x in sel if float(x["a_over_h"]) == 0.3 and float(x["d_over_h"]) == 0.1),
+                     sel[0])  # fmt: skip
+            ref[kind] = r
+    if not ref:
+        out.append("No finished run to extrapolate from.\n")
+        return "\n".join(out)
+    out.append("| l0 (m) | layers over H | thesis fluid particles / elements | our particles "
+               "(est.) | " + " | ".join(f"{k} case: hours on one thread" for k in ref) + " |")  # fmt: skip
+    out.append("|---|---|---|---|" + "---|" * len(ref))
+    for l0, _, n_thesis, el_thesis in sorted(THESIS_TABLE_5_1, reverse=True):
+        sp = spacing_for(l0)
+        cells = []
+        n_est = 0
+        for r in ref.values():
+            l0_run = float(r["l0"])
+            scale = (l0_run / sp) ** 2
+            n_est = int(round(int(r["particles"]) * scale))
+            steps = int(r["steps"])
+            us = float(r["wall_time_s"]) / (steps * int(r["particles"]))
+            lo = us * n_est * steps / 3600.0
+            hi = us * n_est * steps * (l0_run / sp) / 3600.0
+            cells.append(f"{lo:.1f} ... {hi:.1f}")
+        out.append(f"| {l0:g} (-> {sp:.5g}) | {round(DEPTH / sp)} | {n_thesis} / {el_thesis} | "
+                   f"{n_est} | " + " | ".join(cells) + " |")  # fmt: skip
+    refs = ", ".join(f"{k}: A/H = {r['a_over_h']}, D/H = {r['d_over_h']}" for k, r in ref.items())
+    out.append(
+        f"\nExtrapolated from the measured runs ({refs}) at their cost per particle-step; the "
+        "range is dt_max-bound (as many steps as measured) to Courant-bound (steps x l0 ratio). "
+        "`python validation/bottom_slamming.py --l0 0.002 --cases 0.3:0.1` runs one case "
+        "(resumable, `--threads 2` where the cores are free).\n"
+    )
+    return "\n".join(out)
+
+
+DEFINITIONS = """## Definitions
+
+- **Uplift** F(t): the y component of the fluid's pressure force on the plate, probe `uplift`,
+  N per metre of width (2D), sampled every 1 ms: -sum p_i l0 n_i over the plate's pressure-layer
+  particles (rigid: the wall box's bottom, top and end faces; elastic: both faces and the end
+  caps of the member, thesis eq. 2-51). Positive upwards.
+- **Peak window**: from t = 0 until the foot (eta = 1 % of A, 3/k ahead of the crest) of the
+  wave sent back by the sponge's inner edge (x = 2.0 m) reaches the plate's rear edge:
+  t_c + (2.0 - 3/k - 1.2) / c + (2.0 - 1.505) / sqrt(g H), t_c = design crest at the front edge
+  (t_c + 0.40 s at A/H = 0.2 to t_c + 0.66 s at 0.5). **Peak uplift** = the largest sample in it
+  (what the thesis reports as the maximum uplift); **11 ms mean peak** = the largest value of the
+  11 ms centred running mean (MPS pressures spike for one or two steps; this is the peak of the
+  load a structure with periods above ~20 ms feels).
+- **MF** = F_elastic,max / F_rigid,max (thesis ch. 5.1.3), same case, same window.
+- **First-slam peak** (elastic): the largest uplift until the mid-span's first upward maximum;
+  after it the plate comes back down onto the water (the thesis's "second slam").
+- **Contact**: the first sample with F above 2 % of the peak.
+- **rho g A L**: the hydrostatic scale of the uplift, the pressure under a crest A high on the
+  whole plate length L = 0.305 m if the plate sat at the still-water level.
+"""
+
+RUNNING = """## Running
+
+    NUMBA_NUM_THREADS=1 python validation/bottom_slamming.py --l0 0.004 --cases 0.3:* --kinds rigid,elastic
+    python validation/bottom_slamming.py --l0 0.004 --analyse-only     # CSV, figures, this page
+
+Results files `validation/results/bottom_slamming_<l0>_<kind>_AH<A/H>_DH<D/H>.h5` (not
+committed); a finished one is skipped, one interrupted by a kill resumes from its checkpoint,
+a failed one is rerun only with `--retry-failed`.
+"""
+
+DISCUSSION = """## Discussion
+
+(to be written from the results)
+"""
+
+
+# ---------------------------------------------------------------------- main
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--l0", default="0.004", help="particle spacing, m (default 0.004)")
+    ap.add_argument("--cases", default="all", help="'all' or A/H:D/H pairs, e.g. 0.3:0.06,0.2:*")
+    ap.add_argument("--kinds", default="rigid,elastic", help="rigid, elastic or both")
+    ap.add_argument("--threads", type=int, default=1, help="numba threads per run (default 1)")
+    ap.add_argument("--analyse-only", action="store_true", help="do not run, only analyse")
+    ap.add_argument("--retry-failed", action="store_true", help="rerun failed cases")
+    args = ap.parse_args(argv)
+    l0 = float(args.l0)
+    if not l0 > 0.0:
+        ap.error(f"--l0 = {args.l0}: must be > 0")
+    try:
+        cases = parse_cases(args.cases)
+    except ValueError as exc:
+        ap.error(str(exc))
+    kinds = [k.strip() for k in args.kinds.split(",") if k.strip()]
+    for k in kinds:
+        if k not in KINDS:
+            ap.error(f"--kinds: {k!r} is not one of {', '.join(KINDS)}")
+    spacing = spacing_for(l0)
+    print(
+        f"l0 = {l0:g} m -> {spacing:.7g} m: {round(DEPTH / l0)} layers over H = {DEPTH} m; "
+        f"{elements_for(spacing)} beam elements of {PLATE_LENGTH / elements_for(spacing):.5g} m"
+    )
+    RESULTS_DIR.mkdir(parents=True, exist_ok=True)
+    if not args.analyse_only:
+        for case in cases:  # the rigid and elastic runs of a case one after the other
+            for kind in kinds:
+                out = case_path(args.l0, kind, case)
+                ensure_case(kind, case, spacing, out, args.threads, args.retry_failed)
+    return report(args.l0)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
