@@ -77,6 +77,31 @@ GAUGE_RADIUS = 1.2  # pressure probe radius, x l0 (ours, scenario)
 GAUGES = tuple(f"G{i}" for i in range(1, 13))
 WALL_INDEX = {"base": 2, "plate": 3}  # fluid.walls indices in the scenario files
 PEAK_WINDOW = 0.01  # running-mean window of the peak pressure, s
+PADDLE_START = 0.2  # s (scenario)
+PRESSURE_FIGURE_FREEBOARDS = (0.1, 0.2)  # D/B shown in the gauge-history figure
+DOC_L0 = "0.005"  # the thesis's spacing: the doc is generated from these runs
+GORING_HALF_SPAN = 3.8  # thesis eq. 3-8
+
+
+def runup_vertical_wall(amplitude: float = AMPLITUDE, depth: float = DEPTH) -> float:
+    """Largest run-up (m above still water) of a solitary wave fully reflected by a vertical
+    wall, third order: R / H = 2 eps + eps^2 / 2 + 3 eps^3 / 4, eps = A / H (Su & Mirie 1980,
+    J. Fluid Mech. 98; the head-on collision of two equal solitary waves). 0.0761 m for the
+    thesis's wave."""
+    e = amplitude / depth
+    return depth * (2.0 * e + 0.5 * e * e + 0.75 * e**3)
+
+
+def crest_time_at(x: float, amplitude: float = AMPLITUDE, depth: float = DEPTH) -> float:
+    """When the design wave's crest reaches x (s): the Goring paddle's virtual crest passes its
+    mid-stroke tanh(3.8) S / 2 at start + T / 2, T = 2 (3.8 + A/H) / (k c) (docs/wave_tank.md),
+    then moves at c = sqrt(g (H + A))."""
+    k = math.sqrt(3.0 * amplitude / (4.0 * depth**3))
+    c = math.sqrt(GRAVITY * (depth + amplitude))
+    duration = 2.0 * (GORING_HALF_SPAN + amplitude / depth) / (k * c)
+    mid = 0.5 * math.tanh(GORING_HALF_SPAN) * math.sqrt(16.0 * amplitude * depth / 3.0)
+    return PADDLE_START + 0.5 * duration + (x - mid) / c
+
 
 # Thesis Table 4-3: maximum slamming pressure (Pa) per gauge (rows) and D/B (columns), rigid.
 TABLE_4_3 = {
@@ -256,9 +281,11 @@ class CaseRow:
     particles: int
     steps: int
     wall_time_s: float
+    crest_0_6_m: float  # incident crest at x = 0.6 m (0.025 s running mean, before reflection)
     t_overtopping_s: float  # first time water is on the deck at G1 (deck_G1 gauge finite)
     max_layer_g1_m: float  # thickest layer over G1 (0.02 s running mean)
     max_runup_front_m: float  # highest surface 0.01 m in front of the base, above still water
+    runup_theory_m: float  # full reflection at a vertical wall (runup_vertical_wall)
     plate_fx_peak_n_m: float  # running mean over PEAK_WINDOW, N/m
     t_plate_fx_peak_s: float
     mid_disp_peak_mm: float  # elastic: largest |u_x| at mid-plate (NaN for rigid)
@@ -289,6 +316,7 @@ def analyse(path: Path, kind: str, d_over_b: float) -> tuple[CaseRow, list[PeakR
         records = {g: _probe(h5, g) for g in GAUGES}
         layer = _probe(h5, "deck_G1")
         runup = _probe(h5, "gauge_front")
+        incident = _probe(h5, "gauge_0.6")
         fx = _probe(h5, "plate_force")
         disp = _probe(h5, "plate_mid") if "plate_mid" in h5["probes"] else None
         snaps = h5["particles"]
@@ -316,6 +344,12 @@ def analyse(path: Path, kind: str, d_over_b: float) -> tuple[CaseRow, list[PeakR
     dtl = float(np.median(np.diff(tl)))
     lay = running_mean(np.nan_to_num(vl, nan=0.0), 2 * max(1, round(0.01 / dtl)) + 1)
     tr, vr = runup
+    ti, vi = incident
+    dti = float(np.median(np.diff(ti)))
+    inc = running_mean(np.nan_to_num(vi, nan=0.0), 2 * max(1, round(0.0125 / dti)) + 1)
+    # before the base's reflection can be back at 0.6 m (crest at the base front, + 0.6 m / c)
+    before = ti <= crest_time_at(BASE_FRONT) + (BASE_FRONT - 0.6) / math.sqrt(GRAVITY * DEPTH)
+    crest06 = float(np.nanmax(inc[before])) if np.isfinite(inc[before]).any() else math.nan
     fx_t, fx_v = fx
     f_pk, f_t, _ = peak(fx_t, fx_v[:, 0])
     d_pk = d_t = math.nan
@@ -333,9 +367,11 @@ def analyse(path: Path, kind: str, d_over_b: float) -> tuple[CaseRow, list[PeakR
         particles=n_all,
         steps=steps,
         wall_time_s=wall,
+        crest_0_6_m=crest06,
         t_overtopping_s=t_over,
         max_layer_g1_m=float(np.nanmax(lay)) if np.isfinite(lay).any() else math.nan,
         max_runup_front_m=float(np.nanmax(vr)) if np.isfinite(vr).any() else math.nan,
+        runup_theory_m=runup_vertical_wall(),
         plate_fx_peak_n_m=f_pk,
         t_plate_fx_peak_s=f_t,
         mid_disp_peak_mm=d_pk,
@@ -410,35 +446,38 @@ def _pyplot():
 
 
 def plot_pressures(paths: dict[tuple[str, float], Path], label: str, out: Path) -> None:
-    """Gauge histories G1-G12 at the thesis's reference freeboard (its Figs. 4-5 and 4-10): the
-    running mean over PEAK_WINDOW, rigid solid, elastic dashed."""
+    """Gauge histories G1-G12 (the thesis's Figs. 4-5 and 4-10) at D/B = 0.1 and 0.2: the running
+    mean over PEAK_WINDOW, rigid solid, elastic dashed; raw rigid samples in grey."""
     plt = _pyplot()
     fig, axes = plt.subplots(4, 3, figsize=(9.0, 8.0), sharex=True)
-    for kind, style in (("rigid", "-"), ("elastic", "--")):
-        path = paths.get((kind, ELASTIC_FREEBOARD))
-        if path is None:
+    for (kind, fb), path in sorted(paths.items()):
+        if fb not in PRESSURE_FIGURE_FREEBOARDS:
             continue
+        color = f"C{PRESSURE_FIGURE_FREEBOARDS.index(fb)}"
+        style = "-" if kind == "rigid" else "--"
         with h5py.File(path, "r") as h5:
             for ax, g in zip(axes.ravel(), GAUGES, strict=True):
                 t, p = _probe(h5, g)
                 dt = float(np.median(np.diff(t)))
                 sm = running_mean(np.nan_to_num(p, nan=0.0), 2 * round(0.5 * PEAK_WINDOW / dt) + 1)
-                ax.plot(t, p, color="0.8" if kind == "rigid" else "0.9", lw=0.4)
-                ax.plot(t, sm, style, color="C0" if kind == "rigid" else "C3", lw=0.9, label=kind)
+                if kind == "rigid":
+                    ax.plot(t, p, color="0.85", lw=0.3)
+                ax.plot(t, sm, style, color=color, lw=0.9, label=f"{kind}, D/B = {fb:g}")
     for ax, g in zip(axes.ravel(), GAUGES, strict=True):
-        th = thesis_peak(g, ELASTIC_FREEBOARD)
-        ax.axhline(th, color="k", lw=0.6, ls=":", label="thesis peak")
+        for i, fb in enumerate(PRESSURE_FIGURE_FREEBOARDS):
+            ax.axhline(thesis_peak(g, fb), color=f"C{i}", lw=0.6, ls=":")
         ax.set_title(g, fontsize=8)
         ax.tick_params(labelsize=7)
         ax.grid(alpha=0.3)
+        ax.set_xlim(1.7, 3.4)
     axes[0, 0].legend(fontsize=6)
     for ax in axes[-1]:
         ax.set_xlabel("t (s)", fontsize=8)
     for ax in axes[:, 0]:
         ax.set_ylabel("p (Pa)", fontsize=8)
     fig.suptitle(
-        f"Gauge pressures, D/B = {ELASTIC_FREEBOARD}, l0 = {label} m (grey: raw; lines: "
-        f"{PEAK_WINDOW * 1e3:.0f} ms running mean; dotted: thesis Table 4-3 peak)",
+        f"Gauge pressures, l0 = {label} m (grey: raw; lines: {PEAK_WINDOW * 1e3:.0f} ms running "
+        "mean; dotted: thesis Table 4-3 peak of the same colour's D/B)",
         fontsize=8,
     )
     fig.tight_layout()
@@ -573,6 +612,65 @@ def _f(v: float, fmt: str = ".0f") -> str:
     return "-" if not math.isfinite(v) else format(v, fmt)
 
 
+def read_peaks_csv(path: Path) -> list[dict[str, str]]:
+    with path.open() as f:
+        return list(csv.DictReader(f))
+
+
+def resolution_section(label: str) -> list[str]:
+    """Rigid peaks at every other spacing with results (validation/results/green_water_<l0>.csv),
+    side by side with ``label``'s: G1-G7 (the gauges the water reaches) per freeboard."""
+    others = sorted(
+        p
+        for p in RESULTS_DIR.glob("green_water_*.csv")
+        if not p.stem.endswith("_cases") and p.stem != f"green_water_{label}"
+    )
+    if not others:
+        return []
+    tables = {label: read_peaks_csv(RESULTS_DIR / f"green_water_{label}.csv")}
+    for p in others:
+        tables[p.stem.removeprefix("green_water_")] = read_peaks_csv(p)
+    rows = []
+    for lab, recs in tables.items():
+        for f in sorted({float(r["d_over_b"]) for r in recs if r["kind"] == "rigid"}):
+            pk = {
+                r["gauge"]: float(r["peak_pa"])
+                for r in recs
+                if r["kind"] == "rigid" and float(r["d_over_b"]) == f
+            }
+            rows.append((f, lab, pk))
+    rows.sort()
+    out = [
+        "## Resolution (rigid plate)",
+        "",
+        "Peak pressure (Pa, 10 ms running mean) at the gauges the water reaches, per spacing "
+        "label (`--l0`; the spacing is H / round(H / l0)); thesis Table 4-3 in the last row of "
+        "each freeboard.",
+        "",
+        "| D/B | l0 | " + " | ".join(GAUGES[:8]) + " |",
+        "|---|---|" + "---|" * 8,
+    ]
+    last = None
+    for f, lab, pk in rows:
+        if last is not None and f != last:
+            out.append(
+                f"| {last:g} | thesis | "
+                + " | ".join(_f(thesis_peak(g, last)) for g in GAUGES[:8])
+                + " |"
+            )
+        out.append(
+            f"| {f:g} | {lab} | " + " | ".join(_f(pk.get(g, math.nan)) for g in GAUGES[:8]) + " |"
+        )
+        last = f
+    if last is not None:
+        out.append(
+            f"| {last:g} | thesis | "
+            + " | ".join(_f(thesis_peak(g, last)) for g in GAUGES[:8])
+            + " |"
+        )
+    return out + [""]
+
+
 def write_doc(
     cases: list[CaseRow], peaks: list[PeakRow], label: str, spacing: float, figures: list[str]
 ) -> None:
@@ -700,12 +798,14 @@ def write_doc(
             lines.append(f"| {g} | " + " | ".join(cells) + " |")
         lines += [""]
     lines += [
+        *resolution_section(label),
         "## Cases",
         "",
-        "| kind | D/B | status | fluid / all particles | steps | wall time | water on deck "
-        "(G1) from | thickest layer at G1 | run-up at the base front | plate F_x peak | "
-        "mid-plate u_x peak | coupling windows / iterations / not converged |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| kind | D/B | status | fluid / all particles | steps | wall time | incident crest at "
+        "0.6 m | water on deck (G1) from | thickest layer at G1 | run-up at the base front "
+        "(theory, full reflection) | plate F_x peak | mid-plate u_x peak | coupling windows / "
+        "iterations / not converged |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for c in sorted(cases, key=lambda c: (c.kind != "rigid", c.d_over_b)):
         disp = (
@@ -720,8 +820,10 @@ def write_doc(
         )
         lines.append(
             f"| {c.kind} | {c.d_over_b:g} | {c.status} | {c.fluid_particles} / {c.particles} | "
-            f"{c.steps} | {_f(c.wall_time_s)} s | {_f(c.t_overtopping_s, '.2f')} s | "
-            f"{_f(1e3 * c.max_layer_g1_m, '.1f')} mm | {_f(1e3 * c.max_runup_front_m, '.1f')} mm | "
+            f"{c.steps} | {_f(c.wall_time_s)} s | {_f(1e3 * c.crest_0_6_m, '.1f')} mm | "
+            f"{_f(c.t_overtopping_s, '.2f')} s | "
+            f"{_f(1e3 * c.max_layer_g1_m, '.1f')} mm | {_f(1e3 * c.max_runup_front_m, '.1f')} "
+            f"({_f(1e3 * c.runup_theory_m, '.1f')}) mm | "
             f"{_f(c.plate_fx_peak_n_m, '.1f')} N/m at {_f(c.t_plate_fx_peak_s, '.2f')} s | "
             f"{disp} | {coup} |"
         )
@@ -796,7 +898,7 @@ def main(argv: list[str] | None = None) -> int:
     done = {
         k: p for k, p in paths.items() if any(c.kind == k[0] and c.d_over_b == k[1] for c in cases)
     }
-    if any(k[1] == ELASTIC_FREEBOARD for k in done):
+    if any(k[1] in PRESSURE_FIGURE_FREEBOARDS for k in done):
         name = f"green_water_pressure_{args.l0}.png"
         plot_pressures(done, args.l0, FIGURES_DIR / name)
         figs.append(name)
@@ -820,7 +922,10 @@ def main(argv: list[str] | None = None) -> int:
             ref, args.l0, FIGURES_DIR / name, tuple(t0 + d for d in (0.0, 0.2, 0.4, 0.6))
         )
         figs.append(name)
-    write_doc(cases, peaks, args.l0, spacing, figs)
+    if args.l0 == DOC_L0:
+        write_doc(cases, peaks, args.l0, spacing, figs)
+    else:
+        print(f"l0 = {args.l0}: {DOC.name} is written for --l0 {DOC_L0} only (it lists this one)")
     print(f"{'kind':>8} {'D/B':>4} {'status':>9} {'particles':>9} {'steps':>6} {'wall s':>7}")
     for c in cases:
         print(
