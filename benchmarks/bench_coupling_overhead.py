@@ -15,7 +15,7 @@ first ``--skip``):
 overhead = (mapping + acceleration + transport) / window time, and with the fluid-side coupling
 work added ("overhead incl. fluid side"). Writes benchmarks/results/coupling_overhead.csv.
 
-``--sweep``: the added-mass stress test instead. The plate's density is set so that the mass
+``--sweep [--case plate|obstacle]``: the added-mass stress test instead. The plate's density is set so that the mass
 ratio (rho_s h) / (rho_w H) runs from 10 down to 0.01 (self-weight off: the static deflection is
 the water's, 6.43e-5 m), at l0 = 0.05 m for 0.03 s (150 windows); each ratio runs explicit,
 implicit Aitken and implicit IQN-ILS coupling. Divergence is the code's own verdict (the
@@ -24,8 +24,14 @@ max_iterations stops a run only with on_divergence = "stop"; the scenario contin
 it: column windows_not_converged). Writes benchmarks/results/coupling_added_mass.csv
 (iterations per window: mean and max).
 
+``--case obstacle``: the same sweep on scenarios/dam_break_elastic_obstacle_2d.toml (l0 = L/40),
+mass ratio with the obstacle's thickness h = 0.012 m and the column height H = 0.292 m (the
+scenario's own ratio is 0.103), to 0.3 s (the surge hits the plate at about 0.15 s; the first
+tip peak follows); column displacement_m is the peak tip displacement. Writes
+benchmarks/results/coupling_added_mass_obstacle.csv.
+
     .venv/bin/python benchmarks/bench_coupling_overhead.py [--windows 25] [--threads 1]
-    .venv/bin/python benchmarks/bench_coupling_overhead.py --sweep
+    .venv/bin/python benchmarks/bench_coupling_overhead.py --sweep [--case obstacle]
 """
 
 from __future__ import annotations
@@ -104,19 +110,28 @@ RATIOS = (10.0, 3.0, 1.0, 0.3, 0.1, 0.03, 0.01)
 SCHEMES = (("explicit", None), ("implicit", "aitken"), ("implicit", "iqn-ils"))
 
 
-def sweep(out: Path, spacing: float, end_time: float, threads: int) -> None:
-    """The added-mass stress test on the hydrostatic plate (see the module docstring)."""
+# the two stress-test cases: scenario, (water depth H, structural thickness h) of the mass ratio
+# (rho_s h) / (rho_w H), the displacement probe and its component
+CASES = {
+    "plate": (SCENE, 2.0, 0.05, "mid_deflection", 1),
+    "obstacle": (ROOT / "scenarios" / "dam_break_elastic_obstacle_2d.toml", 0.292, 0.012, "tip", 0),
+}
+
+
+def sweep(case: str, out: Path, spacing: float | None, end_time: float, threads: int) -> None:
+    """The added-mass stress test on the hydrostatic plate or the elastic obstacle (see the
+    module docstring)."""
     from mpsfem.scenario.loader import load_scenario
     from mpsfem.simulation import RunFailed, run_coupled
 
-    rho_w, H, h = 1000.0, 2.0, 0.05
+    scene, H, h, probe, comp = CASES[case]
+    rho_w = 1000.0
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for ratio in RATIOS:
             rho_s = ratio * rho_w * H / h
             for scheme, accel in SCHEMES:
                 sets = [
-                    f"fluid.spacing={spacing}",
                     f"run.threads={threads}",
                     f"structure.members.0.material.density={rho_s!r}",
                     "structure.members.0.self_weight=false",
@@ -125,9 +140,11 @@ def sweep(out: Path, spacing: float, end_time: float, threads: int) -> None:
                     "output.probe_interval=0",
                     f'coupling.scheme="{scheme}"',
                 ]
+                if spacing is not None:
+                    sets.append(f"fluid.spacing={spacing}")
                 if accel:
                     sets.append(f'coupling.acceleration={{kind = "{accel}"}}')
-                loaded = load_scenario(SCENE, sets)
+                loaded = load_scenario(scene, sets)
                 path = Path(tmp) / f"r{ratio}_{scheme}_{accel}.h5"
                 verdict = "stable"
                 try:
@@ -138,9 +155,11 @@ def sweep(out: Path, spacing: float, end_time: float, threads: int) -> None:
                 with h5py.File(path, "r") as h5:
                     it = h5["coupling/iterations"][:] if "coupling" in h5 else np.zeros(0)
                     conv = h5["coupling/converged"][:] if "coupling" in h5 else np.zeros(0)
-                    w = h5["probes/mid_deflection/value"][:, 1]
-                    tw = h5["probes/mid_deflection/time"][:]
+                    w = h5[f"probes/{probe}/value"][:, comp]
+                    tw = h5[f"probes/{probe}/time"][:]
+                    wall = float(h5.attrs.get("wall_time", np.nan))
                 row = {
+                    "case": case,
                     "mass_ratio": ratio,
                     "rho_s": rho_s,
                     "scheme": scheme,
@@ -150,9 +169,15 @@ def sweep(out: Path, spacing: float, end_time: float, threads: int) -> None:
                     "iterations_mean": round(float(it.mean()), 3) if it.size else "",
                     "iterations_max": int(it.max()) if it.size else "",
                     "windows_not_converged": int((conv == 0).sum()),
-                    "mid_deflection_mean": float(w[tw >= 0.5 * end_time].mean())
+                    # plate: the settled deflection; obstacle: the peak tip displacement
+                    "displacement_m": (
+                        float(w[tw >= 0.5 * end_time].mean())
+                        if case == "plate"
+                        else float(w[np.argmax(np.abs(w))])
+                    )
                     if verdict == "stable"
                     else "",
+                    "wall_s": round(wall, 1),
                 }
                 rows.append(row)
                 print(row, flush=True)
@@ -167,7 +192,10 @@ def sweep(out: Path, spacing: float, end_time: float, threads: int) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sweep", action="store_true", help="added-mass stress test instead")
-    ap.add_argument("--end-time", type=float, default=0.03, help="sweep: simulated time, s")
+    ap.add_argument(
+        "--end-time", type=float, default=None, help="sweep: simulated time, s (0.03 / 0.3)"
+    )
+    ap.add_argument("--case", choices=sorted(CASES), default="plate", help="sweep: which case")
     ap.add_argument("--windows", type=int, default=25)
     ap.add_argument("--skip", type=int, default=5, help="warm-up windows left out")
     ap.add_argument("--threads", type=int, default=1)
@@ -175,8 +203,16 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks/results/coupling_overhead.csv")
     args = ap.parse_args()
     if args.sweep:
-        spacing = args.spacing if args.spacing != 0.01 else 0.05
-        sweep(ROOT / "benchmarks/results/coupling_added_mass.csv", spacing, args.end_time, 1)
+        if args.case == "plate":
+            spacing = args.spacing if args.spacing != 0.01 else 0.05
+            name = "coupling_added_mass.csv"
+        else:  # the obstacle keeps its scenario's l0 = L/40 unless --spacing is given
+            spacing = args.spacing if args.spacing != 0.01 else None
+            name = "coupling_added_mass_obstacle.csv"
+        end = (
+            args.end_time if args.end_time is not None else (0.03 if args.case == "plate" else 0.3)
+        )
+        sweep(args.case, ROOT / "benchmarks/results" / name, spacing, end, args.threads)
         return
     transports = ["inproc"] + (["mpi"] if MPIRUN else []) + ["zenoh"]
     rows = {}
