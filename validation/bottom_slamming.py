@@ -77,8 +77,11 @@ PLATE_THICKNESS = 0.015  # m (thesis ch. 5.1)
 PADDLE_WALL = 1  # index of the paddle in fluid.walls (both scenarios)
 PLATE_WALL = 2  # index of the rigid plate in fluid.walls (rigid scenario)
 PADDLE_START = 0.2  # s, the scenarios' paddle start_time
-AFTER_CREST = 0.6  # end time = crest at the front edge + this, s (scenario headers)
-FOOT = 3.0  # k |x - c t| of the wave's foot (eta = 1 % of A) used for the reflection timing
+AFTER_CREST = 0.6  # rigid runs end at the crest's arrival at the front edge + this, s
+#: k |x - c t| of the wave's foot used for the reflection timing: eta = A sech^2 = 10 % of A.
+#: The sponge's inner part sends back at most about half of what reaches it (38-52 % of A,
+#: docs/validation_wave_tank.md), so less than 5 % of A comes back to the plate in the window.
+FOOT = math.acosh(math.sqrt(10.0))
 PRESSURE_PROBES = {"p_front": 1.0 / 6.0, "p_mid": 0.5, "p_rear": 5.0 / 6.0}  # x / plate length
 GAUGES = (0.6, 1.0, 1.15)  # m (scenarios)
 SMOOTH_S = 0.011  # running mean of the force for the smoothed peak, s (11 samples at 1 ms)
@@ -127,15 +130,19 @@ class Case:
         wave_tank.predicted_crest_time."""
         return predicted_crest_time(self.wave, PADDLE_START, PLATE_FRONT)
 
-    @property
-    def end_time(self) -> float:
-        return round(self.crest_time + AFTER_CREST, 3)
+    def end_time(self, kind: str) -> float:
+        """Simulated end time (s): rigid, the crest's arrival at the front edge + 0.6 s (the
+        rigid plate's uplift is over by then); elastic, the end of the peak window rounded up to
+        10 ms (the plate swings back down onto the water about half a second after the crest)."""
+        if kind == "rigid":
+            return round(self.crest_time + AFTER_CREST, 3)
+        return math.ceil(self.reflection_time * 100.0) / 100.0
 
     @property
     def reflection_time(self) -> float:
-        """When the foot (eta = 1 % of A, 3/k ahead of the crest) of the incident wave, sent
-        back by the sponge's inner edge (x_s = 2.0 m) at c0 = sqrt(g H), reaches the plate's
-        rear edge (s): the end of the window in which the peaks are taken."""
+        """When the foot (eta = 10 % of A, 1.82/k ahead of the crest: :data:`FOOT`) of the
+        incident wave, sent back by the sponge's inner edge (x_s = 2.0 m) at c0 = sqrt(g H),
+        reaches the plate's rear edge (s): the end of the window in which the peaks are taken."""
         w = self.wave
         c, c0 = w.c_first_order, math.sqrt(GRAVITY * DEPTH)
         x_s, rear = 2.0, PLATE_FRONT + PLATE_LENGTH
@@ -225,7 +232,7 @@ def case_overrides(kind: str, case: Case, spacing: float) -> list[str]:
         f"fluid.spacing={spacing!r}",
         f"fluid.walls.{PADDLE_WALL}.motion.amplitude={case.wave.amplitude!r}",
         f"fluid.walls.{PADDLE_WALL}.motion.depth={DEPTH!r}",
-        f"run.end_time={case.end_time!r}",
+        f"run.end_time={case.end_time(kind)!r}",
         f'title="bottom slamming ({kind}), A/H = {case.ratio:g}, D/H = {case.clearance:g}, '
         f'l0 = {spacing:.6g} m"',
     ]
@@ -274,10 +281,26 @@ def run_case(
     return subprocess.run(cmd, env=env, cwd=ROOT, check=False).returncode
 
 
+def recorded_until(path: Path) -> float:
+    """Time (s) of the last uplift sample of a results file."""
+    with h5py.File(path, "r") as h5:
+        t = h5["probes"]["uplift"]["time"]
+        return float(t[-1]) if t.shape[0] else 0.0
+
+
+#: status texts of a run stopped by SIGTERM / Ctrl-C: the run loop's own message, and what it
+#: says when the signal arrived inside a numba function (the handler's exception then surfaces
+#: as "CPUDispatcher(...) returned a result with an exception set"); both leave a checkpoint of
+#: the last good step
+SIGNAL_STATUS = ("received signal", "returned a result with an exception set", "KeyboardInterrupt")
+
+
 def resumable(status: str | None) -> bool:
     """A run a kill interrupted: ``running`` (hard kill) or stopped by a signal."""
     return status == "running" or (
-        status is not None and status.startswith("failed") and "received signal" in status
+        status is not None
+        and status.startswith("failed")
+        and any(s in status for s in SIGNAL_STATUS)
     )
 
 
@@ -286,6 +309,13 @@ def ensure_case(kind: str, case: Case, spacing: float, out: Path, threads: int, 
     tag = f"[{kind} {case.label()}] {out.name}"
     status = read_status(out)
     ckpt = default_checkpoint_path(out)
+    end = case.end_time(kind)
+    # the last probe sample may lie up to one probe interval (1 ms) before the end
+    if status == "finished" and recorded_until(out) < end - 2e-3 and ckpt.is_file():
+        # finished with an earlier end time: continue from its final checkpoint
+        print(f"{tag}: finished at {recorded_until(out):.4g} s, extending to {end:.4g} s")
+        run_case(kind, case, spacing, out, threads, ckpt)
+        return read_status(out) or "missing"
     if status == "finished":
         print(f"{tag}: finished, skipped")
         return status
@@ -567,7 +597,7 @@ def plot_forces(l0_label: str, rows: list[CaseResult], out: Path) -> None:
                 ax.plot(t - case.crest_time, f[:, 1], color=color, lw=0.7, label=kind)
             ax.axvline(case.reflection_time - case.crest_time, color="0.5", ls=":", lw=0.8)
             ax.axhline(0.0, color="0.6", lw=0.4)
-            ax.set_xlim(-0.4, AFTER_CREST)
+            ax.set_xlim(-0.4, 0.85)
             ax.set_title(f"A/H = {a:g}, D/H = {d:g}", fontsize=8)
             ax.tick_params(labelsize=7)
             ax.grid(alpha=0.3)
@@ -597,7 +627,7 @@ def plot_displacement(l0_label: str, rows: list[CaseResult], out: Path) -> None:
         ax.plot(t - case.crest_time, u[:, 1] * 1e3, lw=0.8, color=f"C{n}",
                 label=f"A/H = {r.a_over_h:g}, D/H = {r.d_over_h:g}")  # fmt: skip
     ax.axhline(0.0, color="0.6", lw=0.4)
-    ax.set_xlim(-0.4, AFTER_CREST)
+    ax.set_xlim(-0.4, 0.85)
     ax.set_xlabel("t - t_c (s)", fontsize=8)
     ax.set_ylabel("mid-span displacement (mm)", fontsize=8)
     ax.tick_params(labelsize=7)
@@ -690,8 +720,9 @@ SETUP = (
     ("spacing", "l0 = H/28 = 0.00407 m (the thesis: 0.002 m)", "ours: the issue's parameter "
      "grid at 0.004 m, rounded to whole layers over H"),
     ("time step", "Courant 0.2, dt_max = 1 ms", "ours"),
-    ("run", "until t_c + 0.6 s, t_c the design crest's arrival at the front edge "
-     "(1.95 s at A/H = 0.3)", "ours (scenario header: timing)"),
+    ("run", "rigid until t_c + 0.6 s, elastic until the end of the peak window (t_c + 0.70 "
+     "... 0.82 s), t_c the design crest's arrival at the front edge (1.95 s at A/H = 0.3)",
+     "ours (scenario header: timing)"),
 )  # fmt: skip
 
 
@@ -870,10 +901,12 @@ DEFINITIONS = """## Definitions
   N per metre of width (2D), sampled every 1 ms: -sum p_i l0 n_i over the plate's pressure-layer
   particles (rigid: the wall box's bottom, top and end faces; elastic: both faces and the end
   caps of the member, thesis eq. 2-51). Positive upwards.
-- **Peak window**: from t = 0 until the foot (eta = 1 % of A, 3/k ahead of the crest) of the
-  wave sent back by the sponge's inner edge (x = 2.0 m) reaches the plate's rear edge:
-  t_c + (2.0 - 3/k - 1.2) / c + (2.0 - 1.505) / sqrt(g H), t_c = design crest at the front edge
-  (t_c + 0.40 s at A/H = 0.2 to t_c + 0.66 s at 0.5). **Peak uplift** = the largest sample in it
+- **Peak window**: from t = 0 until the foot (eta = 10 % of A, 1.82/k ahead of the crest) of
+  the wave sent back by the sponge's inner edge (x = 2.0 m) reaches the plate's rear edge:
+  t_c + (2.0 - 1.82/k - 1.2) / c + (2.0 - 1.505) / sqrt(g H), t_c = design crest at the front
+  edge (t_c + 0.70 s at A/H = 0.2 to t_c + 0.82 s at 0.5); the sponge sends back at most about
+  half of what reaches it, so less than 5 % of A has come back by then. The rigid runs end
+  earlier, at t_c + 0.6 s, when their uplift is over; the elastic runs at the window's end. **Peak uplift** = the largest sample in it
   (what the thesis reports as the maximum uplift); **11 ms mean peak** = the largest value of the
   11 ms centred running mean (MPS pressures spike for one or two steps; this is the peak of the
   load a structure with periods above ~20 ms feels).
