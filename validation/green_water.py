@@ -327,7 +327,8 @@ def analyse(path: Path, kind: str, d_over_b: float) -> tuple[CaseRow, list[PeakR
             c = h5["coupling"]
             iters = c["iterations"][:]
             conv = c["converged"][:] if "converged" in c else np.ones_like(iters, dtype=bool)
-            windows, total_it, bad = iters.size, int(iters.sum()), int(np.count_nonzero(~conv))
+            bad = int(np.count_nonzero(np.asarray(conv) == 0))
+            windows, total_it = iters.size, int(iters.sum())
         else:
             windows = total_it = bad = 0
     rows = []

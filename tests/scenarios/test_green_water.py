@@ -211,11 +211,12 @@ def _mid_deflection_per_newton(a: float, length: float, ei: float) -> float:
 
 @pytest.mark.slow
 def test_production_elastic_mid_plate_displacement_is_bounded_by_beam_statics():
-    """Elastic plate: the mid-plate displacement peak is positive (the plate is pushed away from
-    the wave, +x) and at most twice (the dynamic amplification of a suddenly applied load on an
+    """Elastic plate: where the water reaches the plate, the mid-plate displacement peak is
+    positive (the plate is pushed away from the wave, +x) and at most twice (the dynamic amplification of a suddenly applied load on an
     undamped oscillator) the largest mid-span deflection the peak plate force F_x could cause
     statically, wherever on the clamped-pinned beam it acted (the load rises over >> T_1 =
-    12 ms, so the response is quasi-static and well inside this)."""
+    12 ms, so the response is quasi-static and well inside this); where it does not (no plate
+    force), the plate does not move."""
     peaks, summary = _production_rows()
     rows = [r for r in summary if r["kind"] == "elastic" and r["status"] == "finished"]
     if not rows:
@@ -231,5 +232,8 @@ def test_production_elastic_mid_plate_displacement_is_bounded_by_beam_statics():
             f"D/B = {r['d_over_b']}: mid-plate u_x {u * 1e3:.4f} mm, F_x {force:.1f} N/m, "
             f"static worst-case {worst * force * 1e3:.4f} mm"
         )
-        assert u > 0.0
-        assert u <= bound
+        if force > 0.0:
+            assert 0.0 < u <= bound
+        else:
+            # no water on the plate: the member (at rest, no self-weight) must not move at all
+            assert u == 0.0
