@@ -2,6 +2,10 @@
 
 from importlib.metadata import PackageNotFoundError, version
 
+from mpsfem.threading_layer import preload_tbb
+
+preload_tbb()  # before any numba kernel starts its threads
+
 try:
     __version__ = version("mpsfem")
 except PackageNotFoundError:  # running from a source tree without installation
