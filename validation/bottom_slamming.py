@@ -577,7 +577,8 @@ def _pyplot():
 
 def plot_forces(l0_label: str, rows: list[CaseResult], out: Path) -> None:
     """Uplift histories against t - t_c (t_c: design crest at the front edge), one panel per
-    case (rows D/H, columns A/H), rigid and elastic overlaid; the window end dotted."""
+    case (rows D/H, columns A/H), rigid and elastic overlaid: every sample (light) and the
+    11 ms running mean (solid); the window end dotted."""
     plt = _pyplot()
     ratios = sorted({r.a_over_h for r in rows})
     clears = sorted({r.d_over_h for r in rows})
@@ -594,7 +595,10 @@ def plot_forces(l0_label: str, rows: list[CaseResult], out: Path) -> None:
                     continue
                 with h5py.File(path, "r") as h5:
                     t, f = _series(h5, "uplift")
-                ax.plot(t - case.crest_time, f[:, 1], color=color, lw=0.7, label=kind)
+                n = 2 * max(1, int(round(0.5 * SMOOTH_S / float(np.median(np.diff(t)))))) + 1
+                ax.plot(t - case.crest_time, f[:, 1], color=color, lw=0.4, alpha=0.3)
+                ax.plot(t - case.crest_time, running_mean(f[:, 1], n), color=color, lw=1.0,
+                        label=f"{kind} (11 ms mean)")  # fmt: skip
             ax.axvline(case.reflection_time - case.crest_time, color="0.5", ls=":", lw=0.8)
             ax.axhline(0.0, color="0.6", lw=0.4)
             ax.set_xlim(-0.4, 0.85)
