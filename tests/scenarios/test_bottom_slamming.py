@@ -13,7 +13,6 @@ runs take 5-15 min each on one thread and are not started here).
 
 import csv
 import importlib.util
-import math
 import sys
 import tomllib
 from pathlib import Path
@@ -200,14 +199,32 @@ def test_full_resolution_rigid_peak_between_physical_bounds(case):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("clearance", bs.CLEARANCES)
-def test_full_resolution_magnification_above_one(clearance):
-    """l0 = H/28, A/H = 0.3 (the thesis's MF row 3.23, 5.28, 3.66): the elastic plate's largest
-    uplift exceeds the rigid plate's (MF > 1), the thesis's finding for every case."""
+def test_full_resolution_elastic_plate_yields(clearance):
+    """l0 = H/28, A/H = 0.3: the elastic plate (E = 1 MPa, 15.6 kg/m^2, simply supported; its
+    section from the stated 0.015 m thickness) rises by more than a tenth of its static
+    deflection under its own 11 ms-mean peak uplift (as the CI test), and its largest uplift
+    stays below the rigid plate's (MF < 1): hydroelastic relief. Reasoning: with the added
+    mass of the water under it (about rho / k_1 coth(k_1 H) = 117 kg/m^2, k_1 = pi / L) its
+    first wet period is about 1.3 s (f = 2.27 Hz dry), long against the ~0.5 s of the rigid
+    plate's uplift, so it cannot rebound into the wave while the crest passes; instead it
+    rises at up to 0.1 m/s, nearly as fast as the water surface below it (c A k 4/(3 sqrt 3) =
+    0.13 m/s), which takes away the relative velocity that makes the slamming pressure.
+
+    This is NOT the thesis's result (MF = 3.23, 5.28, 3.66 at A/H = 0.3, from a "second slam"
+    0.16 s after the first peak, which needs a plate period of about 0.3 s): the thesis's
+    plate tables (A = 2.5e-5 m^2, I = 1e-3 m^4) contradict its thickness, and the section they
+    suggest cannot be what it ran (docs/validation_bottom_slamming.md)."""
     rows = _csv_rows()
     rig, ela = rows.get(("rigid", 0.3, clearance)), rows.get(("elastic", 0.3, clearance))
     if rig is None or ela is None or not rig["status"] == ela["status"] == "finished":
         pytest.skip(f"A/H = 0.3, D/H = {clearance}: rigid and elastic not both run")
     mf = float(ela["peak_uplift"]) / float(rig["peak_uplift"])
-    print(f"A/H = 0.3, D/H = {clearance}: MF = {mf:.2f} (thesis {bs.THESIS_MF[(0.3, clearance)]})")
-    assert math.isfinite(mf)
-    assert mf > 1.0
+    q = float(ela["peak_uplift_smooth"]) / bs.PLATE_LENGTH
+    static = 5.0 * q * bs.PLATE_LENGTH**4 / (384.0 * 1e6 * 0.015**3 / 12.0)
+    rise = float(ela["mid_disp_max_mm"]) * 1e-3
+    print(
+        f"A/H = 0.3, D/H = {clearance}: MF = {mf:.2f} (thesis {bs.THESIS_MF[(0.3, clearance)]}), "
+        f"mid-span rise {rise * 1e3:.1f} mm, static {static * 1e3:.1f} mm"
+    )
+    assert rise > 0.1 * static
+    assert 0.0 < mf < 1.0
