@@ -11,17 +11,18 @@ analyses every results file and writes
   with thesis Table 4-3 and the relative deviation (columns :data:`PEAK_COLUMNS`);
 * validation/results/green_water_<l0>_cases.csv: one row per case (particles, steps, wall time,
   run-up, plate force and displacement peaks; :data:`CASE_COLUMNS`);
-* docs/figures/green_water_pressure_<l0>.png (gauge histories at D/B = 0.2, rigid and elastic),
+* docs/figures/green_water_pressure_<l0>.png (gauge histories at D/B = 0.1, 0.2, rigid, elastic),
   green_water_peaks_<l0>.png (peak per gauge against Table 4-3, every freeboard),
   green_water_corner_<l0>.png (corner peak against freeboard, thesis Fig. 4-7),
   green_water_displacement_<l0>.png (mid-plate displacement of the elastic cases, thesis Fig. 4-9),
-  green_water_snapshots_<l0>.png (particles around the plate at D/B = 0.2);
+  green_water_snapshots_DB0.10_<l0>.png and _DB0.20_ (particles on the deck);
 * docs/validation_green_water.md (set-up, tables, thesis comparison, wall times, discussion).
 
 Peak pressure: the largest value of the gauge record's centred running mean over
-:data:`PEAK_WINDOW` s (21 samples at the 5e-4 s probe interval), which removes the single-sample
-spikes of MPS pressure (one particle entering or leaving the gauge's radius) but keeps any load
-that lasts a few hundredths of a second; the raw maximum is reported next to it.
+:data:`PEAK_WINDOW` s (11 samples at l0 = H/23, where the probes sample every 1e-3 s step),
+which removes the single-sample spikes of MPS pressure (one particle entering or leaving the
+gauge's radius) but keeps any load that lasts a few hundredths of a second; the raw maximum is
+reported next to it.
 
 Resumable: a case whose results file says ``status = finished`` is not run again; one that a kill
 left at ``running`` resumes from its checkpoint (``mpsfem run --restart``); a ``failed`` one is
@@ -924,7 +925,8 @@ def write_doc(
         "(3 pressure-layer particles + the first fluid layer) | names and faces: thesis Fig. 4-2; "
         "positions ours |",
         f"| peak | largest {PEAK_WINDOW * 1e3:.0f} ms centred running mean of the gauge "
-        "record (sampled every 5e-4 s); raw maximum in the CSV | ours |",
+        "record (sampled every step: 1e-3 s at l0 = H/23, so 11 samples); raw maximum in the "
+        "CSV | ours |",
         "| run | 3.4 s; the crest reaches the base front at about 1.95 s | ours (scenario "
         "header: nothing re-reflected by the paddle is back before 3.6 s) |",
         "",
