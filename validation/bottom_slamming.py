@@ -885,29 +885,38 @@ def resolution_cost(rows: list[dict[str, str]]) -> str:
     if not ref:
         out.append("No finished run to extrapolate from.\n")
         return "\n".join(out)
-    out.append("| l0 (m) | layers over H | thesis fluid particles / elements | our particles "
-               "(est.) | " + " | ".join(f"{k} case: hours on one thread" for k in ref) + " |")  # fmt: skip
+    out.append("| l0 (m) | layers over H | thesis fluid particles / elements | ours: fluid / all "
+               "particles (est.), elements | " + " | ".join(f"{k} case: hours on one thread"
+               for k in ref) + " |")  # fmt: skip
     out.append("|---|---|---|---|" + "---|" * len(ref))
+    total = [0.0, 0.0]
     for l0, _, n_thesis, el_thesis in sorted(THESIS_TABLE_5_1, reverse=True):
         sp = spacing_for(l0)
         cells = []
-        n_est = 0
+        n_fluid = n_all = 0
         for r in ref.values():
             l0_run = float(r["l0"])
             scale = (l0_run / sp) ** 2
-            n_est = int(round(int(r["particles"]) * scale))
+            n_all = int(round(int(r["particles"]) * scale))
+            n_fluid = int(round(int(r["fluid_particles"]) * scale))
             steps = int(r["steps"])
             us = float(r["wall_time_s"]) / (steps * int(r["particles"]))
-            lo = us * n_est * steps / 3600.0
-            hi = us * n_est * steps * (l0_run / sp) / 3600.0
+            lo = us * n_all * steps / 3600.0
+            hi = us * n_all * steps * (l0_run / sp) / 3600.0
+            total[0] += lo
+            total[1] += hi
             cells.append(f"{lo:.1f} ... {hi:.1f}")
         out.append(f"| {l0:g} (-> {sp:.5g}) | {round(DEPTH / sp)} | {n_thesis} / {el_thesis} | "
-                   f"{n_est} | " + " | ".join(cells) + " |")  # fmt: skip
+                   f"{n_fluid} / {n_all}, {elements_for(sp)} | " + " | ".join(cells) + " |")  # fmt: skip
     refs = ", ".join(f"{k}: A/H = {r['a_over_h']}, D/H = {r['d_over_h']}" for k, r in ref.items())
     out.append(
-        f"\nExtrapolated from the measured runs ({refs}) at their cost per particle-step; the "
-        "range is dt_max-bound (as many steps as measured) to Courant-bound (steps x l0 ratio). "
-        "`python validation/bottom_slamming.py --l0 0.002 --cases 0.3:0.1` runs one case "
+        f"\nExtrapolated from the measured runs ({refs}) at their measured cost per particle and "
+        "fluid step (the elastic runs' including their ~5 % repeated iterations and the "
+        "coupling; measured on a loaded machine, 8-12 us against about 5.5 us on an idle core); "
+        "the range is dt_max-bound (as many steps as measured) to Courant-bound (steps x l0 "
+        f"ratio). The whole study (one case, {' and '.join(ref)}, three spacings) would take "
+        f"{total[0]:.0f} to {total[1]:.0f} hours on one thread. "
+        "`python validation/bottom_slamming.py --l0 0.002 --cases 0.3:0.1` runs one spacing "
         "(resumable, `--threads 2` where the cores are free).\n"
     )
     return "\n".join(out)
@@ -924,8 +933,8 @@ DEFINITIONS = """## Definitions
   t_c + (2.0 - 1.82/k - 1.2) / c + (2.0 - 1.505) / sqrt(g H), t_c = design crest at the front
   edge (t_c + 0.70 s at A/H = 0.2 to t_c + 0.82 s at 0.5); the sponge sends back at most about
   half of what reaches it, so less than 5 % of A has come back by then. The rigid runs end
-  earlier, at t_c + 0.6 s, when their uplift is over; the elastic runs at the window's end. **Peak uplift** = the largest sample in it
-  (what the thesis reports as the maximum uplift); **11 ms mean peak** = the largest value of the
+  earlier, at t_c + 0.6 s, when their uplift is over; the elastic runs at the window's end.
+  **Peak uplift** = the largest sample in it (what the thesis reports as the maximum uplift); **11 ms mean peak** = the largest value of the
   11 ms centred running mean (MPS pressures spike for one or two steps; this is the peak of the
   load a structure with periods above ~20 ms feels).
 - **MF** = F_elastic,max / F_rigid,max (thesis ch. 5.1.3), same case, same window.
