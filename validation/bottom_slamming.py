@@ -652,7 +652,8 @@ def plot_displacement(l0_label: str, rows: list[CaseResult], out: Path) -> None:
 
 
 def plot_mf(l0_label: str, rows: list[CaseResult], out: Path) -> None:
-    """Left: peak uplift against A/H per D/H (rigid filled, elastic open). Right: MF against
+    """Left: peak uplift against A/H per D/H (rigid filled, elastic open; lines the 11 ms-mean
+    peaks, faint markers the raw ones). Right: MF against
     A/H per D/H, ours (raw peaks: circles; 11 ms means: triangles) and the thesis's (crosses)."""
     plt = _pyplot()
     mf = magnification(rows)
@@ -660,12 +661,13 @@ def plot_mf(l0_label: str, rows: list[CaseResult], out: Path) -> None:
     for n, d in enumerate(CLEARANCES):
         col = f"C{n}"
         for kind, mk, fill in (("rigid", "o", col), ("elastic", "s", "none")):
-            sel = sorted((r.a_over_h, r.peak_uplift) for r in rows
+            sel = sorted((r.a_over_h, r.peak_uplift, r.peak_uplift_smooth) for r in rows
                          if r.kind == kind and r.d_over_h == d)  # fmt: skip
             if sel:
-                a, f = zip(*sel, strict=True)
-                ax1.plot(a, f, marker=mk, color=col, mfc=fill, lw=0.8,
+                a, f, fs = zip(*sel, strict=True)
+                ax1.plot(a, fs, marker=mk, color=col, mfc=fill, lw=0.8,
                          label=f"{kind}, D/H = {d:g}")  # fmt: skip
+                ax1.plot(a, f, marker=mk, color=col, mfc=fill, lw=0, alpha=0.35, ms=4)
         ours = sorted((a, v[0], v[1]) for (a, dd), v in mf.items() if dd == d)
         if ours:
             a, raw, sm = zip(*ours, strict=True)
@@ -676,7 +678,7 @@ def plot_mf(l0_label: str, rows: list[CaseResult], out: Path) -> None:
         ax2.plot(a, v, "x--", color=col, lw=0.6, label=f"thesis, D/H = {d:g}")
     ax2.axhline(1.0, color="0.5", lw=0.5)
     ax1.set_xlabel("A/H", fontsize=8)
-    ax1.set_ylabel("peak uplift (N/m)", fontsize=8)
+    ax1.set_ylabel("peak uplift (N/m): 11 ms mean (lines), raw (faint)", fontsize=8)
     ax2.set_xlabel("A/H", fontsize=8)
     ax2.set_ylabel("MF = F_elastic,max / F_rigid,max", fontsize=8)
     for ax in (ax1, ax2):
