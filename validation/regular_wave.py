@@ -888,7 +888,7 @@ DISCUSSION = """\
   layer 2 k^2 sqrt(nu / (2 omega)) / (2kd + sinh 2kd) = 0.66 % per metre, Dean & Dalrymple
   1991; interior viscosity 2 nu k^2 / cg = 0.03 % per metre; the MPS wall does not resolve the
   0.24 mm boundary layer anyway), so the loss is the method's numerical dissipation
-  {conv_comment}. The solitary wave at H/28 lost 5-6 % per metre
+  {conv_comment}.{scatter_comment} The solitary wave at H/28 lost 5-6 % per metre
   (docs/validation_wave_tank.md); this wave is three times shorter than that one and has a
   third of its height in spacings.
 - **Wave number.** The measured k (slope of the incident first-harmonic phase) is
@@ -926,7 +926,27 @@ def stokes_speed_correction(wave: LinearWave, amplitude: float) -> float:
     )
 
 
-def discussion_section(summaries: dict, tables: dict) -> str:
+def scatter_sentence(summaries: dict, others: dict) -> str:
+    """How much the decay estimate differs between two runs at one spacing that differ only in
+    the sponge (from about 3 s on the particle noise of the two runs is independent)."""
+    for o in others.values():
+        for s in summaries.values():
+            if _num(o["l0"]) == _num(s["l0"]):
+                return (
+                    f" A second H/{s['layers']} run that differs only in the sponge "
+                    f"(alpha_s = {_num(o['alpha_s']):g}; identical until the wave reaches it, "
+                    "after which the global pressure equation passes the difference to every "
+                    "particle and the two runs' particle noise becomes independent) gives "
+                    f"{_num(o['height_loss_per_m_pct']):.1f} % per metre instead of "
+                    f"{_num(s['height_loss_per_m_pct']):.1f} %, and heights that differ by up to "
+                    "6 % at x = 0.75 m: the decay estimate scatters by a few per cent per metre "
+                    "between realisations, as much as the difference between the two spacings, "
+                    "so these runs do not demonstrate that the decay converges."
+                )
+    return ""
+
+
+def discussion_section(summaries: dict, tables: dict, others: dict | None = None) -> str:
     if not summaries:
         return ""
     ordered = sorted(summaries.values(), key=lambda s: _num(s["l0"]))
@@ -993,6 +1013,7 @@ def discussion_section(summaries: dict, tables: dict) -> str:
         loss_fine=_pct(loss_f, False),
         loss_coarse=_pct(loss_c, False),
         conv_comment=conv,
+        scatter_comment=scatter_sentence(summaries, others or {}),
         kratio_fine=f3(kr),
         kratio_coarse=f3(_num(coarse["k_measured"]) / _num(coarse["k_theory"])),
         speed_fine=_pct(100 * (1 / kr - 1), False),
@@ -1131,7 +1152,7 @@ spacings. Scenario `scenarios/regular_wave_2d.toml`, tests `tests/scenarios/test
 {sponge_runs_section(summaries, others or {})}
 Reading:
 
-{discussion_section(summaries, tables)}
+{discussion_section(summaries, tables, others)}
 {cost_section(summaries)}
 
 {CI_SECTION}
