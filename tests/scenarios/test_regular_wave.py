@@ -5,7 +5,7 @@ zero-up-crossing height, the wave-number fit, the incident/reflected split and t
 reflection model.
 
 CI: a coarse, short version of scenarios/regular_wave_2d.toml (l0 = H/10, a 2.25 m tank with the
-sponge over its last 0.75 m, 4.45 s simulated; about 35 s on one idle thread): the first-harmonic height
+sponge over its last 0.75 m, 4.45 s simulated; 55 s on one thread of the loaded machine): the first-harmonic height
 near the paddle against linear piston theory.
 
 Slow (-m slow): the production result at l0 = H/28 (docs/validation_regular_wave.md), from its
