@@ -1036,9 +1036,9 @@ the 1e-3 tolerance while the force jumps as bottom particles switch between wet 
 
 **What is not done.** The rest of the elastic grid (A/H = 0.2, 0.4, 0.5), the resolution study
 (thesis Table 5-1; costs above) and whatever rigid cases the tables list as not run; the script
-resumes them (`--cases`, `--kinds`). A tank-independent check of the uplift noise (a pressure
-smoothing or the thesis's wall model, `fluid.pressure.wall_model = "pressure_layer"`) was not
-tried.
+resumes them (`--cases`, `--kinds`). Whether the uplift noise changes with another pressure
+treatment (the thesis's wall model `fluid.pressure.wall_model = "pressure_layer"`, or some
+artificial compressibility, `fluid.pressure.compressibility`) was not tried.
 """
 
 
