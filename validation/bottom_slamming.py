@@ -422,7 +422,8 @@ def analyse(path: Path) -> CaseResult:
             iterations = int(np.sum(c["iterations"][:]))
             unconverged = int(np.count_nonzero(c["converged"][:] == 0))
             e_max = float(np.max(c["structure_energy"][:]))
-            iwe = 100.0 * float(np.max(np.abs(c["interface_work_error"][:]))) / e_max
+            iwe_max = float(np.max(np.abs(c["interface_work_error"][:])))
+            iwe = 100.0 * iwe_max / e_max if e_max > 0.0 else math.nan
         else:
             windows = iterations = unconverged = 0
             iwe = math.nan
