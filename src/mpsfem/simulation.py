@@ -57,8 +57,20 @@ class _Terminated(Exception):
     pass
 
 
+_stop_request: list[str] = []  # set by the signal handler, acted on between steps
+
+
 def _on_signal(signum, frame):  # noqa: ARG001
-    raise _Terminated(f"received signal {signal.Signals(signum).name}")
+    """Note the signal; the run loop stops at the end of the current step or window. (Raising
+    here would surface inside whatever numba call is running, as a confusing SystemError.)"""
+    _stop_request.append(f"received signal {signal.Signals(signum).name}")
+
+
+def _check_stop() -> None:
+    if _stop_request:
+        msg = _stop_request[0]
+        _stop_request.clear()
+        raise _Terminated(msg)
 
 
 def run_fluid(
@@ -133,6 +145,7 @@ def run_fluid(
     last_flush = time.perf_counter()
     good = {k: np.empty_like(v) for k, v in solver.state().items()}
     good_meta = solver.meta()
+    _stop_request.clear()
     old_handlers = {s: signal.signal(s, _on_signal) for s in (signal.SIGTERM,) if _main_thread()}
     t_wall = time.perf_counter()
     try:
@@ -145,6 +158,7 @@ def run_fluid(
             dt = solver.dt_towards(t_end)
             solver.step(dt)
             sample()
+            _check_stop()
             if solver.t >= next_ckpt - 1e-12:
                 next_ckpt += outs.checkpoint_interval
                 checkpoint()
@@ -509,6 +523,7 @@ def _fluid_side(
 
     bar = Progress(scheme.t, t_end, sc.run.progress if progress is None else progress, "coupled")
     last_flush = time.perf_counter()
+    _stop_request.clear()
     old_handlers = {s: signal.signal(s, _on_signal) for s in (signal.SIGTERM,) if _main_thread()}
     window = scheme.window
     good = scheme.state_dict()
@@ -527,6 +542,7 @@ def _fluid_side(
             rec = scheme.advance_window(t_next)
             record(rec)
             sample()
+            _check_stop()
             if scheme.t >= sched["next_checkpoint"] - 1e-12:
                 sched["next_checkpoint"] += outs.checkpoint_interval
                 last_ckpt = write_ckpt()

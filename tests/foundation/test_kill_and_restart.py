@@ -85,3 +85,23 @@ def test_kill_then_restart_is_bit_identical(tmp_path):
     a, b = last_snapshot(full), last_snapshot(killed)
     for k in a:
         np.testing.assert_array_equal(a[k], b[k])
+
+
+def test_sigterm_stops_between_steps_with_a_clear_status(tmp_path):
+    """SIGTERM (a batch system's kill) ends the run at the end of the current step: status
+    'failed: received signal SIGTERM' (not an error surfacing from inside a numba kernel), a
+    readable file and a checkpoint to restart from."""
+    out = tmp_path / "term.h5"
+    ckpt = tmp_path / "term.ckpt.h5"
+    proc = mpsfem("run", str(SCENE), "--out", str(out), "--end-time", "5.0", *SETS)
+    deadline = time.time() + 600
+    while not ckpt.exists() and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.02)
+    time.sleep(0.3)
+    proc.send_signal(signal.SIGTERM)
+    text, _ = proc.communicate(timeout=120)
+    assert proc.returncode == 1, text
+    with h5py.File(out, "r") as h5:
+        assert h5.attrs["status"] == "failed: received signal SIGTERM"
+    with h5py.File(ckpt, "r") as h5:
+        assert len(h5.keys()) > 0

@@ -120,3 +120,10 @@ def test_wave_gauge_half_width_only_with_top_particle():
     (msg,) = problems(BASE + gauge)
     assert msg.startswith("probes[1]") and "half_width = 0.02" in msg and "top_particle" in msg
     load_scenario_text(BASE + gauge + 'method = "top_particle"\n')
+
+
+def test_box_wall_thinner_than_two_spacings_is_refused():
+    box = '[[fluid.walls]]\nshape = "box"\nlower = [0.3, 0.2]\nupper = [0.4, 0.215]\n'
+    (msg,) = problems(BASE + box)
+    assert "walls[1] is a box 0.015 m thick along axis 1" in msg and "2 spacings" in msg
+    load_scenario_text(BASE + box.replace("0.215", "0.22"))

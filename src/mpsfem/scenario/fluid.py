@@ -360,6 +360,16 @@ class FluidSection(Section):
                 raise ValueError(f"walls[{i}].lower {w.lower} must have {d} components")
             if len(w.motion.direction) != d:
                 raise ValueError(f"walls[{i}].motion.direction must have {d} components")
+            if w.shape == "box":
+                for a, (lo, u) in enumerate(zip(w.lower, w.upper, strict=True)):
+                    if round((u - lo) / self.spacing) < 2:
+                        raise ValueError(
+                            f"walls[{i}] is a box {u - lo:g} m thick along axis {a}: a solid box "
+                            f"needs at least 2 spacings (2 l0 = {2 * self.spacing:g} m), else its "
+                            "opposite faces share particles whose normals cancel (force probes "
+                            "read 0); a thinner member belongs in [structure] (both faces, "
+                            "thin-member handling)"
+                        )
         for i, z in enumerate(self.sponges):
             if z.axis >= d:
                 raise ValueError(f"sponges[{i}].axis = {z.axis} must be below dim = {d}")
