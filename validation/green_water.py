@@ -39,8 +39,6 @@ import argparse
 import csv
 import json
 import math
-import os
-import subprocess
 import sys
 import tomllib
 from dataclasses import asdict, dataclass, fields
@@ -49,7 +47,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from mpsfem.results.checkpoint import default_checkpoint_path
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import case_runner  # noqa: E402 - validation/case_runner.py: resumable runs of one case
+from case_runner import read_status  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = {
@@ -213,20 +213,6 @@ def case_overrides(kind: str, d_over_b: float, spacing: float) -> list[str]:
 
 
 # ---------------------------------------------------------------------- results files
-def read_status(path: Path) -> str | None:
-    """The results file's ``status`` attribute, None if there is no file; 'locked' when another
-    process is writing it."""
-    if not path.is_file():
-        return None
-    try:
-        with h5py.File(path, "r") as h5:
-            return str(h5.attrs.get("status", "unknown"))
-    except OSError as exc:
-        if "lock" in str(exc).lower():
-            return "locked"
-        return f"unreadable: {exc}"
-
-
 def case_path(l0_label: str, kind: str, d_over_b: float) -> Path:
     return RESULTS_DIR / f"green_water_{l0_label}_{kind}_DB{d_over_b:.2f}.h5"
 
@@ -400,42 +386,13 @@ def analyse(path: Path, kind: str, d_over_b: float) -> tuple[CaseRow, list[PeakR
 
 
 # ---------------------------------------------------------------------- running
-def run_case(
-    kind: str, d_over_b: float, spacing: float, out: Path, threads: int, restart: Path | None
-) -> int:
-    """``mpsfem run`` of one case in a subprocess on ``threads`` numba threads; its exit code."""
-    cmd = [sys.executable, "-m", "mpsfem.cli", "run", str(SCENARIOS[kind]), "--out", str(out)]
-    for item in case_overrides(kind, d_over_b, spacing):
-        cmd += ["--set", item]
-    cmd.append("--no-progress")
-    if restart is not None:
-        cmd += ["--restart", str(restart)]
-    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads))
-    print(f"[{kind} D/B = {d_over_b:g}] {out.name}", flush=True)
-    return subprocess.run(cmd, env=env, cwd=ROOT, check=False).returncode
-
-
 def ensure_case(
     kind: str, d_over_b: float, spacing: float, out: Path, threads: int, retry: bool
 ) -> str:
     """Run (or resume) one case unless its results file says finished; its final status."""
-    status = read_status(out)
-    ckpt = default_checkpoint_path(out)
-    tag = f"[{kind} D/B = {d_over_b:g}] {out.name}"
-    if status == "finished":
-        print(f"{tag}: finished, skipped")
-        return status
-    if status == "locked":
-        print(f"{tag}: locked (another run is writing it), skipped")
-        return status
-    if status is not None and status.startswith("failed") and not retry:
-        print(f"{tag}: {status} (rerun with --retry-failed)")
-        return status
-    restart = ckpt if status == "running" and ckpt.is_file() else None
-    if restart is not None:
-        print(f"{tag}: resuming from {ckpt.name}")
-    run_case(kind, d_over_b, spacing, out, threads, restart)
-    return read_status(out) or "missing"
+    overrides = case_overrides(kind, d_over_b, spacing)
+    tag = f"[{kind} D/B = {d_over_b:g}]"
+    return case_runner.ensure_case(SCENARIOS[kind], out, overrides, threads, retry, tag)
 
 
 # ---------------------------------------------------------------------- output

@@ -33,18 +33,19 @@ import argparse
 import csv
 import json
 import math
-import os
-import subprocess
 import sys
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
 import h5py
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import case_runner  # noqa: E402 - validation/case_runner.py: resumable runs of one case
+from case_runner import read_status  # noqa: E402
 from scipy.integrate import solve_ivp
 
 from mpsfem.fluid_mps.wavemaker import RegularPaddle, piston_height_to_stroke, wave_number
-from mpsfem.results.checkpoint import default_checkpoint_path
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "regular_wave_2d.toml"
@@ -329,20 +330,6 @@ def reflection_at(a_i: complex, a_r: complex, kappa: complex, x_r: float) -> flo
 
 
 # ---------------------------------------------------------------------- results files
-def read_status(path: Path) -> str | None:
-    """The results file's ``status`` attribute, None if there is no file; 'locked' when another
-    process is writing it."""
-    if not path.is_file():
-        return None
-    try:
-        with h5py.File(path, "r") as h5:
-            return str(h5.attrs.get("status", "unknown"))
-    except OSError as exc:
-        if "lock" in str(exc).lower():
-            return "locked"
-        return f"unreadable: {exc}"
-
-
 def gauge_records(h5: h5py.File) -> dict[float, tuple[np.ndarray, np.ndarray]]:
     """{x (m): (time s, eta m)} of every wave gauge ``gauge_<x>`` in a results file."""
     out = {}
@@ -543,39 +530,10 @@ def case_overrides(spacing: float, alpha_s: float | None) -> list[str]:
     return items
 
 
-def run_case(
-    spacing: float, alpha_s: float | None, out: Path, threads: int, restart: Path | None
-) -> int:
-    """``mpsfem run`` of one spacing in a subprocess on ``threads`` numba threads; exit code."""
-    cmd = [sys.executable, "-m", "mpsfem.cli", "run", str(SCENARIO), "--out", str(out)]
-    for item in case_overrides(spacing, alpha_s):
-        cmd += ["--set", item]
-    cmd.append("--no-progress")
-    if restart is not None:
-        cmd += ["--restart", str(restart)]
-    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads))
-    print(" ".join(cmd[2:]), flush=True)
-    return subprocess.run(cmd, env=env, cwd=ROOT, check=False).returncode
-
-
 def ensure_case(spacing: float, alpha_s: float | None, out: Path, threads: int, retry: bool) -> str:
     """Run (or resume) one spacing unless its results file says finished; its final status."""
-    status = read_status(out)
-    ckpt = default_checkpoint_path(out)
-    if status == "finished":
-        print(f"{out.name}: finished, skipped")
-        return status
-    if status == "locked":
-        print(f"{out.name}: locked (another run is writing it), skipped")
-        return status
-    if status is not None and status.startswith("failed") and not retry:
-        print(f"{out.name}: {status} (rerun with --retry-failed)")
-        return status
-    restart = ckpt if status == "running" and ckpt.is_file() else None
-    if restart is not None:
-        print(f"{out.name}: resuming from {ckpt.name}")
-    run_case(spacing, alpha_s, out, threads, restart)
-    return read_status(out) or "missing"
+    overrides = case_overrides(spacing, alpha_s)
+    return case_runner.ensure_case(SCENARIO, out, overrides, threads, retry)
 
 
 def particle_counts(

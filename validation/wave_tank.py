@@ -28,8 +28,6 @@ import argparse
 import csv
 import json
 import math
-import os
-import subprocess
 import sys
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
@@ -37,7 +35,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from mpsfem.results.checkpoint import default_checkpoint_path
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import case_runner  # noqa: E402 - validation/case_runner.py: resumable runs of one case
+from case_runner import read_status  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "solitary_wave_2d.toml"
@@ -264,20 +264,6 @@ def still_level(t: np.ndarray, eta: np.ndarray, start_time: float) -> float:
 
 
 # ---------------------------------------------------------------------- results files
-def read_status(path: Path) -> str | None:
-    """The results file's ``status`` attribute, None if there is no file; 'locked' when another
-    process is writing it."""
-    if not path.is_file():
-        return None
-    try:
-        with h5py.File(path, "r") as h5:
-            return str(h5.attrs.get("status", "unknown"))
-    except OSError as exc:
-        if "lock" in str(exc).lower():
-            return "locked"
-        return f"unreadable: {exc}"
-
-
 def gauge_name(x: float) -> str:
     return f"gauge_{x:.1f}"
 
@@ -405,39 +391,10 @@ def case_overrides(ratio: float, spacing: float) -> list[str]:
     ]
 
 
-def run_case(
-    ratio: float, spacing: float, out: Path, threads: int, restart: Path | None = None
-) -> int:
-    """``mpsfem run`` of one case in a subprocess on ``threads`` numba threads; its exit code."""
-    cmd = [sys.executable, "-m", "mpsfem.cli", "run", str(SCENARIO), "--out", str(out)]
-    for item in case_overrides(ratio, spacing):
-        cmd += ["--set", item]
-    cmd.append("--no-progress")
-    if restart is not None:
-        cmd += ["--restart", str(restart)]
-    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads))
-    print(f"[A/H = {ratio:g}] {' '.join(cmd[2:])}", flush=True)
-    return subprocess.run(cmd, env=env, cwd=ROOT, check=False).returncode
-
-
 def ensure_case(ratio: float, spacing: float, out: Path, threads: int, retry: bool) -> str:
     """Run (or resume) one case unless its results file says finished; its final status."""
-    status = read_status(out)
-    ckpt = default_checkpoint_path(out)
-    if status == "finished":
-        print(f"[A/H = {ratio:g}] {out.name}: finished, skipped")
-        return status
-    if status == "locked":
-        print(f"[A/H = {ratio:g}] {out.name}: locked (another run is writing it), skipped")
-        return status
-    if status is not None and status.startswith("failed") and not retry:
-        print(f"[A/H = {ratio:g}] {out.name}: {status} (rerun with --retry-failed)")
-        return status
-    restart = ckpt if status == "running" and ckpt.is_file() else None
-    if restart is not None:
-        print(f"[A/H = {ratio:g}] resuming from {ckpt.name}")
-    run_case(ratio, spacing, out, threads, restart)
-    return read_status(out) or "missing"
+    overrides = case_overrides(ratio, spacing)
+    return case_runner.ensure_case(SCENARIO, out, overrides, threads, retry, f"[A/H = {ratio:g}]")
 
 
 # ---------------------------------------------------------------------- output

@@ -1,0 +1,84 @@
+"""Resumable runs of one validation case: what every study script in validation/ shares.
+
+A case is one ``mpsfem run`` of a scenario with ``--set`` overrides into its own results file.
+``ensure_case`` skips a finished file, leaves a file another process is writing alone, reports a
+failed one (rerun only when asked), resumes a killed one from its checkpoint and runs a missing
+one.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+import h5py
+
+from mpsfem.results.checkpoint import default_checkpoint_path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def read_status(path: Path) -> str | None:
+    """The results file's ``status`` attribute, None if there is no file; 'locked' when another
+    process is writing it."""
+    if not path.is_file():
+        return None
+    try:
+        with h5py.File(path, "r") as h5:
+            return str(h5.attrs.get("status", "unknown"))
+    except OSError as exc:
+        if "lock" in str(exc).lower():
+            return "locked"
+        return f"unreadable: {exc}"
+
+
+def run_scenario(
+    scenario: Path,
+    out: Path,
+    overrides: Sequence[str],
+    threads: int,
+    restart: Path | None = None,
+    tag: str = "",
+) -> int:
+    """``mpsfem run`` of ``scenario`` in a subprocess on ``threads`` numba threads; its exit
+    code."""
+    cmd = [sys.executable, "-m", "mpsfem.cli", "run", str(scenario), "--out", str(out)]
+    for item in overrides:
+        cmd += ["--set", item]
+    cmd.append("--no-progress")
+    if restart is not None:
+        cmd += ["--restart", str(restart)]
+    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads))
+    print(f"{tag} {' '.join(cmd[2:])}".strip(), flush=True)
+    return subprocess.run(cmd, env=env, cwd=ROOT, check=False).returncode
+
+
+def ensure_case(
+    scenario: Path,
+    out: Path,
+    overrides: Sequence[str],
+    threads: int,
+    retry: bool,
+    tag: str = "",
+) -> str:
+    """Run (or resume) one case unless its results file says finished; its final status."""
+    status = read_status(out)
+    ckpt = default_checkpoint_path(out)
+    name = f"{tag} {out.name}".strip()
+    if status == "finished":
+        print(f"{name}: finished, skipped")
+        return status
+    if status == "locked":
+        print(f"{name}: locked (another run is writing it), skipped")
+        return status
+    if status is not None and status.startswith("failed") and not retry:
+        print(f"{name}: {status} (rerun with --retry-failed)")
+        return status
+    restart = ckpt if status == "running" and ckpt.is_file() else None
+    if restart is not None:
+        print(f"{name}: resuming from {ckpt.name}")
+    run_scenario(scenario, out, overrides, threads, restart, tag)
+    return read_status(out) or "missing"
