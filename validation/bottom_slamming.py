@@ -1037,8 +1037,8 @@ interface work error), where docs/coupler.md expects round-off for converged imp
 with a conservative mapping; the cause was not investigated (candidates: windows accepted at
 the 1e-3 tolerance while the force jumps as bottom particles switch between wet and dry).
 
-**What is not done.** The rest of the elastic grid (A/H = 0.2, 0.4, 0.5: nine runs of 8-12 min
-each on one thread, so the MF table has only the thesis's A/H = 0.3 row) and the resolution
+**What is not done.** The rest of the elastic grid (A/H = 0.4 and 0.5: six runs of 8-12 min
+each on one thread, so the MF table has the A/H = 0.2 and 0.3 rows) and the resolution
 study (thesis Table 5-1; costs above); the script runs them (`--cases`, `--kinds`). Whether the uplift noise changes with another pressure
 treatment (the thesis's wall model `fluid.pressure.wall_model = "pressure_layer"`, or some
 artificial compressibility, `fluid.pressure.compressibility`) was not tried.

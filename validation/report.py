@@ -194,7 +194,17 @@ def bottom_slamming() -> list[str]:
         "([validation_bottom_slamming.md](validation_bottom_slamming.md))",
         "",
     ]
-    thesis_mf = {(0.3, 0.03): 3.23, (0.3, 0.06): 5.28, (0.3, 0.1): 3.66}
+    thesis_mf = {  # thesis ch. 5.1.3 text (A/H = 0.4 only in a figure)
+        (0.2, 0.03): 1.24,
+        (0.2, 0.06): 1.87,
+        (0.2, 0.1): 1.35,
+        (0.3, 0.03): 3.23,
+        (0.3, 0.06): 5.28,
+        (0.3, 0.1): 3.66,
+        (0.5, 0.03): 4.31,
+        (0.5, 0.06): 6.35,
+        (0.5, 0.1): 5.89,
+    }
     for path in sorted(RESULTS.glob("bottom_slamming_*.csv")):
         rows_in = read(path)
         peak = {
