@@ -32,20 +32,20 @@ loop then writes a checkpoint of its last good step), resumes from its checkpoin
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import os
 import subprocess
 import sys
 import tomllib
-from dataclasses import asdict, dataclass, fields
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import h5py
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from results_csv import read_csv, write_csv  # noqa: E402
 from wave_tank import (  # noqa: E402 - the wave tank's theory and file helpers
     SolitaryWave,
     predicted_crest_time,
@@ -491,21 +491,6 @@ def analyse(path: Path) -> CaseResult:
     )
 
 
-def write_csv(rows: list[CaseResult], path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=CSV_COLUMNS)
-        w.writeheader()
-        for r in rows:
-            d = asdict(r)
-            w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in d.items()})
-
-
-def read_csv(path: Path) -> list[dict[str, str]]:
-    with path.open() as f:
-        return list(csv.DictReader(f))
-
-
 def magnification(rows: list[CaseResult]) -> dict[tuple[float, float], tuple[float, float]]:
     """MF = F_elastic,max / F_rigid,max per (A/H, D/H): (raw peaks, smoothed peaks)."""
     by = {(r.kind, r.a_over_h, r.d_over_h): r for r in rows}
@@ -544,7 +529,7 @@ def report(l0_label: str) -> int:
         print("nothing to analyse")
         return 1
     csv_path = RESULTS_DIR / f"bottom_slamming_{l0_label}.csv"
-    write_csv(rows, csv_path)
+    write_csv(rows, csv_path, CSV_COLUMNS)
     plot_forces(l0_label, rows, FIGURES_DIR / f"bottom_slamming_forces_{l0_label}.png")
     plot_mf(l0_label, rows, FIGURES_DIR / f"bottom_slamming_mf_{l0_label}.png")
     plot_displacement(l0_label, rows, FIGURES_DIR / f"bottom_slamming_displacement_{l0_label}.png")

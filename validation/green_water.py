@@ -41,7 +41,7 @@ import json
 import math
 import sys
 import tomllib
-from dataclasses import asdict, dataclass, fields
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import h5py
@@ -50,6 +50,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import case_runner  # noqa: E402 - validation/case_runner.py: resumable runs of one case
 from case_runner import read_status  # noqa: E402
+from results_csv import write_csv  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = {
@@ -396,19 +397,6 @@ def ensure_case(
 
 
 # ---------------------------------------------------------------------- output
-def _fmt(v: object) -> object:
-    return f"{v:.6g}" if isinstance(v, float) else v
-
-
-def write_csv(rows: list, columns: tuple[str, ...], path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=columns)
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: _fmt(v) for k, v in asdict(r).items()})
-
-
 def _pyplot():
     import matplotlib
 
@@ -1134,8 +1122,8 @@ def main(argv: list[str] | None = None) -> int:
     if not cases:
         print("nothing to analyse")
         return 1
-    write_csv(peaks, PEAK_COLUMNS, RESULTS_DIR / f"green_water_{args.l0}.csv")
-    write_csv(cases, CASE_COLUMNS, RESULTS_DIR / f"green_water_{args.l0}_cases.csv")
+    write_csv(peaks, RESULTS_DIR / f"green_water_{args.l0}.csv", PEAK_COLUMNS)
+    write_csv(cases, RESULTS_DIR / f"green_water_{args.l0}_cases.csv", CASE_COLUMNS)
     FIGURES_DIR.mkdir(parents=True, exist_ok=True)
     figs = []
     done = {

@@ -30,11 +30,10 @@ left at ``running`` resumes from its checkpoint; a ``failed`` one reruns only wi
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import sys
-from dataclasses import asdict, dataclass, fields
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import h5py
@@ -43,6 +42,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import case_runner  # noqa: E402 - validation/case_runner.py: resumable runs of one case
 from case_runner import read_status  # noqa: E402
+from results_csv import read_csv, write_csv  # noqa: E402
 from scipy.integrate import solve_ivp
 
 from mpsfem.fluid_mps.wavemaker import RegularPaddle, piston_height_to_stroke, wave_number
@@ -553,24 +553,6 @@ def particle_counts(
 
 
 # ---------------------------------------------------------------------- output
-def _fmt(v: object) -> object:
-    return f"{v:.6g}" if isinstance(v, float) else v
-
-
-def write_csv(rows: list, columns: tuple[str, ...], path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=columns)
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: _fmt(v) for k, v in asdict(r).items()})
-
-
-def read_csv(path: Path) -> list[dict[str, str]]:
-    with path.open(newline="") as f:
-        return list(csv.DictReader(f))
-
-
 def _num(s: str) -> float:
     try:
         return float(s)
@@ -1162,8 +1144,8 @@ def analyse_label(label: str) -> tuple[list[GaugeResult], RunSummary] | None:
     except (KeyError, ValueError) as exc:
         print(f"{path.name}: cannot analyse ({exc})")
         return None
-    write_csv(rows, GAUGE_COLUMNS, RESULTS_DIR / f"regular_wave_{label}.csv")
-    write_csv([summary], SUMMARY_COLUMNS, RESULTS_DIR / f"regular_wave_{label}_summary.csv")
+    write_csv(rows, RESULTS_DIR / f"regular_wave_{label}.csv", GAUGE_COLUMNS)
+    write_csv([summary], RESULTS_DIR / f"regular_wave_{label}_summary.csv", SUMMARY_COLUMNS)
     plot_gauges(path, label, FIGURES_DIR / f"regular_wave_gauges_{label}.png")
     return rows, summary
 

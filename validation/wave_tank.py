@@ -25,11 +25,10 @@ unless the scenario changed).
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import sys
-from dataclasses import asdict, dataclass, fields
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import h5py
@@ -38,6 +37,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import case_runner  # noqa: E402 - validation/case_runner.py: resumable runs of one case
 from case_runner import read_status  # noqa: E402
+from results_csv import write_csv  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "solitary_wave_2d.toml"
@@ -398,16 +398,6 @@ def ensure_case(ratio: float, spacing: float, out: Path, threads: int, retry: bo
 
 
 # ---------------------------------------------------------------------- output
-def write_csv(rows: list[CaseResult], path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=CSV_COLUMNS)
-        w.writeheader()
-        for r in rows:
-            d = asdict(r)
-            w.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in d.items()})
-
-
 def plot_profiles(paths: dict[float, Path], label: str, out: Path) -> None:
     """eta(t) at 1.2 m per A/H with both theories aligned at the measured crest."""
     import matplotlib
@@ -538,7 +528,7 @@ def main(argv: list[str] | None = None) -> int:
         print("nothing to analyse")
         return 1
     csv_path = RESULTS_DIR / f"wave_tank_{args.l0}.csv"
-    write_csv(rows, csv_path)
+    write_csv(rows, csv_path, CSV_COLUMNS)
     done = {r.a_over_h: paths[r.a_over_h] for r in rows if r.a_over_h in paths}
     plot_profiles(done, args.l0, FIGURES_DIR / f"solitary_eta_x1.2_{args.l0}.png")
     plot_gauges(done, args.l0, FIGURES_DIR / f"solitary_gauges_{args.l0}.png")
