@@ -30,10 +30,15 @@ Records (:class:`WindowRecord`, :attr:`CouplingScheme.history`): per window its 
 iterations, residual, sub-step counts, timings, and an interface energy balance: the work of the
 mapped forces on the structure, W_s = 1/2 (F_n + F_n+1) . (d_n+1 - d_n) (the trapezoidal work
 that Newmark's average-acceleration rule conserves), the work of the fluid's forces on the motion
-the fluid was given, W_f (same rule on the fluid points), and the structure's energy if it
-reports one. Cumulative E_s - E_s(0) - sum W_s (energy the structure gained beyond the work
-done on it; <= 0 with damping) and sum (W_s - W_f) (energy the interface created: non-zero for
-KFBI, and for unconverged or explicit coupling) tell whether a coupling setting injects energy.
+the fluid was given, W_f = 1/2 (F_f,n + F_f,n+1) . (H x_n+1 - H x_n) (same rule on the fluid
+points, x_n the accepted iterate of window n: the fluid's interface points end window n at H x_n,
+not at H d_n, and its first sub-step of window n + 1 moves them on from there), and the
+structure's energy if it reports one. Cumulative E_s - E_s(0) - sum W_s (energy the structure
+gained beyond the work done on it; <= 0 with damping) and sum (W_s - W_f) (energy the interface
+created) tell whether a coupling setting injects energy. With a conservative mapping
+(F_s = H^T F_f) W_s - W_f = 1/2 (F_n + F_n+1) . (r_n+1 - r_n), r = d - x the accepted
+residual: zero for an exact fixed point, non-zero for KFBI, explicit coupling and every window
+accepted with a residual, above all those accepted at their first iterate (the predictor).
 """
 
 from __future__ import annotations
@@ -202,7 +207,8 @@ class CouplingScheme:
         self.F_s = self.mapping.to_structure(self.F_f)
         check_finite("initial data", displacement=self.d, velocity=self.v, forces=self.F_s)
         self.structure.write(FORCES, self.F_s)
-        self.fluid.write(DISPLACEMENT, self.mapping.to_fluid(self.d))
+        self.d_f = self.mapping.to_fluid(self.d)  # where the fluid's interface points are
+        self.fluid.write(DISPLACEMENT, self.d_f)
         self.fluid.write(VELOCITY, self.mapping.to_fluid(self.v))
         self.energy0 = energy_of(self.structure)
         self.detector.reset()
@@ -242,11 +248,13 @@ class CouplingScheme:
         timings = {"fluid": 0.0, "structure": 0.0, "mapping": 0.0, "acceleration": 0.0}
         tic = time.perf_counter()
         fluid_mesh = as_interface_mesh(self.fluid.interface())
-        F_f_prev = self.F_f
+        F_f_prev, d_f_start = self.F_f, self.d_f
         if self.mapping.needs_rebuild(fluid_mesh):
             self.mapping.build(fluid_mesh, self.structure_mesh)
-            F_f_prev = None  # forces of the old particle set do not fit the new one
+            F_f_prev = d_f_start = None  # data of the old particle set do not fit the new one
         d_f0 = self.mapping.to_fluid(self.d)
+        if d_f_start is None:
+            d_f_start = d_f0
         v_f0 = self.mapping.to_fluid(self.v)
         timings["mapping"] += time.perf_counter() - tic
 
@@ -330,11 +338,14 @@ class CouplingScheme:
         if self.implicit:
             self.acceleration.end_window()
         work_s = 0.5 * float(np.vdot(self.F_s + F_s1, x_t - self.d))
+        # the fluid's points moved from where the last window left them (the accepted iterate
+        # H x_n, d_f_start), not from H d_n: the residual jump is part of their motion
         if F_f_prev is None:
-            work_f = float(np.vdot(F_f1, d_f1 - d_f0))
+            work_f = float(np.vdot(F_f1, d_f1 - d_f_start))
         else:
-            work_f = 0.5 * float(np.vdot(F_f_prev + F_f1, d_f1 - d_f0))
+            work_f = 0.5 * float(np.vdot(F_f_prev + F_f1, d_f1 - d_f_start))
         self.d, self.v = x_t, s_t
+        self.d_f = d_f1
         self.F_s, self.F_f = F_s1, F_f1
         self.t = t1
         energy = energy_of(self.structure)
@@ -448,6 +459,7 @@ class CouplingScheme:
             "v": self.v.copy(),
             "F_s": self.F_s.copy(),
             "F_f": self.F_f.copy(),
+            "d_f": self.d_f.copy(),
             **{f"acceleration/{k}": v for k, v in acc.items()},
         }
 
@@ -459,6 +471,8 @@ class CouplingScheme:
         self.energy0 = float(state["energy0"])
         self.d, self.v = np.array(state["d"]), np.array(state["v"])
         self.F_s, self.F_f = np.array(state["F_s"]), np.array(state["F_f"])
+        # checkpoints written before d_f was kept: the structure's displacement, mapped
+        self.d_f = np.array(state["d_f"]) if "d_f" in state else self.mapping.to_fluid(self.d)
         acc = {k[13:]: v for k, v in state.items() if k.startswith("acceleration/")}
         if self.acceleration is not None:
             self.acceleration.load_state_dict(acc)
