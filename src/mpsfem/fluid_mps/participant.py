@@ -18,7 +18,9 @@ Data (SI; 2D forces per unit width):
 MPS step of exactly ``dt``; ``max_dt()`` is the solver's next stable step. ``checkpoint()`` /
 ``restore()`` copy the particle state, the time, the step count, the next dt and the written
 inputs; a restore also resets the pressure solver's preconditioner, so restored steps repeat bit
-for bit whatever happened in between.
+for bit whatever happened in between. The free-surface and dry flags of the steps after a
+``checkpoint()`` are recorded and replayed after each ``restore()`` (``surface_freeze.py``;
+``fluid.surface.freeze_in_coupling_window``).
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from mpsfem.coupler.participant import InterfaceMesh
 from mpsfem.fluid_mps import wall_boundary
 from mpsfem.fluid_mps.solver import FluidSolver
 from mpsfem.fluid_mps.structure_surface import StructureSurface
+from mpsfem.fluid_mps.surface_freeze import SurfaceFreeze
 from mpsfem.fluid_mps.thin_member import ThinMemberFilter
 from mpsfem.scenario.fluid import FluidSection
 
@@ -74,6 +77,9 @@ class FluidParticipant:
             fluid, base_dir, external=self.surface.patches(), neighbour_filter=self.filter
         )
         self.surface.bind(self.solver)
+        self.freeze = SurfaceFreeze()
+        if fluid.surface.freeze_in_coupling_window:
+            self.solver.surface_freeze = self.freeze
         self.filter.bind(self.solver)
         self._mesh = self.surface.interface_mesh()
         n = self.surface.n_interface
@@ -148,12 +154,14 @@ class FluidParticipant:
         self._ckpt = {
             k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in self.state().items()
         }
+        self.freeze.start()  # a new window: its first iteration decides the discrete flags
 
     def restore(self) -> None:
         """Return to the last :meth:`checkpoint`."""
         if self._ckpt is None:
             raise RuntimeError("restore() before any checkpoint()")
         self.load_state(self._ckpt)
+        self.freeze.rewind()  # the repeated steps reuse the first iteration's flags
 
     # ------------------------------------------------------------------ disk state
     def state(self) -> dict:

@@ -95,6 +95,9 @@ class FluidSolver:
 
         ps = build_particles(spec, external)
         self.neighbour_filter = neighbour_filter
+        #: set by a coupled participant: freezes the surface/dry flags across the iterations of
+        #: an implicit coupling window (``surface_freeze.SurfaceFreeze``)
+        self.surface_freeze = None
         self.pos, self.vel, self.kind, self.normal = ps.pos, ps.vel, ps.kind, ps.normal
         self.n_fluid = ps.n_fluid
         self.patches = ps.patches
@@ -338,6 +341,9 @@ class FluidSolver:
                 nb.indices,
                 self.re_n,
             )
+        if self.surface_freeze is not None:  # implicit coupling: one set of flags per window
+            self.surface_freeze.apply(self.free_surface)
+        if self.neumann:
             wall_boundary.ghost_rhs(
                 self.pos,
                 self.vel,

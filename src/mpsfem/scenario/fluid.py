@@ -116,6 +116,15 @@ class SurfaceSection(Section):
         "free fall)",
     )
 
+    freeze_in_coupling_window: bool = Field(
+        True,
+        description="implicit coupling only: the surface and dry-boundary flags of each step of a "
+        "coupling window are decided in the window's first iteration and reused by its repeated "
+        "iterations, so that no particle flips between surface and interior (or wet and dry) "
+        "from one iteration to the next; such flips make the fixed-point map discontinuous and "
+        "stall the iterations at first contact (docs/coupler.md)",
+    )
+
     @model_validator(mode="after")
     def _check(self) -> SurfaceSection:
         if self.beta_low >= self.beta:
