@@ -118,9 +118,18 @@ CASES = {
 }
 
 
-def sweep(case: str, out: Path, spacing: float | None, end_time: float, threads: int) -> None:
+def sweep(
+    case: str,
+    out: Path,
+    spacing: float | None,
+    end_time: float,
+    threads: int,
+    ratios: tuple[float, ...] = RATIOS,
+    schemes: tuple[tuple[str, str | None], ...] = SCHEMES,
+    extra: tuple[str, ...] = (),
+) -> None:
     """The added-mass stress test on the hydrostatic plate or the elastic obstacle (see the
-    module docstring)."""
+    module docstring); ``extra``: more ``--set`` overrides for every run."""
     from mpsfem.scenario.loader import load_scenario
     from mpsfem.simulation import RunFailed, run_coupled
 
@@ -128,9 +137,9 @@ def sweep(case: str, out: Path, spacing: float | None, end_time: float, threads:
     rho_w = 1000.0
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for ratio in RATIOS:
+        for ratio in ratios:
             rho_s = ratio * rho_w * H / h
-            for scheme, accel in SCHEMES:
+            for scheme, accel in schemes:
                 sets = [
                     f"run.threads={threads}",
                     f"structure.members.0.material.density={rho_s!r}",
@@ -142,6 +151,7 @@ def sweep(case: str, out: Path, spacing: float | None, end_time: float, threads:
                 ]
                 if spacing is not None:
                     sets.append(f"fluid.spacing={spacing}")
+                sets += list(extra)
                 if accel:
                     sets.append(f'coupling.acceleration={{kind = "{accel}"}}')
                 loaded = load_scenario(scene, sets)
@@ -201,6 +211,17 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--spacing", type=float, default=0.01)
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks/results/coupling_overhead.csv")
+    ap.add_argument(
+        "--ratios", default=None, help="sweep: comma-separated mass ratios (default: all seven)"
+    )
+    ap.add_argument(
+        "--schemes",
+        default=None,
+        help="sweep: comma-separated explicit, aitken, iqn-ils (default: all three)",
+    )
+    ap.add_argument(
+        "--set", dest="sets", action="append", default=[], help="sweep: extra KEY=VALUE override"
+    )
     args = ap.parse_args()
     if args.sweep:
         if args.case == "plate":
@@ -212,7 +233,12 @@ def main() -> None:
         end = (
             args.end_time if args.end_time is not None else (0.03 if args.case == "plate" else 0.3)
         )
-        sweep(args.case, ROOT / "benchmarks/results" / name, spacing, end, args.threads)
+        ratios = tuple(float(r) for r in args.ratios.split(",")) if args.ratios else RATIOS
+        named = {"explicit": ("explicit", None), "aitken": ("implicit", "aitken")}
+        named["iqn-ils"] = ("implicit", "iqn-ils")
+        schemes = tuple(named[k] for k in args.schemes.split(",")) if args.schemes else SCHEMES
+        out = args.out if "--out" in sys.argv else ROOT / "benchmarks/results" / name
+        sweep(args.case, out, spacing, end, args.threads, ratios, schemes, tuple(args.sets))
         return
     transports = ["inproc"] + (["mpi"] if MPIRUN else []) + ["zenoh"]
     rows = {}
