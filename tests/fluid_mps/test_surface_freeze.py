@@ -63,6 +63,7 @@ def participant():
 def test_restored_iterations_replay_the_first_iterations_flags(participant):
     fp = participant
     n = fp.surface.n_interface
+    fp.solver.surface_freeze = fp.freeze  # as with fluid.surface.freeze_in_coupling_window
     fp.checkpoint()
     first = _flags(fp, np.zeros((n, 2)))
     moved = np.tile([0.4 * L0, 0.0], (n, 1))  # another iterate of the interface motion
@@ -83,14 +84,15 @@ def test_restored_iterations_replay_the_first_iterations_flags(participant):
     fp.restore()
 
 
-def test_switch_off():
+@pytest.mark.parametrize("on", [False, True])
+def test_switch(on):
     fluid = FluidSection.model_validate(
         {
             "spacing": 0.02,
             "blocks": [{"lower": [0, 0], "upper": [0.2, 0.2]}],
             "walls": [{"shape": "tank", "lower": [0, 0], "upper": [0.42, 0.4]}],
-            "surface": {"freeze_in_coupling_window": False},
+            "surface": {"freeze_in_coupling_window": on} if on else {},
         }
     )
     fp = FluidParticipant(fluid, partition(0.02, xc=0.31, top=0.2), member_names=["wall"])
-    assert fp.solver.surface_freeze is None
+    assert (fp.solver.surface_freeze is fp.freeze) == on  # off by default
