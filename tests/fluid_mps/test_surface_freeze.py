@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_structure_surface import partition, tank_fluid
+from test_structure_surface import partition, two_levels  # noqa: F401 (fixture)
 
 from mpsfem.fluid_mps.participant import FluidParticipant
 from mpsfem.fluid_mps.surface_freeze import SurfaceFreeze
@@ -53,15 +53,8 @@ def _flags(fp, d, steps=2, dt=1e-3):
     return out
 
 
-@pytest.fixture(scope="module")
-def participant():
-    """Still water 0.2 m deep left of a partition of thickness l0 and 0.1 m deep right of it."""
-    fluid = tank_fluid([([0, 0], [0.2, 0.2]), ([0.2, 0], [0.41, 0.1])])
-    return FluidParticipant(fluid, partition(L0), member_names=["wall"])
-
-
-def test_restored_iterations_replay_the_first_iterations_flags(participant):
-    fp = participant
+def test_restored_iterations_replay_the_first_iterations_flags(two_levels):  # noqa: F811
+    fp = two_levels  # still water 0.2 m / 0.1 m deep on the two sides of a partition
     n = fp.surface.n_interface
     fp.solver.surface_freeze = fp.freeze  # as with fluid.surface.freeze_in_coupling_window
     fp.checkpoint()
