@@ -292,6 +292,21 @@ def test_fluid_work_is_on_the_motion_the_fluid_made(kw):
     assert abs(created) < 2e-3 * e_scale  # what these settings create: see docs/coupler.md
 
 
+def test_interface_work_error_falls_with_the_tolerance():
+    """The interface work error is the work of the residual left in the accepted iterates: it
+    falls with the relative tolerance (mock: 5e-4, 5e-5, 3.5e-7 of the structure's largest energy
+    at 1e-2, 1e-4, 1e-6) instead of sitting at round-off or at a tolerance-independent level."""
+    err = []
+    for rtol in (1e-2, 1e-4, 1e-6):
+        conv = {"relative_tolerance": rtol, "absolute_tolerance": 1e-15}
+        sch, _, _ = run(1.0, end=0.2, convergence=conv)
+        h = sch.history_arrays()
+        e_scale = np.abs(h["structure_energy"] - sch.energy0).max()
+        err.append(np.abs(h["interface_work_error"]).max() / e_scale)
+    assert err[0] < 2e-3
+    assert err[1] < err[0] / 3 and err[2] < err[1] / 3
+
+
 class ShrinkingFluid(mock.AddedMassFluid):
     """Drops its last interface particle after a few windows (a changing particle set)."""
 
