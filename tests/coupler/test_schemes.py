@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from mpsfem.coupler import mock
+from mpsfem.coupler.convergence import ResidualCriterion
 from mpsfem.coupler.coupling_scheme import ExplicitScheme, ImplicitScheme, create_scheme
 from mpsfem.coupler.errors import (
     CouplingDivergedError,
@@ -379,3 +380,34 @@ def test_scheme_names_and_defaults():
     assert sch.mapping.kind == "shape-function"
     sch.initialize()
     assert sch.window == st.max_dt()
+
+
+def test_window_motion_measure_scales_by_the_windows_motion():
+    """relative_to = "window_motion": the residual over rms(x_tilde - d_n) instead of rms(x_tilde)
+    (a window that moves the interface by 1 % of its displacement: 100 times stricter)."""
+    d0 = np.full(8, 1.0)
+    x_t = d0 + 0.01
+    x = x_t + 1e-4
+    whole = ResidualCriterion(1e-3, 1e-12)
+    window = ResidualCriterion(1e-3, 1e-12, relative_to="window_motion")
+    assert whole.measure(x, x_t, d0)[0] == pytest.approx(1e-4 / 1.01, rel=1e-12)
+    assert window.measure(x, x_t, d0)[0] == pytest.approx(1e-2, rel=1e-9)
+    with pytest.raises(ValueError, match="x_start"):
+        window.measure(x, x_t)
+    with pytest.raises(ValueError, match="relative_to"):
+        ResidualCriterion(1e-3, 1e-12, relative_to="velocity")
+
+
+def test_interface_work_error_falls_with_the_window_motion_tolerance():
+    """On the mock the interface work error at relative_to = "window_motion" falls with rtol
+    (7.7e-4, 2.2e-4, 9.8e-6 of the structure's largest energy at 1e-1, 1e-2, 1e-3)."""
+    err = []
+    for rtol in (1e-1, 1e-2, 1e-3):
+        conv = {"relative_tolerance": rtol, "absolute_tolerance": 1e-15}
+        conv["relative_to"] = "window_motion"
+        sch, _, _ = run(1.0, end=0.2, convergence=conv)
+        h = sch.history_arrays()
+        e_scale = np.abs(h["structure_energy"] - sch.energy0).max()
+        err.append(np.abs(h["interface_work_error"]).max() / e_scale)
+    assert err[0] < 2e-3
+    assert err[1] < err[0] / 3 and err[2] < err[1] / 3

@@ -297,7 +297,7 @@ class CouplingScheme:
                     "structure velocity": s_t,
                 },
             )
-            residual, r_abs = self.criterion.measure(x, x_t)
+            residual, r_abs = self.criterion.measure(x, x_t, self.d)
             if not self.implicit:
                 converged = True
                 break

@@ -80,6 +80,16 @@ class ConvergenceSection(Section):
             "structure at rest)."
         ),
     )
+    relative_to: Literal["displacement", "window_motion"] = Field(
+        "displacement",
+        description=(
+            "Scale of the relative tolerance: 'displacement', rms(x_tilde), the whole interface "
+            "displacement (preCICE's relative measure); 'window_motion', rms(x_tilde - d_n), the "
+            "interface's motion within the window, about 100 times stricter where a window "
+            "moves the interface by a percent of its displacement and the choice that bounds the "
+            "interface work error (docs/coupler.md)."
+        ),
+    )
     min_iterations: int = Field(1, ge=1, description="Fewest iterations per window (>= 1).")
     max_iterations: int = Field(
         50, ge=1, description="Most iterations per window (>= min_iterations)."
