@@ -127,3 +127,13 @@ def test_box_wall_thinner_than_two_spacings_is_refused():
     (msg,) = problems(BASE + box)
     assert "walls[1] is a box 0.015 m thick along axis 1" in msg and "2 spacings" in msg
     load_scenario_text(BASE + box.replace("0.215", "0.22"))
+
+
+def test_motion_direction_dimension_checked():
+    """A 2D direction on a wall of a 2D scene is fine; a 3-component one is refused with the key,
+    the value and the allowed size (and a wall without motion needs none in 3D: default +x)."""
+    load_scenario_text(BASE, ["fluid.walls.0.motion={kind = 'harmonic', direction = [0.0, 1.0]}"])
+    (msg,) = problems(
+        BASE, ["fluid.walls.0.motion={kind = 'harmonic', direction = [0.0, 0.0, 1.0]}"]
+    )
+    assert "walls[0].motion.direction" in msg and "[0.0, 0.0, 1.0]" in msg and "2 components" in msg

@@ -176,7 +176,7 @@ class FluidSolver:
         )
         g_abs = float(np.linalg.norm(self.gravity))
         self.motions = [
-            MotionLaw(pt.spec.motion, base_dir, gravity=g_abs)
+            MotionLaw(pt.spec.motion, base_dir, gravity=g_abs, dim=self.dim)
             for pt in self.patches
             if pt.spec is not None
         ]

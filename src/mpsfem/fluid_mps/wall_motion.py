@@ -27,12 +27,21 @@ class MotionLaw:
     """s(t) (m) and ds/dt (m/s) of one wall patch along its unit direction."""
 
     def __init__(
-        self, spec: WallMotion, base_dir: Path | None = None, gravity: float | None = None
+        self,
+        spec: WallMotion,
+        base_dir: Path | None = None,
+        gravity: float | None = None,
+        dim: int = 2,
     ) -> None:
         """``base_dir``: where a relative ``motion.file`` is looked up; ``gravity``: |g| (m/s^2)
-        of the fluid section, needed by the wavemakers ('solitary', 'regular')."""
+        of the fluid section, needed by the wavemakers ('solitary', 'regular'); ``dim``: the
+        scene's dimension (the default direction is +x)."""
         self.kind = spec.kind
-        d = np.asarray(spec.direction, dtype=np.float64)
+        if spec.direction is None:
+            d = np.zeros(dim)
+            d[0] = 1.0
+        else:
+            d = np.asarray(spec.direction, dtype=np.float64)
         norm = float(np.linalg.norm(d))
         if norm == 0.0:
             raise ValueError("motion.direction = [0, ...]: must be a non-zero vector")

@@ -206,7 +206,9 @@ class WallMotion(Section):
         "'solitary': Goring piston paddle for a solitary wave of amplitude A on depth d; "
         "'regular': linear piston paddle for waves of height wave_height and period on depth d",
     )
-    direction: Vector = Field([1.0, 0.0], description="unit direction of the motion")
+    direction: Vector | None = Field(
+        None, description="direction of the motion (normalised; default: +x, [1, 0] or [1, 0, 0])"
+    )
     amplitude: float = Field(
         0.0,
         description="'harmonic': displacement amplitude, m; 'solitary': wave amplitude A (crest "
@@ -369,8 +371,11 @@ class FluidSection(Section):
         for i, w in enumerate(self.walls):
             if len(w.lower) != d:
                 raise ValueError(f"walls[{i}].lower {w.lower} must have {d} components")
-            if len(w.motion.direction) != d:
-                raise ValueError(f"walls[{i}].motion.direction must have {d} components")
+            if w.motion.direction is not None and len(w.motion.direction) != d:
+                raise ValueError(
+                    f"walls[{i}].motion.direction = {w.motion.direction} must have {d} components "
+                    f"(dim = {d})"
+                )
             if w.shape == "box":
                 for a, (lo, u) in enumerate(zip(w.lower, w.upper, strict=True)):
                     if round((u - lo) / self.spacing) < 2:
