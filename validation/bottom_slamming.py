@@ -908,7 +908,7 @@ def resolution_cost(rows: list[dict[str, str]]) -> str:
     particles scale with (l0_ours / l0)^2; steps lie between the measured count (dt_max-bound)
     and the measured count x l0_ours / l0 (Courant-bound everywhere); cost per particle-step as
     measured (us per particle and fluid step, the elastic runs' including the coupling)."""
-    out = ["### Resolution study (thesis Table 5-1): not run, estimated cost\n"]
+    out = ["### Resolution study (thesis Table 5-1): estimated cost of the whole study\n"]
     ref = {}
     for kind in KINDS:
         sel = [r for r in rows if r["kind"] == kind and r["status"] == "finished"
