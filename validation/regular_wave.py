@@ -817,11 +817,14 @@ DISCUSSION = """\
   decay is not uniform, though: the first two gauges read the same at both spacings
   ({near_fine} at H/{layers_fine}, {near_coarse} at H/{layers_coarse} for x = 0.25 and 0.5 m),
   so the shortfall of 6-10 % there does not shrink from H/20 to H/28, while the heights further
-  down the tank do grow with resolution. Its cause is not identified here (candidates: the
-  fluid at the paddle face near the free surface, where the negative-pressure clamp lets it
-  lag a retreating wall; the surface particles' noise, which the first-harmonic fit averages
-  but which takes energy out of the wave); H/57 would tell whether it is a resolution effect
-  at all.
+  down the tank do grow with resolution. The negative-pressure clamp is the cause near the
+  paddle: the same H/20 run with `fluid.pressure.clamp_negative = false` (measured
+  2026-11-21, 645 s, stable to the end) reads 1.085 / 0.992 / 0.790 / 0.776 of piston theory
+  at 0.25 / 0.5 / 0.75 / 1.0 m against 0.930 / 0.904 / 0.823 / 0.805 with the clamp: with
+  p >= 0 the fluid at the paddle face cannot be pulled along by the retreating wall, so the
+  trough the backstroke should make is cut short. Without the clamp the near field overshoots
+  (evanescent modes and a steeper crest) and the height falls faster along the tank, so the
+  clamp trades near-paddle height for smoother propagation; the scenario keeps it on.
 - **Decay along the tank.** The incident height falls by {loss_fine} per metre at
   H/{layers_fine} and {loss_coarse} at H/{layers_coarse} (exponential fit over the gauges with
   an incident window). Physical damping is below 1 % per metre here (laminar bottom boundary
