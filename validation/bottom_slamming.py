@@ -34,8 +34,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
-import subprocess
 import sys
 import tomllib
 from dataclasses import dataclass, fields
@@ -45,6 +43,7 @@ import h5py
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import case_runner  # noqa: E402 - validation/case_runner.py: resumable runs of one case
 from results_csv import read_csv, write_csv  # noqa: E402
 from wave_tank import (  # noqa: E402 - the wave tank's theory and file helpers
     SolitaryWave,
@@ -265,20 +264,9 @@ def run_case(
     kind: str, case: Case, spacing: float, out: Path, threads: int, restart: Path | None
 ) -> int:
     """``mpsfem run`` of one case in a subprocess on ``threads`` numba threads; its exit code."""
-    cmd = [sys.executable, "-m", "mpsfem.cli", "run", str(SCENARIOS[kind]), "--out", str(out)]
-    for item in case_overrides(kind, case, spacing):
-        cmd += ["--set", item]
-    cmd.append("--no-progress")
-    if restart is not None:
-        cmd += ["--restart", str(restart)]
-    env = dict(
-        os.environ,
-        NUMBA_NUM_THREADS=str(threads),
-        OMP_NUM_THREADS=str(threads),
-        OPENBLAS_NUM_THREADS="1",
-    )
-    print(f"[{kind} {case.label()}] {' '.join(cmd[2:])}", flush=True)
-    return subprocess.run(cmd, env=env, cwd=ROOT, check=False).returncode
+    overrides = case_overrides(kind, case, spacing)
+    tag = f"[{kind} {case.label()}]"
+    return case_runner.run_scenario(SCENARIOS[kind], out, overrides, threads, restart, tag)
 
 
 def recorded_until(path: Path) -> float:
@@ -292,46 +280,23 @@ def recorded_until(path: Path) -> float:
 #: says when the signal arrived inside a numba function (the handler's exception then surfaces
 #: as "CPUDispatcher(...) returned a result with an exception set"); both leave a checkpoint of
 #: the last good step
-SIGNAL_STATUS = ("received signal", "returned a result with an exception set", "KeyboardInterrupt")
-
-
-def resumable(status: str | None) -> bool:
-    """A run a kill interrupted: ``running`` (hard kill) or stopped by a signal."""
-    return status == "running" or (
-        status is not None
-        and status.startswith("failed")
-        and any(s in status for s in SIGNAL_STATUS)
-    )
-
-
 def ensure_case(kind: str, case: Case, spacing: float, out: Path, threads: int, retry: bool) -> str:
-    """Run (or resume) one case unless its results file says finished; its final status."""
-    tag = f"[{kind} {case.label()}] {out.name}"
+    """Run (or resume) one case unless its results file says finished (``case_runner``), and
+    extend a finished one whose end time is now later; its final status."""
+    tag = f"[{kind} {case.label()}]"
     status = read_status(out)
     ckpt = default_checkpoint_path(out)
     end = case.end_time(kind)
     # the last probe sample may lie up to one probe interval (1 ms) before the end
     if status == "finished" and recorded_until(out) < end - 2e-3 and ckpt.is_file():
         # finished with an earlier end time: continue from its final checkpoint
-        print(f"{tag}: finished at {recorded_until(out):.4g} s, extending to {end:.4g} s")
+        print(
+            f"{tag} {out.name}: finished at {recorded_until(out):.4g} s, extending to {end:.4g} s"
+        )
         run_case(kind, case, spacing, out, threads, ckpt)
         return read_status(out) or "missing"
-    if status == "finished":
-        print(f"{tag}: finished, skipped")
-        return status
-    if status == "locked":
-        print(f"{tag}: locked (another run is writing it), skipped")
-        return status
-    if status is not None and status.startswith("failed") and not resumable(status) and not retry:
-        print(f"{tag}: {status} (rerun with --retry-failed)")
-        return status
-    restart = ckpt if resumable(status) and ckpt.is_file() else None
-    if restart is not None:
-        print(f"{tag}: resuming from {ckpt.name}")
-    elif out.exists():
-        out.unlink()
-    run_case(kind, case, spacing, out, threads, restart)
-    return read_status(out) or "missing"
+    overrides = case_overrides(kind, case, spacing)
+    return case_runner.ensure_case(SCENARIOS[kind], out, overrides, threads, retry, tag)
 
 
 # ---------------------------------------------------------------------- analysis

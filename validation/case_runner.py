@@ -2,8 +2,8 @@
 
 A case is one ``mpsfem run`` of a scenario with ``--set`` overrides into its own results file.
 ``ensure_case`` skips a finished file, leaves a file another process is writing alone, reports a
-failed one (rerun only when asked), resumes a killed one from its checkpoint and runs a missing
-one.
+failed one (rerun only when asked), resumes one a kill or a signal stopped from its checkpoint and
+runs a missing one.
 """
 
 from __future__ import annotations
@@ -35,6 +35,19 @@ def read_status(path: Path) -> str | None:
         return f"unreadable: {exc}"
 
 
+#: status texts of a run stopped from outside (SIGTERM, Ctrl-C), which resume like a killed one
+SIGNAL_STATUS = ("received signal", "returned a result with an exception set", "KeyboardInterrupt")
+
+
+def resumable(status: str | None) -> bool:
+    """A run a kill interrupted (``running``) or a signal stopped."""
+    return status == "running" or (
+        status is not None
+        and status.startswith("failed")
+        and any(s in status for s in SIGNAL_STATUS)
+    )
+
+
 def run_scenario(
     scenario: Path,
     out: Path,
@@ -51,7 +64,12 @@ def run_scenario(
     cmd.append("--no-progress")
     if restart is not None:
         cmd += ["--restart", str(restart)]
-    env = dict(os.environ, NUMBA_NUM_THREADS=str(threads), OMP_NUM_THREADS=str(threads))
+    env = dict(
+        os.environ,
+        NUMBA_NUM_THREADS=str(threads),
+        OMP_NUM_THREADS=str(threads),
+        OPENBLAS_NUM_THREADS="1",
+    )
     print(f"{tag} {' '.join(cmd[2:])}".strip(), flush=True)
     return subprocess.run(cmd, env=env, cwd=ROOT, check=False).returncode
 
@@ -74,11 +92,13 @@ def ensure_case(
     if status == "locked":
         print(f"{name}: locked (another run is writing it), skipped")
         return status
-    if status is not None and status.startswith("failed") and not retry:
+    if status is not None and status.startswith("failed") and not resumable(status) and not retry:
         print(f"{name}: {status} (rerun with --retry-failed)")
         return status
-    restart = ckpt if status == "running" and ckpt.is_file() else None
+    restart = ckpt if resumable(status) and ckpt.is_file() else None
     if restart is not None:
         print(f"{name}: resuming from {ckpt.name}")
+    elif out.exists():
+        out.unlink()
     run_scenario(scenario, out, overrides, threads, restart, tag)
     return read_status(out) or "missing"
