@@ -14,9 +14,9 @@ method does, and the remedy here is to decide the discrete flags once per window
   (positions, velocities, interface motion) change.
 
 The flags are the detector's ``free_surface`` array after the dry marks of the boundary (one
-int8 per particle and step). Buffers are kept across windows; a window with more steps than any
-before it adds one. A step beyond the recorded ones (not expected: the sub-steps of a window are
-fixed at its start) records instead of replaying.
+int8 per particle and step; the particle count is fixed for a run). Buffers are kept across
+windows; a window with more steps than any before it adds one. A step beyond the recorded ones
+(not expected: the sub-steps of a window are fixed at its start) records instead of replaying.
 """
 
 from __future__ import annotations
@@ -62,13 +62,10 @@ class SurfaceFreeze:
         self._next += 1
         if self._replay and k < self._recorded:
             buf = self._buffers[k]
-            if buf.shape == flags.shape:
-                self.overridden += int(np.count_nonzero(buf != flags))
-                flags[:] = buf
-                return
+            self.overridden += int(np.count_nonzero(buf != flags))
+            flags[:] = buf
+            return
         if k == len(self._buffers):
             self._buffers.append(np.empty_like(flags))
-        elif self._buffers[k].shape != flags.shape:
-            self._buffers[k] = np.empty_like(flags)
         self._buffers[k][:] = flags
         self._recorded = max(self._recorded, k + 1)
