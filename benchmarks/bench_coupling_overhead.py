@@ -108,6 +108,8 @@ def measure(path: Path, skip: int) -> dict[str, float]:
 
 RATIOS = (10.0, 3.0, 1.0, 0.3, 0.1, 0.03, 0.01)
 SCHEMES = (("explicit", None), ("implicit", "aitken"), ("implicit", "iqn-ils"))
+#: ``--schemes`` names: the acceleration, or "explicit"
+SCHEME_NAMES = {accel or scheme: (scheme, accel) for scheme, accel in SCHEMES}
 
 
 # the two stress-test cases: scenario, (water depth H, structural thickness h) of the mass ratio
@@ -210,7 +212,12 @@ def main() -> None:
     ap.add_argument("--skip", type=int, default=5, help="warm-up windows left out")
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--spacing", type=float, default=0.01)
-    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks/results/coupling_overhead.csv")
+    ap.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="CSV (default: benchmarks/results/coupling_overhead.csv, or the sweep's file)",
+    )
     ap.add_argument(
         "--ratios", default=None, help="sweep: comma-separated mass ratios (default: all seven)"
     )
@@ -234,10 +241,12 @@ def main() -> None:
             args.end_time if args.end_time is not None else (0.03 if args.case == "plate" else 0.3)
         )
         ratios = tuple(float(r) for r in args.ratios.split(",")) if args.ratios else RATIOS
-        named = {"explicit": ("explicit", None), "aitken": ("implicit", "aitken")}
-        named["iqn-ils"] = ("implicit", "iqn-ils")
-        schemes = tuple(named[k] for k in args.schemes.split(",")) if args.schemes else SCHEMES
-        out = args.out if "--out" in sys.argv else ROOT / "benchmarks/results" / name
+        names = args.schemes.split(",") if args.schemes else list(SCHEME_NAMES)
+        unknown = [k for k in names if k not in SCHEME_NAMES]
+        if unknown:
+            ap.error(f"--schemes {args.schemes!r}: {unknown} not in {', '.join(SCHEME_NAMES)}")
+        schemes = tuple(SCHEME_NAMES[k] for k in names)
+        out = args.out or ROOT / "benchmarks/results" / name
         sweep(args.case, out, spacing, end, args.threads, ratios, schemes, tuple(args.sets))
         return
     transports = ["inproc"] + (["mpi"] if MPIRUN else []) + ["zenoh"]
@@ -275,14 +284,15 @@ def main() -> None:
                 ),
             }
         )
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    with open(args.out, "w", newline="") as f:
+    out = args.out or ROOT / "benchmarks/results/coupling_overhead.csv"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with open(out, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(table[0]))
         w.writeheader()
         w.writerows(table)
     for row in table:
         print(row)
-    print(f"wrote {args.out}")
+    print(f"wrote {out}")
 
 
 if __name__ == "__main__":
