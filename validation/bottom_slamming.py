@@ -345,6 +345,15 @@ def _series(h5: h5py.File, name: str) -> tuple[np.ndarray, np.ndarray]:
     return g["time"][:], g["value"][:]
 
 
+def uplift_impulse(t: np.ndarray, fy: np.ndarray, contact: float, window_end: float) -> float:
+    """Integral of the uplift (N/m) over contact <= t <= window_end by the trapezoidal rule,
+    N s/m; NaN without contact or with fewer than two samples there."""
+    if not math.isfinite(contact):
+        return math.nan
+    wet = (t >= contact) & (t <= window_end)
+    return float(np.trapezoid(fy[wet], t[wet])) if np.count_nonzero(wet) > 1 else math.nan
+
+
 def analyse(path: Path) -> CaseResult:
     """Every measurement of one results file.
 
@@ -406,8 +415,7 @@ def analyse(path: Path) -> CaseResult:
     peak_smooth, t_peak_smooth = float(smooth[js]), float(t[js])
     above = np.flatnonzero(sel & (fy > 0.02 * peak))
     contact = float(t[above[0]]) if above.size and peak > 0 else math.nan
-    wet = sel & (t >= contact) if math.isfinite(contact) else np.zeros_like(sel)
-    impulse = float(np.trapezoid(fy[wet], t[wet])) if wet.sum() > 1 else math.nan
+    impulse = uplift_impulse(t, fy, contact, w_end)
     first_peak = math.nan
     d_max = d_min = t_dmax = math.nan
     if disp is not None:

@@ -55,6 +55,19 @@ def _coarse(kind: str):
     return load_scenario(bs.SCENARIOS[kind], items)
 
 
+def test_uplift_impulse_of_a_half_sine_pulse():
+    """The impulse of F = F0 sin(pi (t - t0) / T) over its duration is 2 F0 T / pi; sampled at
+    1 ms (the probe interval) over T = 0.1 s the trapezoidal rule is within 1e-3 of it, samples
+    before the contact and after the window's end are left out, no contact gives NaN."""
+    t = np.arange(0.0, 1.0, 1e-3)
+    t0, T, F0 = 0.3, 0.1, 200.0
+    f = np.where((t >= t0) & (t <= t0 + T), F0 * np.sin(np.pi * (t - t0) / T), 0.0)
+    f[t > 0.8] = 1e6  # after the window: must not count
+    exact = 2.0 * F0 * T / np.pi
+    assert bs.uplift_impulse(t, f, t0, 0.8) == pytest.approx(exact, rel=1e-3)
+    assert np.isnan(bs.uplift_impulse(t, f, float("nan"), 0.8))
+
+
 @pytest.fixture(scope="module")
 def rigid_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("slam") / "rigid.h5"
