@@ -2,16 +2,17 @@
 
 :class:`FluidParticipant` wraps a :class:`~mpsfem.fluid_mps.solver.FluidSolver` whose structure
 members are boundary particles laid by :class:`~mpsfem.fluid_mps.structure_surface.
-StructureSurface` and kept apart across members by :class:`~mpsfem.fluid_mps.thin_member.
-ThinMemberFilter`.
+StructureSurface` (2D beams) or :class:`~mpsfem.fluid_mps.plate_surface.PlateSurface` (3D
+plates) and kept apart across members by :class:`~mpsfem.fluid_mps.thin_member.
+ThinMemberFilter` / :class:`~mpsfem.fluid_mps.thin_plate.ThinPlateFilter`.
 
-Data (SI; 2D forces per unit width):
+Data (SI; 2D forces per unit width, 3D forces in N):
 
 * interface: the structure's pressure-layer particles on both faces (and end caps) in the
   reference configuration, normals out of the structure (``cells`` empty: a point cloud);
 * written: ``"displacement"`` (m) and ``"velocity"`` (m/s) at those points, the values for the
   end of the next ``advance``; dummies follow by the rigid link of their column;
-* read: ``"forces"``, F_i = -p_i A_i n_i (N/m), the force of the fluid on the structure at each
+* read: ``"forces"``, F_i = -p_i A_i n_i (N; N/m in 2D), the force of the fluid on the structure at each
   interface point after the last step (zero on dry particles).
 
 ``advance(dt)`` places the structure particles (``FluidSolver.set_patch_state``) and takes one
@@ -31,19 +32,21 @@ from pathlib import Path
 
 import numpy as np
 
-from mpsfem.coupler.participant import InterfaceMesh
+from mpsfem.coupler.participant import InterfaceMesh, as_interface_mesh
 from mpsfem.fluid_mps import wall_boundary
+from mpsfem.fluid_mps.plate_surface import PlateSurface
 from mpsfem.fluid_mps.solver import FluidSolver
 from mpsfem.fluid_mps.structure_surface import StructureSurface
 from mpsfem.fluid_mps.surface_freeze import SurfaceFreeze
 from mpsfem.fluid_mps.thin_member import ThinMemberFilter
+from mpsfem.fluid_mps.thin_plate import ThinPlateFilter
 from mpsfem.scenario.fluid import FluidSection
 
 __all__ = ["FluidParticipant"]
 
 
 class FluidParticipant:
-    """The MPS fluid around 2D structure members, for the coupler.
+    """The MPS fluid around structure members (2D beams or 3D plates), for the coupler.
 
     Parameters
     ----------
@@ -56,7 +59,8 @@ class FluidParticipant:
     member_names:
         Member names in interface order (patches ``<name>+`` / ``<name>-``, force probes).
     free_ends:
-        Per member (free at the first node, free at the last); default: from the rigid walls.
+        2D: per member (free at the first node, free at the last); 3D: per plate, four flags
+        (edges s1 = 0, s1 = L1, s2 = 0, s2 = L2); default: from the rigid walls.
     """
 
     name = "fluid"
@@ -71,8 +75,18 @@ class FluidParticipant:
         free_ends: Sequence[tuple[bool, bool]] | None = None,
     ) -> None:
         self.spec = fluid
-        self.surface = StructureSurface(structure_interface, fluid, member_names, free_ends)
-        self.filter = ThinMemberFilter(self.surface)
+        mesh = as_interface_mesh(structure_interface)
+        if mesh.dim != fluid.dim:
+            raise ValueError(
+                f"the structure interface is {mesh.dim}D but fluid.dim = {fluid.dim}: beams "
+                "(2D) need a 2D fluid, plates (3D) a 3D fluid"
+            )
+        if mesh.dim == 3:
+            self.surface = PlateSurface(mesh, fluid, member_names, free_ends)
+            self.filter = ThinPlateFilter(self.surface)
+        else:
+            self.surface = StructureSurface(mesh, fluid, member_names, free_ends)
+            self.filter = ThinMemberFilter(self.surface)
         self.solver = FluidSolver(
             fluid, base_dir, external=self.surface.patches(), neighbour_filter=self.filter
         )
