@@ -22,6 +22,7 @@ import numpy as np
 from mpsfem.coupler.coupling_scheme import create_scheme
 from mpsfem.coupler.errors import CouplingError, PeerError, PeerLostError
 from mpsfem.coupler.launch import connect_structure, participant_role, spawn_structure
+from mpsfem.coupler.participant import InterfaceMesh, as_interface_mesh
 from mpsfem.coupler.time_window import TIME_EPS
 from mpsfem.fluid_mps.participant import FluidParticipant
 from mpsfem.fluid_mps.probes import PROBE_UNITS
@@ -229,20 +230,53 @@ def coupling_config(scenario, transport: str | None = None):
     return cfg.model_copy(update={"transport": params})
 
 
-def member_nodes(scenario) -> list[tuple[str, slice]]:
+def member_nodes(scenario) -> list[tuple[str, slice | None]]:
     """(member name, its slice of the structure's interface points), in scenario order (the
-    structure participant concatenates the members' nodes in that order)."""
+    structure participant concatenates the members' nodes in that order). Plates get None: their
+    node counts come from the interface mesh (:func:`plate_member_nodes`). Only rectangular
+    plates are laid out in the fluid; a polygonal one is refused here, before any compute."""
     out, start = [], 0
     for m in scenario.structure.members:
-        if m.type != "beam":
-            raise ValueError(
-                f"structure.members {m.name!r}: coupled runs support 2D beam members; "
-                f"type {m.type!r} (3D plates) is not coupled to the MPS fluid yet"
-            )
+        if m.type == "plate":
+            if m.shape != "rectangle":
+                raise ValueError(
+                    f"structure.members {m.name!r}: shape = {m.shape!r}; the fluid lays "
+                    'coupled plates as rectangles only (shape = "rectangle")'
+                )
+            out.append((m.name, None))
+            continue
         n = m.elements + 1
         out.append((m.name, slice(start, start + n)))
         start += n
     return out
+
+
+def plate_member_nodes(fluid) -> list[tuple[str, slice]]:
+    """(member name, slice of interface points) of the plates the fluid participant laid."""
+    return [(f.name, f.nodes) for f in fluid.surface.frames]
+
+
+class PlateDisplacementProbe:
+    """Displacement of a plate point: the member's own interpolation (bilinear on a quad, linear
+    on a triangle) of its nodal displacements at the projection of ``position`` on its reference
+    mid-surface, m."""
+
+    def __init__(self, probe, mesh, nodes: slice) -> None:
+        from mpsfem.coupler.mapping.shape_function import project
+
+        self.probe = probe
+        m = as_interface_mesh(mesh)
+        cells = {
+            k: c[(c >= nodes.start).all(axis=1) & (c < nodes.stop).all(axis=1)]
+            for k, c in m.cells.items()
+        }
+        sub = InterfaceMesh(m.points, m.normals, cells)
+        x = np.asarray([probe.position], dtype=np.float64)
+        _, idx, N, _, _ = project(x, sub, math.inf)
+        self.nodes, self.N = idx[0], N[0]
+
+    def value(self, displacement: np.ndarray) -> np.ndarray:
+        return self.N @ displacement[self.nodes]
 
 
 class DisplacementProbe:
@@ -387,7 +421,8 @@ def _fluid_side(
     try:
         mesh = structure.interface()
         n_nodes = int(np.asarray(mesh.points).shape[0])
-        if members[-1][1].stop != n_nodes:
+        plates = members[-1][1] is None
+        if not plates and members[-1][1].stop != n_nodes:
             raise ValueError(
                 f"the structure interface has {n_nodes} points, the scenario's members "
                 f"{[m for m, _ in members]} give {members[-1][1].stop}"
@@ -395,6 +430,8 @@ def _fluid_side(
         fluid = FluidParticipant(
             sc.fluid, mesh, base_dir=loaded.path.parent, member_names=[m for m, _ in members]
         )
+        if plates:
+            members = plate_member_nodes(fluid)
         scheme = create_scheme(fluid, structure, config, log=log)
         scheme.initialize()
     except BaseException:
@@ -413,7 +450,9 @@ def _fluid_side(
     ]
     member_energy = [p for p in sc.probes if p.kind == "energy" and p.target in slices]
     disp = [
-        DisplacementProbe(p, nodes[p.target], slices[p.target].start)
+        PlateDisplacementProbe(p, mesh, slices[p.target])
+        if solver.dim == 3
+        else DisplacementProbe(p, nodes[p.target], slices[p.target].start)
         for p in sc.probes
         if p.kind == "displacement"
     ]
