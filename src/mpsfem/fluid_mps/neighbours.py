@@ -25,6 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
+#: rows longer than this are sorted by quicksort, shorter ones by insertion sort
+LONG_ROW = 96
+
 
 class NeighbourSearchError(RuntimeError):
     """A particle position that the neighbour search cannot handle (NaN, escaped, grid blow-up)."""
@@ -200,10 +203,14 @@ def _fill(pos, r2max, nc, kc, cell_of, cell_start, order, pos_sorted, indptr, in
                     if j != i:
                         indices[p] = j
                         p += 1
-        # insertion sort of the row (short, mostly sorted rows): the list becomes independent
-        # of the grid
+        # sort the row: the list becomes independent of the grid. Insertion sort for short
+        # rows (2D: ~50 entries, runs already ascending); quicksort in place for long ones
+        # (3D: ~270 entries, where insertion sort's O(m^2) took 60 % of a step)
         a = indptr[i]
         b = indptr[i + 1]
+        if b - a > LONG_ROW:
+            indices[a:b].sort()
+            continue
         for k in range(a + 1, b):
             v = indices[k]
             m = k - 1
