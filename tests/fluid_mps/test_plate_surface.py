@@ -16,7 +16,7 @@ import pytest
 from mpsfem.coupler.participant import InterfaceMesh
 from mpsfem.fluid_mps.neighbours import NeighbourSearch
 from mpsfem.fluid_mps.participant import FluidParticipant
-from mpsfem.fluid_mps.particle_kinds import FLUID, STRUCTURE
+from mpsfem.fluid_mps.particle_kinds import FLUID
 from mpsfem.fluid_mps.plate_surface import PlateSurface, plates_from_interface
 from mpsfem.fluid_mps.solver import FluidRunError
 from mpsfem.scenario.fluid import FluidSection
@@ -101,25 +101,113 @@ def test_layout_areas_and_free_edges():
     fluid = fluid_section([([0, 0, 0], [0.25, 0.06, 0.2])], [0.25, 0.06, 0.3])
     surf = PlateSurface(shelf(), fluid, ["shelf"])
     (f,) = surf.frames
+    # canonical frame: t1 = +x, t2 = +y for a horizontal plate with normal +z
+    np.testing.assert_allclose([f.t1, f.t2, f.normal], np.eye(3), atol=1e-12)
     # only the edge at x = 0.18 is in the open (x = 0: wall; y = 0, 0.06: side walls)
-    free = dict(zip(("s1=0", "s1=L1", "s2=0", "s2=L2"), f.free, strict=True))
-    free_open = [k for k, v in free.items() if v]
-    assert len(free_open) == 1
-    edge_mid = f.edge_midpoints()[list(f.free).index(True)]
-    assert edge_mid[0] == pytest.approx(0.18)
+    assert f.free == (False, True, False, False)
+    assert f.edge_midpoints()[1][0] == pytest.approx(0.18)
+
+
+def test_face_and_cap_areas_with_unequal_spacings():
+    """A free-standing plate 0.18 x 0.055 m (h1 = l0, h2 = 0.055 / 6 != l0), 1.6 l0 thick:
+    per side the face particles tile L1 L2, each edge's caps sum to (cap rows) x l0 x (edge
+    length), corners take both; the area vectors of the closed body sum to zero."""
+    fluid = fluid_section([([0, 0, 0], [0.25, 0.06, 0.2])], [0.25, 0.06, 0.3])
+    T = 1.6 * L0
+    mesh = plate_mesh([0.0, 0.0, 0.1], [1, 0, 0], [0, 1, 0], (0.18, 0.055), (6, 2), T)
+    surf = PlateSurface(mesh, fluid, ["p"], free_edges=[(True,) * 4])
+    (f,) = surf.frames
+    cap_rows = 1  # rows whose depth (k + 1/2) l0 <= T/2: k = 0 only at T = 1.6 l0
     for sl in surf.sides:
-        press = sl.kind == STRUCTURE
         face = np.abs(sl.area @ f.normal) > 0
-        # the face particles tile their face: sum h1 h2 = L1 L2
-        assert np.abs(sl.area[face] @ f.normal).sum() == pytest.approx(0.18 * 0.06, rel=1e-12)
-        assert (face <= press).all()
-        # the free edge's cap: l0 x its edge-wise spacing per particle, outward +x
-        cap = sl.area[press] @ np.array([1.0, 0.0, 0.0])
-        assert cap.max() == pytest.approx(L0 * L0, rel=1e-12) and cap.min() >= 0.0
-    # a free-standing plate (all edges free) is a closed body: uniform pressure, zero net force
-    surf_free = PlateSurface(shelf(), fluid, ["shelf"], free_edges=[(True,) * 4])
-    total = sum(sl.area.sum(axis=0) for sl in surf_free.sides)
+        assert np.abs(sl.area[face] @ f.normal).sum() == pytest.approx(0.18 * 0.055, rel=1e-12)
+        for direction, edge_length in ((f.t1, 0.055), (-f.t1, 0.055), (f.t2, 0.18), (-f.t2, 0.18)):
+            a = sl.area @ direction
+            assert a[a > 0].sum() == pytest.approx(cap_rows * L0 * edge_length, rel=1e-12)
+    total = sum(sl.area.sum(axis=0) for sl in surf.sides)
     np.testing.assert_allclose(total, 0.0, atol=1e-15)
+
+
+def test_mid_surface_height_field_is_exact_for_bilinear_deflection():
+    """Plate particles moved by w = a + b s1 + c s2 + d s1 s2 along n: the column mid-points'
+    height field (bilinear between them, edges extrapolated) gives w back everywhere on the
+    rectangle, including the edge strips and corners."""
+    from mpsfem.fluid_mps.thin_plate import _height
+
+    fluid = fluid_section([([0, 0, 0], [0.25, 0.06, 0.2])], [0.25, 0.06, 0.3])
+    mesh = plate_mesh([0.02, 0.0, 0.1], [1, 0, 0], [0, 1, 0], (0.15, 0.055), (5, 2), L0)
+    fp = FluidParticipant(fluid, mesh, member_names=["p"])
+    surf, s = fp.surface, fp.solver
+    (f,) = surf.frames
+
+    def w(s1, s2):
+        return 1e-3 + 2e-2 * s1 - 3e-2 * s2 + 0.5 * s1 * s2
+
+    r = s.pos[surf.index] - f.origin
+    pos = s.pos.copy()
+    pos[surf.index] += w(r @ f.t1, r @ f.t2)[:, None] * f.normal
+    heights, hptr, grid = surf.mid_surface(pos)
+    size = np.array([f.size])
+    rng = np.random.default_rng(3)
+    pts = rng.uniform(0, 1, size=(400, 2)) * f.size
+    pts = np.vstack([pts, [[0, 0], [f.size[0], f.size[1]], [0, f.size[1]], [f.size[0], 0]]])
+    got = [_height(0, a, b, size, grid, hptr, heights) for a, b in pts]
+    np.testing.assert_allclose(got, w(pts[:, 0], pts[:, 1]), rtol=0, atol=1e-15)
+
+
+def test_crossing_test_against_dense_sampling_on_a_curved_plate():
+    """segment_crosses_plate on a plate bent by a half sine of amplitude 2 l0 (slopes up to
+    0.4): for random segments with ends on opposite sides of the surface, the decision is that
+    of 2000-point sampling of eta - eta_mid along the segment (segments whose sampled crossing
+    is within 1e-3 l0 of the rectangle's boundary are skipped as ambiguous)."""
+    from mpsfem.fluid_mps.thin_plate import _height, segment_crosses_plate
+
+    L1, L2, n1, n2 = 0.1, 0.06, 10, 6
+    h1, h2 = L1 / n1, L2 / n2
+    nodes1 = np.r_[0.0, (np.arange(n1) + 0.5) * h1, L1]
+    nodes2 = np.r_[0.0, (np.arange(n2) + 0.5) * h2, L2]
+    hgt = 2 * L0 * np.sin(np.pi * nodes1 / L1)[:, None] * (1 + 0 * nodes2)[None, :]
+    hgt += 0.3 * L0 * np.cos(np.pi * nodes2 / L2)[None, :]
+    heights = np.ascontiguousarray(hgt.ravel())
+    hptr = np.array([0, heights.size])
+    grid = np.array([[n1, n2]])
+    size = np.array([[L1, L2]])
+    frame = np.array([[[0.3, 0.2, 0.1], [0, 1.0, 0], [0, 0, 1.0], [1.0, 0, 0]]])  # n = +x
+    rng = np.random.default_rng(11)
+
+    def local(p):
+        r = p - frame[0, 0]
+        return r @ frame[0, 1], r @ frame[0, 2], r @ frame[0, 3]
+
+    def g(p):
+        s1, s2, e = local(p)
+        return e - _height(0, s1, s2, size, grid, hptr, heights)
+
+    checked = crossing = 0
+    tt = np.linspace(0, 1, 2001)
+    while checked < 1500:
+        c = (
+            frame[0, 0]
+            + rng.uniform(-0.03, 0.13) * frame[0, 1]
+            + rng.uniform(-0.03, 0.09) * (frame[0, 2])
+        )
+        a = c + rng.normal(size=3) * 0.02
+        b = c + rng.normal(size=3) * 0.02
+        ga, gb = g(a), g(b)
+        if ga * gb >= 0:
+            continue
+        gs = np.array([g(a + t * (b - a)) for t in tt])
+        k = np.flatnonzero(np.sign(gs[:-1]) != np.sign(gs[1:]))
+        x = a + tt[k[:, None]] * (b - a)
+        s1, s2, _ = np.array([local(q) for q in x]).T
+        margin = np.minimum.reduce([s1, L1 - s1, s2, L2 - s2])
+        if np.any(np.abs(margin) < 1e-3 * L0):
+            continue
+        ref = bool(np.any(margin > 0))
+        assert segment_crosses_plate(a, b, 0, frame, size, grid, hptr, heights) == ref
+        checked += 1
+        crossing += ref
+    assert 0.2 * checked < crossing < 0.95 * checked
 
 
 @pytest.mark.parametrize("axis", ["t1", "t2"])
@@ -177,7 +265,7 @@ def test_filter_against_brute_force():
     near = np.flatnonzero(
         (s.kind == FLUID) & (np.abs(eta) < 0.06) & (s1 > -0.05) & (s1 < L1 + 0.05)
     )
-    checked = {"fluid-fluid": 0, "crossing": 0, "beside": 0, "member": 0}
+    checked = {"fluid-fluid": 0, "crossing": 0, "beside": 0, "member": 0, "beyond": 0}
     for i in near:
         for j in rows_raw[i]:
             if s.kind[j] == FLUID:
@@ -193,6 +281,16 @@ def test_filter_against_brute_force():
             if member_of[j] == 0:
                 assert (j in kept[i]) == (side_of[i] == side_of[j])
                 checked["member"] += 1
+    # beyond an edge fluid sees the body only (nothing virtual) and, next to the edge, sees it:
+    # the plate is thinner than l0, so it sees the rows nearest the mid-surface (body_half)
+    out1 = np.maximum(np.maximum(-s1, s1 - L1), 0.0)
+    out2 = np.maximum(np.maximum(-s2, s2 - L2), 0.0)
+    beyond = (s.kind == FLUID) & ~beside & (np.hypot(out1, out2) < L0) & (np.abs(eta) < 0.5 * L0)
+    for i in np.flatnonzero(beyond):
+        seen = [j for j in kept[i] if member_of[j] == 0]
+        assert seen, i
+        assert (np.abs(eta[seen]) <= max(0.5 * f.thickness, 0.5 * L0) + 1e-9).all()
+        checked["beyond"] += 1
     print("checked pairs:", checked)
     assert min(checked.values()) > 0, checked
 

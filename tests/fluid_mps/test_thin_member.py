@@ -103,11 +103,16 @@ def test_filter_against_brute_force(tilt):
             elif member_of[i] < 0 and member_of[j] < 0 or ki != FLUID and kj != FLUID:
                 assert j in kept[i]  # rigid walls are never filtered
     assert min(checked.values()) > 0, checked
-    # beyond the tip a fluid particle sees each body position once and nothing virtual
+    # beyond the tip a fluid particle sees each body position once and nothing virtual, and the
+    # tip is not invisible: fluid within a spacing of it sees part of it (the member is thinner
+    # than l0, so no row lies on a side's own half: body_half's mid-line rows)
+    tip = c + L * t
     for i in f[~beside[f]]:
         seen = [j for j in kept[i] if member_of[j] == 0]
-        body = np.abs((s.pos[seen] - c) @ n) <= 0.5 * T + 1e-9
+        body = np.abs((s.pos[seen] - c) @ n) <= max(0.5 * T, 0.5 * L0) + 1e-9
         assert body.all()
+        if np.linalg.norm(s.pos[i] - tip) < L0:
+            assert seen, i
         key = np.round(s.pos[seen] / (1e-6 * L0)).astype(np.int64)
         assert len({tuple(k) for k in key}) == len(seen)
 

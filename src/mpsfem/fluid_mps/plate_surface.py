@@ -46,20 +46,25 @@ from mpsfem.coupler.participant import InterfaceMesh, as_interface_mesh
 from mpsfem.fluid_mps.geometry import ExternalPatch, default_dummy_layers
 from mpsfem.fluid_mps.particle_kinds import STRUCTURE, STRUCTURE_DUMMY
 from mpsfem.fluid_mps.structure_surface import FACE_MARGIN, SideLayout, wall_clearance
+from mpsfem.fluid_mps.thin_member import body_half
 from mpsfem.scenario.fluid import FluidSection
 
 __all__ = ["PlateFrame", "PlateSurface", "lay_plate_side", "plates_from_interface"]
 
 #: edges of a plate in the order of PlateFrame.free: s1 = 0, s1 = L1, s2 = 0, s2 = L2
 EDGES = ("s1=0", "s1=L1", "s2=0", "s2=L2")
+#: t1 is the rectangle's side direction with the largest dot product with this vector: the one
+#: pointing most along +x, then +y, then +z
+_AXIS_PRIORITY = np.array([1.0, 1e-3, 1e-6])
 
 
 @dataclass(frozen=True)
 class PlateFrame:
     """A flat rectangular plate in its reference configuration.
 
-    origin: corner (s1, s2) = (0, 0) (m); t1, t2: in-plane unit tangents along its sides, normal
-    n = t1 x t2 (the structure's normal); size: (L1, L2) (m); thickness T (m, as the fluid sees
+    origin: corner (s1, s2) = (0, 0) (m); t1, t2: in-plane unit tangents along its sides (t1:
+    the side direction pointing most along +x, then +y, then +z), normal n = t1 x t2 (the
+    structure's normal); size: (L1, L2) (m); thickness T (m, as the fluid sees
     it); free: whether an edge cap closes the plate at s1 = 0, s1 = L1, s2 = 0, s2 = L2; nodes:
     slice of the structure's interface points that belong to this member.
     """
@@ -172,6 +177,13 @@ def plates_from_interface(mesh, names: Sequence[str] | None = None) -> list[dict
                 f"member {name!r}: the fluid participant lays rectangular plates only (its cells "
                 f"cover {area:.6g} m^2 of the {box[0]:.6g} x {box[1]:.6g} m rectangle around them)"
             )
+        # canonical sides, whatever the cells' vertex order: t1 is the side direction pointing
+        # most along +x (then +y, then +z), t2 = n x t1
+        cands = [t1, -t1, t2, -t2]
+        t1 = max(cands, key=lambda d: float(d @ _AXIS_PRIORITY))
+        t2 = np.cross(normal, t1)
+        s = np.c_[(pts - pts[0]) @ t1, (pts - pts[0]) @ t2]
+        smin, box = s.min(axis=0), np.ptp(s, axis=0)
         origin = pts[0] + smin[0] * t1 + smin[1] * t2
         out.append(
             {
@@ -250,7 +262,8 @@ class PlateSurface:
     names:
         Member names in interface order (default ``member0``, ...).
     free_edges:
-        Per member, whether each edge (s1 = 0, s1 = L1, s2 = 0, s2 = L2) is free; default: an
+        Per member, whether each edge (s1 = 0, s1 = L1, s2 = 0, s2 = L2 of its
+        :class:`PlateFrame`: t1 points most along +x, then +y, then +z) is free; default: an
         edge is free unless its mid-point lies within one spacing of a rigid wall of the scene.
     """
 
@@ -382,9 +395,7 @@ class PlateSurface:
         for st, sl in zip(starts, self.sides, strict=True):
             self.member_of[st : st + len(sl.pos)] = sl.member
             self.side_of[st : st + len(sl.pos)] = sl.side
-            own = sl.side * sl.eta
-            tol = 1e-9 * self.l0
-            self.half[st : st + len(sl.pos)] = np.where(own > tol, 1, np.where(own < -tol, -1, 0))
+            self.half[st : st + len(sl.pos)] = body_half(sl.side, sl.eta, self.l0)
         self.bound = True
 
     # ------------------------------------------------------------------ coupler view

@@ -48,6 +48,7 @@ import numpy as np
 from mpsfem.coupler.participant import InterfaceMesh, as_interface_mesh
 from mpsfem.fluid_mps.geometry import ExternalPatch, default_dummy_layers
 from mpsfem.fluid_mps.particle_kinds import STRUCTURE, STRUCTURE_DUMMY
+from mpsfem.fluid_mps.thin_member import body_half
 from mpsfem.scenario.fluid import FluidSection
 
 __all__ = ["MemberFrame", "SideLayout", "StructureSurface", "members_from_interface"]
@@ -381,11 +382,9 @@ class StructureSurface:
         for st, sl in zip(starts, self.sides, strict=True):
             self.member_of[st : st + len(sl.pos)] = sl.member
             self.side_of[st : st + len(sl.pos)] = sl.side
-            # +1: inside the body on the side's own half, 0: on the mid-line, -1: past the
-            # mid-line (inside the body or a virtual layer beyond the other face)
-            own = sl.side * sl.eta
-            tol = 1e-9 * self.l0
-            self.half[st : st + len(sl.pos)] = np.where(own > tol, 1, np.where(own < -tol, -1, 0))
+            # +1: on the side's own half of the body, 0: the row on the mid-line or less than
+            # l0/2 past it, -1: farther past it (thin_member.body_half)
+            self.half[st : st + len(sl.pos)] = body_half(sl.side, sl.eta, self.l0)
         self.bound = True
 
     # ------------------------------------------------------------------ coupler view

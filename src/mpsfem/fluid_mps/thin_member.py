@@ -10,8 +10,10 @@ the pairs that would act through a member, in place:
 2. a member particle of side s and a fluid particle beside the member on the other side of its
    mid-line (fluid beside a member sees only the virtual solid of its own face). Beyond a free
    end the virtual layers would overlap the fluid that wraps round the end, so fluid there sees
-   the body once: each side's particles on its own half of the body, and the mid-line row of
-   its own side. The member particles' own rows keep all fluid beyond the end (a pressure
+   the body once: each side's particles on its own half of the body, and its own side's row
+   nearest the mid-line when that row lies on the mid-line or less than half a spacing past it
+   (:func:`body_half`; a member thinner than l0 has no row on its own half, and its tip would
+   otherwise be invisible from beyond the end). The member particles' own rows keep all fluid beyond the end (a pressure
    particle at the end then has a full neighbourhood and is not taken for a dry, free-surface
    one); this is the only place where the list is not symmetric;
 3. two fluid particles whose connecting segment crosses a member's mid-line: both beside the
@@ -37,10 +39,20 @@ from numba import njit, prange
 
 from mpsfem.fluid_mps.neighbours import NeighbourList
 
-__all__ = ["ThinMemberFilter", "classify_sides", "segment_crosses_polyline"]
+__all__ = ["ThinMemberFilter", "body_half", "classify_sides", "segment_crosses_polyline"]
 
 #: buffer headroom when the neighbour count grows
 HEADROOM = 1.1
+
+
+def body_half(side: int, eta: np.ndarray, l0: float) -> np.ndarray:
+    """Half of the body each particle of one side's virtual solid is on, for rule 2 beyond an
+    end: +1 on the side's own half (side * eta > 0), 0 on the mid-line or less than l0 / 2 past
+    it (the row fluid beyond the end sees from that side), -1 farther past it. ``eta``: offsets
+    from the mid-line / mid-surface (m)."""
+    own = side * np.asarray(eta, dtype=np.float64)
+    tol = 1e-9 * l0
+    return np.where(own > tol, 1, np.where(own > -0.5 * l0 + tol, 0, -1)).astype(np.int8)
 
 
 @njit(cache=True, parallel=True)

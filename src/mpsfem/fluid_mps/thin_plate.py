@@ -10,9 +10,12 @@ The mid-surface is the height field eta_mid(s1, s2) over the plate's reference r
 (:meth:`~mpsfem.fluid_mps.plate_surface.PlateSurface.mid_surface`: the current column mid-points,
 bilinear between them, edges extrapolated). A particle at (s1, s2, eta) in the plate's frame is
 classified by the sign of eta - eta_mid at its in-plane position clamped to the rectangle: +-1
-inside the rectangle, +-2 beyond an edge, 0 farther than the reach from the mid-surface. The
-rule-3 test for a pair beyond an edge finds the segment's crossing of the height field by three
-regula-falsi steps and drops the pair if the crossing lies on the rectangle. In-plane coordinates
+inside the rectangle, +-2 beyond an edge, 0 farther than the reach from the mid-surface (beyond
+an edge the surface is continued flat at the edge's height; the 2D filter continues the end
+segment's slope: the two differ by the distance past the edge times the edge slope, a small
+fraction of l0 for the small slopes of a Kirchhoff plate within the kernel radius). The rule-3
+test for a pair beyond an edge clips the segment to the rectangle in plane and drops the pair if
+eta - eta_mid changes sign over the clipped part (the crossing is on the rectangle). In-plane coordinates
 are those of the reference configuration: a Kirchhoff plate has no membrane displacement, and its
 faces' in-plane rotation terms cancel in the column mid-points.
 
@@ -103,35 +106,37 @@ def classify_plate_sides(pos, frame, size, grid, hptr, heights, reach, side):
             side[i, m] = 2 * s if (o1 > 0.0 or o2 > 0.0) else s
 
 
+@njit(cache=True, inline="always")
+def _clip(p, d, L, t0, t1):
+    """Clip the parameter range [t0, t1] of p + t d to 0 <= p + t d <= L (empty: t0 > t1)."""
+    if d == 0.0:
+        if p < 0.0 or p > L:
+            return 1.0, 0.0
+        return t0, t1
+    ta = -p / d
+    tb = (L - p) / d
+    if ta > tb:
+        ta, tb = tb, ta
+    return max(t0, ta), min(t1, tb)
+
+
 @njit(cache=True)
 def segment_crosses_plate(a, b, m, frame, size, grid, hptr, heights):
     """True if segment a-b (points (3,)) passes through plate m's mid-surface on its rectangle:
-    eta - eta_mid changes sign along it and the crossing (three regula-falsi steps) lies on the
-    rectangle."""
+    the part of the segment over the rectangle (clipped in plane) has eta - eta_mid of opposite
+    signs, or zero, at its two ends. Exact for one crossing (the caller's pairs are on opposite
+    sides, so they cross an odd number of times; beyond the rectangle the height field is flat)."""
     sa1, sa2, ea = _local(a[0], a[1], a[2], m, frame)
     sb1, sb2, eb = _local(b[0], b[1], b[2], m, frame)
-    g0 = ea - _height(m, sa1, sa2, size, grid, hptr, heights)
-    g1 = eb - _height(m, sb1, sb2, size, grid, hptr, heights)
-    if (g0 > 0.0 and g1 > 0.0) or (g0 < 0.0 and g1 < 0.0) or g0 == g1:
+    t0, t1 = _clip(sa1, sb1 - sa1, size[m, 0], 0.0, 1.0)
+    t0, t1 = _clip(sa2, sb2 - sa2, size[m, 1], t0, t1)
+    if t0 > t1:
         return False
-    t0, t1 = 0.0, 1.0
-    t = 0.0
-    for _ in range(3):
-        t = t0 - g0 * (t1 - t0) / (g1 - g0)
-        s1 = sa1 + t * (sb1 - sa1)
-        s2 = sa2 + t * (sb2 - sa2)
-        g = ea + t * (eb - ea) - _height(m, s1, s2, size, grid, hptr, heights)
-        if g == 0.0:
-            break
-        if (g > 0.0) == (g0 > 0.0):
-            t0, g0 = t, g
-        else:
-            t1, g1 = t, g
-        if g1 == g0:
-            break
-    s1 = sa1 + t * (sb1 - sa1)
-    s2 = sa2 + t * (sb2 - sa2)
-    return 0.0 <= s1 <= size[m, 0] and 0.0 <= s2 <= size[m, 1]
+    g0 = ea + t0 * (eb - ea)
+    g0 -= _height(m, sa1 + t0 * (sb1 - sa1), sa2 + t0 * (sb2 - sa2), size, grid, hptr, heights)
+    g1 = ea + t1 * (eb - ea)
+    g1 -= _height(m, sa1 + t1 * (sb1 - sa1), sa2 + t1 * (sb2 - sa2), size, grid, hptr, heights)
+    return (g0 <= 0.0 and g1 >= 0.0) or (g0 >= 0.0 and g1 <= 0.0)
 
 
 @njit(cache=True)
