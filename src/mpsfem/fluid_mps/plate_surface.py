@@ -383,6 +383,11 @@ class PlateSurface:
         self.column = np.concatenate(col)
         self.member_of_local = np.concatenate(mem)
         self.is_interface = loc_of_if >= 0
+        # per member: its dummies' local indices, columns, offsets and followed face particles
+        self._dummies = []
+        for m in range(len(self.frames)):
+            sel = np.flatnonzero((self.member_of_local == m) & ~self.is_interface)
+            self._dummies.append((sel, self.column[sel], self.offset[sel], self.follow[sel]))
         self._u = np.zeros_like(self.ref)
         self._v = np.zeros_like(self.ref)
         self.patch_ranges = [
@@ -424,10 +429,8 @@ class PlateSurface:
         for m, f in enumerate(self.frames):
             mid = 0.5 * (out[self.col_plus[m]] + out[self.col_minus[m]])
             g1, g2 = self._slopes(m, mid @ f.normal)
-            sel = (self.member_of_local == m) & ~self.is_interface
-            c = self.column[sel]
-            d = self.offset[sel][:, None]
-            out[sel] = out[self.follow[sel]] - d * (g1[c, None] * f.t1 + g2[c, None] * f.t2)
+            sel, c, d, fol = self._dummies[m]
+            out[sel] = out[fol] - d[:, None] * (g1[c, None] * f.t1 + g2[c, None] * f.t2)
 
     def place(self, solver, displacement: np.ndarray, velocity: np.ndarray) -> None:
         """Put every structure particle at ``ref + u`` with velocity ``v`` for the end of the

@@ -369,6 +369,11 @@ class StructureSurface:
         self.member_of_local = np.concatenate(mem)
         self.normal_of_local = np.stack([self.frames[m].normal for m in self.member_of_local])
         self.is_interface = loc_of_if >= 0
+        # per member: its dummies' local indices, columns, offsets and followed face particles
+        self._dummies = []
+        for m in range(len(self.frames)):
+            sel = np.flatnonzero((self.member_of_local == m) & ~self.is_interface)
+            self._dummies.append((sel, self.column[sel], self.offset[sel], self.follow[sel]))
         self._u = np.zeros_like(self.ref)
         self._v = np.zeros_like(self.ref)
         self.patch_ranges = [
@@ -406,10 +411,10 @@ class StructureSurface:
             mid = 0.5 * (out[self.col_plus[m]] + out[self.col_minus[m]])
             w = mid @ f.normal
             theta = np.gradient(w, self.spacing_s[m]) if w.size > 1 else np.zeros_like(w)
-            sel = (self.member_of_local == m) & ~self.is_interface
-            rot = theta[self.column[sel]] * self.offset[sel]  # theta * d_eta
+            sel, col, off, fol = self._dummies[m]
+            rot = theta[col] * off  # theta * d_eta
             # z x (d_eta n) = d_eta (-n_y, n_x)
-            out[sel] = out[self.follow[sel]] + rot[:, None] * np.array([-f.normal[1], f.normal[0]])
+            out[sel] = out[fol] + rot[:, None] * np.array([-f.normal[1], f.normal[0]])
 
     def place(self, solver, displacement: np.ndarray, velocity: np.ndarray) -> None:
         """Put every structure particle at ``ref + u`` with velocity ``v`` for the end of the
