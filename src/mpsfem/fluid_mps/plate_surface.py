@@ -42,11 +42,13 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from mpsfem.coupler.participant import InterfaceMesh, as_interface_mesh
-from mpsfem.fluid_mps.geometry import ExternalPatch, default_dummy_layers
+from mpsfem.coupler.participant import as_interface_mesh
 from mpsfem.fluid_mps.particle_kinds import STRUCTURE, STRUCTURE_DUMMY
-from mpsfem.fluid_mps.structure_surface import FACE_MARGIN, SideLayout, wall_clearance
-from mpsfem.fluid_mps.thin_member import body_half
+from mpsfem.fluid_mps.structure_surface import (
+    SideLayout,
+    StructureSurface,
+    wall_clearance,
+)
 from mpsfem.scenario.fluid import FluidSection
 
 __all__ = ["PlateFrame", "PlateSurface", "lay_plate_side", "plates_from_interface"]
@@ -248,10 +250,12 @@ def lay_plate_side(frame: PlateFrame, member: int, side: int, l0: float, layers:
     return SideLayout(member, side, pos, kind, normal, area, col.astype(np.int64), k, eta)
 
 
-class PlateSurface:
+class PlateSurface(StructureSurface):
     """The boundary particles of every plate member, their motion and their forces (3D).
 
-    Same interface as :class:`~mpsfem.fluid_mps.structure_surface.StructureSurface`.
+    A :class:`~mpsfem.fluid_mps.structure_surface.StructureSurface` whose members are plates:
+    the patches, the binding to the solver, the placement and the forces are the beam's; the
+    layout, the rigid link and the filter geometry (:meth:`mid_surface`) are the plate's.
 
     Parameters
     ----------
@@ -274,13 +278,9 @@ class PlateSurface:
         names: Sequence[str] | None = None,
         free_edges: Sequence[Sequence[bool]] | None = None,
     ) -> None:
-        mesh = as_interface_mesh(interface)
-        self.structure_mesh = mesh
-        self.l0 = l0 = float(fluid.spacing)
-        k = fluid.kernel
-        max_re = max(k.re_density, k.re_gradient, k.re_laplacian, k.re_pressure)
-        self.layers = fluid.dummy_layers + 1 if fluid.dummy_layers else default_dummy_layers(max_re)
-        self.frames: list[PlateFrame] = []
+        mesh = self._setup(interface, fluid)
+        l0 = self.l0
+        self.frames: list[PlateFrame] = []  # type: ignore[assignment]
         for i, p in enumerate(plates_from_interface(mesh, names)):
             frame = PlateFrame(
                 p["name"],
@@ -309,108 +309,6 @@ class PlateSurface:
             for i, f in enumerate(self.frames)
             for side in (+1, -1)
         ]
-        self.bound = False
-
-    # ------------------------------------------------------------------ fluid set-up
-    @property
-    def names(self) -> list[str]:
-        return [f.name for f in self.frames]
-
-    @staticmethod
-    def patch_name(member: str, side: int) -> str:
-        return f"{member}{'+' if side > 0 else '-'}"
-
-    def inside(self, points: np.ndarray) -> np.ndarray:
-        """Fluid lattice points the plates occupy (or closer than FACE_MARGIN l0 to a face)."""
-        mask = np.zeros(len(points), dtype=bool)
-        for f in self.frames:
-            mask |= f.inside(points, FACE_MARGIN * self.l0)
-        return mask
-
-    def patches(self) -> list[ExternalPatch]:
-        """External patches for :class:`~mpsfem.fluid_mps.solver.FluidSolver`, one per side."""
-        return [
-            ExternalPatch(
-                self.patch_name(self.frames[sl.member].name, sl.side),
-                sl.pos,
-                sl.kind,
-                sl.normal,
-                self.inside if j == 0 else None,
-            )
-            for j, sl in enumerate(self.sides)
-        ]
-
-    def bind(self, solver) -> None:
-        """Record where the patches landed in ``solver``'s particle arrays and build the index
-        arrays of the motion and force maps."""
-        starts = []
-        for sl in self.sides:
-            pt = solver.patch(self.patch_name(self.frames[sl.member].name, sl.side))
-            if pt.stop - pt.start != len(sl.pos):
-                raise RuntimeError("structure patch size mismatch")
-            starts.append(pt.start)
-        self.n_particles = solver.n
-        glob = [st + np.arange(len(sl.pos)) for st, sl in zip(starts, self.sides, strict=True)]
-        self.index = np.concatenate(glob)
-        self.ref = np.concatenate([sl.pos for sl in self.sides])
-        kind = np.concatenate([sl.kind for sl in self.sides])
-        press = kind == STRUCTURE
-        self.interface_local = np.flatnonzero(press)
-        self.interface_index = self.index[press]
-        self.interface_normals = np.concatenate([sl.normal for sl in self.sides])[press]
-        self.interface_area = np.concatenate([sl.area for sl in self.sides])[press]
-        self.interface_member = np.concatenate(
-            [np.full(len(sl.pos), sl.member) for sl in self.sides]
-        )[press]
-        offs = np.cumsum([0] + [len(sl.pos) for sl in self.sides])
-        # per member: the face pressure particle of every column, side +1 and -1 (local indices)
-        self.col_plus, self.col_minus = [], []
-        for m in range(len(self.frames)):
-            plus, minus = self.sides[2 * m], self.sides[2 * m + 1]
-            self.col_plus.append(offs[2 * m] + np.flatnonzero(plus.row == 0))
-            self.col_minus.append(offs[2 * m + 1] + np.flatnonzero(minus.row == 0))
-        loc_of_if = np.full(len(self.ref), -1, dtype=np.int64)
-        loc_of_if[self.interface_local] = np.arange(self.interface_local.size)
-        src, dn, col, mem = [], [], [], []
-        for j, sl in enumerate(self.sides):
-            face = offs[j] + np.flatnonzero(sl.row == 0)
-            src.append(face[sl.column])
-            dn.append(sl.eta - sl.eta[sl.row == 0][sl.column])
-            col.append(sl.column)
-            mem.append(np.full(len(sl.pos), sl.member))
-        self.follow = np.concatenate(src)
-        self.offset = np.concatenate(dn)
-        self.column = np.concatenate(col)
-        self.member_of_local = np.concatenate(mem)
-        self.is_interface = loc_of_if >= 0
-        # per member: its dummies' local indices, columns, offsets and followed face particles
-        self._dummies = []
-        for m in range(len(self.frames)):
-            sel = np.flatnonzero((self.member_of_local == m) & ~self.is_interface)
-            self._dummies.append((sel, self.column[sel], self.offset[sel], self.follow[sel]))
-        self._u = np.zeros_like(self.ref)
-        self._v = np.zeros_like(self.ref)
-        self.patch_ranges = [
-            (self.patch_name(self.frames[sl.member].name, sl.side), slice(o, o + len(sl.pos)))
-            for sl, o in zip(self.sides, offs[:-1], strict=True)
-        ]
-        self.member_of = np.full(solver.n, -1, dtype=np.int32)
-        self.side_of = np.zeros(solver.n, dtype=np.int8)
-        self.half = np.zeros(solver.n, dtype=np.int8)
-        for st, sl in zip(starts, self.sides, strict=True):
-            self.member_of[st : st + len(sl.pos)] = sl.member
-            self.side_of[st : st + len(sl.pos)] = sl.side
-            self.half[st : st + len(sl.pos)] = body_half(sl.side, sl.eta, self.l0)
-        self.bound = True
-
-    # ------------------------------------------------------------------ coupler view
-    def interface_mesh(self) -> InterfaceMesh:
-        """The fluid's interface points: pressure-layer particles, reference configuration."""
-        return InterfaceMesh(self.ref[self.interface_local], self.interface_normals)
-
-    @property
-    def n_interface(self) -> int:
-        return int(self.interface_local.size)
 
     # ------------------------------------------------------------------ motion
     def _slopes(self, m: int, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -432,27 +330,11 @@ class PlateSurface:
             sel, c, d, fol = self._dummies[m]
             out[sel] = out[fol] - d[:, None] * (g1[c, None] * f.t1 + g2[c, None] * f.t2)
 
-    def place(self, solver, displacement: np.ndarray, velocity: np.ndarray) -> None:
-        """Put every structure particle at ``ref + u`` with velocity ``v`` for the end of the
-        solver's next step; ``displacement``, ``velocity``: (n_interface, 3) at the interface
-        points (m, m/s)."""
-        self._rigid_link(displacement, self._u)
-        self._rigid_link(velocity, self._v)
-        pos = self.ref + self._u
-        for name, sl in self.patch_ranges:
-            solver.set_patch_state(name, pos[sl], self._v[sl])
+    def anchors(self, pos: np.ndarray):
+        """The 2D filter's mid-line polylines do not exist for plates: use :meth:`mid_surface`."""
+        raise NotImplementedError("plates give their mid-surface as mid_surface(pos)")
 
-    # ------------------------------------------------------------------ forces
-    def forces(self, p: np.ndarray) -> np.ndarray:
-        """F_i = -p_i A_i n_i at the interface points (N): fluid on structure."""
-        return -p[self.interface_index, None] * self.interface_area
-
-    def member_force(self, p: np.ndarray, member: str) -> np.ndarray:
-        """Total fluid force on a member, both faces summed (N)."""
-        m = self.names.index(member)
-        return self.forces(p)[self.interface_member == m].sum(axis=0)
-
-    # ------------------------------------------------------------------ thin-member filter
+    # ------------------------------------------------------------------ thin-plate filter
     def mid_surface(self, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The current mid-surfaces as height fields over the reference rectangles, for
         :class:`~mpsfem.fluid_mps.thin_plate.ThinPlateFilter`.

@@ -262,12 +262,8 @@ class StructureSurface:
         names: Sequence[str] | None = None,
         free_ends: Sequence[tuple[bool, bool]] | None = None,
     ) -> None:
-        mesh = as_interface_mesh(interface)
-        self.structure_mesh = mesh
-        self.l0 = l0 = float(fluid.spacing)
-        k = fluid.kernel
-        max_re = max(k.re_density, k.re_gradient, k.re_laplacian, k.re_pressure)
-        self.layers = fluid.dummy_layers + 1 if fluid.dummy_layers else default_dummy_layers(max_re)
+        mesh = self._setup(interface, fluid)
+        l0 = self.l0
         self.frames: list[MemberFrame] = []
         for i, (name, chain, T) in enumerate(members_from_interface(mesh, names)):
             p0, p1 = mesh.points[chain[0]], mesh.points[chain[-1]]
@@ -291,6 +287,17 @@ class StructureSurface:
             for side in (+1, -1)
         ]
         self.bound = False
+
+    def _setup(self, interface, fluid: FluidSection) -> InterfaceMesh:
+        """Common set-up: the mesh, l0 and the layer count (enough for the largest kernel)."""
+        mesh = as_interface_mesh(interface)
+        self.structure_mesh = mesh
+        self.l0 = float(fluid.spacing)
+        k = fluid.kernel
+        max_re = max(k.re_density, k.re_gradient, k.re_laplacian, k.re_pressure)
+        self.layers = fluid.dummy_layers + 1 if fluid.dummy_layers else default_dummy_layers(max_re)
+        self.bound = False
+        return mesh
 
     # ------------------------------------------------------------------ fluid set-up
     @property
@@ -347,12 +354,11 @@ class StructureSurface:
         )[press]
         # per member: columns' face pressure particles of side +1 and -1 (local indices)
         offs = np.cumsum([0] + [len(sl.pos) for sl in self.sides])
-        self.col_plus, self.col_minus, self.spacing_s = [], [], []
-        for m, f in enumerate(self.frames):
+        self.col_plus, self.col_minus = [], []
+        for m in range(len(self.frames)):
             plus, minus = self.sides[2 * m], self.sides[2 * m + 1]
             self.col_plus.append(offs[2 * m] + np.flatnonzero(plus.row == 0))
             self.col_minus.append(offs[2 * m + 1] + np.flatnonzero(minus.row == 0))
-            self.spacing_s.append(f.length / len(self.col_plus[-1]))
         # position of each structure particle within its column: the face particle it follows
         loc_of_if = np.full(len(self.ref), -1, dtype=np.int64)
         loc_of_if[self.interface_local] = np.arange(self.interface_local.size)
@@ -367,7 +373,6 @@ class StructureSurface:
         self.offset = np.concatenate(dn)  # eta offset from it (m)
         self.column = np.concatenate(col)
         self.member_of_local = np.concatenate(mem)
-        self.normal_of_local = np.stack([self.frames[m].normal for m in self.member_of_local])
         self.is_interface = loc_of_if >= 0
         # per member: its dummies' local indices, columns, offsets and followed face particles
         self._dummies = []
@@ -410,7 +415,8 @@ class StructureSurface:
         for m, f in enumerate(self.frames):
             mid = 0.5 * (out[self.col_plus[m]] + out[self.col_minus[m]])
             w = mid @ f.normal
-            theta = np.gradient(w, self.spacing_s[m]) if w.size > 1 else np.zeros_like(w)
+            h = f.length / len(self.col_plus[m])  # column spacing (m)
+            theta = np.gradient(w, h) if w.size > 1 else np.zeros_like(w)
             sel, col, off, fol = self._dummies[m]
             rot = theta[col] * off  # theta * d_eta
             # z x (d_eta n) = d_eta (-n_y, n_x)

@@ -157,19 +157,29 @@ def _member_sees(c, side_i):
     return c == 0 or c == 2 or c == -2 or _sign(c) == side_i
 
 
-@njit(cache=True)
-def _allowed(i, j, pos, kind, member_of, side_of, half, side, anchors, aptr):
-    """May row i keep neighbour j? (rules of the module docstring)"""
+@njit(cache=True, inline="always")
+def rules_1_2(i, j, kind, member_of, side_of, half, side):
+    """Rules 1 and 2 of the module docstring for the pair (row i, neighbour j): 1 keep, 0 drop,
+    -1 both are fluid particles (rule 3 decides)."""
     mi = member_of[i]
     mj = member_of[j]
     if mi >= 0 and mj >= 0:
-        return not (mi == mj and side_of[i] != side_of[j])  # rule 1
+        return 0 if (mi == mj and side_of[i] != side_of[j]) else 1  # rule 1
     if mi >= 0:
-        return kind[j] != 0 or _member_sees(side[j, mi], side_of[i])
+        return 1 if (kind[j] != 0 or _member_sees(side[j, mi], side_of[i])) else 0
     if mj >= 0:
-        return kind[i] != 0 or _fluid_sees(side[i, mj], side_of[j], half[j])
+        return 1 if (kind[i] != 0 or _fluid_sees(side[i, mj], side_of[j], half[j])) else 0
     if kind[i] != 0 or kind[j] != 0:
-        return True
+        return 1
+    return -1
+
+
+@njit(cache=True)
+def _allowed(i, j, pos, kind, member_of, side_of, half, side, anchors, aptr):
+    """May row i keep neighbour j? (rules of the module docstring)"""
+    r = rules_1_2(i, j, kind, member_of, side_of, half, side)
+    if r >= 0:
+        return r == 1
     for m in range(side.shape[1]):  # rule 3
         si = side[i, m]
         sj = side[j, m]

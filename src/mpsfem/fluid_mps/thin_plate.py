@@ -31,10 +31,9 @@ from mpsfem.fluid_mps.neighbours import NeighbourList
 from mpsfem.fluid_mps.thin_member import (
     HEADROOM,
     ThinMemberFilter,
-    _fluid_sees,
-    _member_sees,
     _sign,
     compact,
+    rules_1_2,
 )
 
 __all__ = ["ThinPlateFilter", "classify_plate_sides", "segment_crosses_plate"]
@@ -142,16 +141,9 @@ def segment_crosses_plate(a, b, m, frame, size, grid, hptr, heights):
 @njit(cache=True)
 def _allowed(i, j, pos, kind, member_of, side_of, half, side, frame, size, grid, hptr, heights):
     """May row i keep neighbour j? (rules of thin_member's docstring, plate crossing test)"""
-    mi = member_of[i]
-    mj = member_of[j]
-    if mi >= 0 and mj >= 0:
-        return not (mi == mj and side_of[i] != side_of[j])  # rule 1
-    if mi >= 0:
-        return kind[j] != 0 or _member_sees(side[j, mi], side_of[i])
-    if mj >= 0:
-        return kind[i] != 0 or _fluid_sees(side[i, mj], side_of[j], half[j])
-    if kind[i] != 0 or kind[j] != 0:
-        return True
+    r = rules_1_2(i, j, kind, member_of, side_of, half, side)
+    if r >= 0:
+        return r == 1
     for m in range(side.shape[1]):  # rule 3
         si = side[i, m]
         sj = side[j, m]
