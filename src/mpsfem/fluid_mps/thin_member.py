@@ -296,14 +296,23 @@ class ThinMemberFilter:
         finally:
             self.seconds += time.perf_counter() - tic
 
+    #: the numba kernels of the member geometry: classify(pos, *geometry, reach, side) and
+    #: mark(pos, kind, indptr, indices, member_of, side_of, half, side, *geometry, keep, drops)
+    _classify = staticmethod(classify_sides)
+    _mark = staticmethod(mark_pairs)
+
+    def _geometry(self, pos: np.ndarray) -> tuple:
+        """The members' current geometry for the kernels: the mid-line polylines."""
+        return self.surface.anchors(pos)
+
     def _filter(self, nb: NeighbourList, pos: np.ndarray, kind: np.ndarray) -> NeighbourList:
-        anchors, aptr = self.surface.anchors(pos)
+        geometry = self._geometry(pos)
         reach = nb.radius + self._extra + self.surface.l0
-        classify_sides(pos, anchors, aptr, reach, self._side)
+        self._classify(pos, *geometry, reach, self._side)
         nnz = nb.indices.shape[0]
         if self._keep.shape[0] < nnz:
             self._keep = np.zeros(int(nnz * HEADROOM) + 16, dtype=np.int8)
-        total = mark_pairs(
+        total = self._mark(
             pos,
             kind,
             nb.indptr,
@@ -312,8 +321,7 @@ class ThinMemberFilter:
             self.side_of,
             self.half,
             self._side,
-            anchors,
-            aptr,
+            *geometry,
             self._keep,
             self._drops,
         )

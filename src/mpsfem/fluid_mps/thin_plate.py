@@ -27,12 +27,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from mpsfem.fluid_mps.neighbours import NeighbourList
 from mpsfem.fluid_mps.thin_member import (
-    HEADROOM,
     ThinMemberFilter,
     _sign,
-    compact,
     rules_1_2,
 )
 
@@ -175,7 +172,9 @@ def mark_plate_pairs(
     drops,
 ):
     """keep[q] = 1 for pairs that stay, 0 for pairs through a plate; drops[i] = pairs dropped
-    from row i. Returns the total."""
+    from row i. Returns the total. The loop of :func:`~mpsfem.fluid_mps.thin_member.mark_pairs`
+    with the plate's crossing test: kept as its own kernel so numba compiles the crossing test
+    inline (a function argument would cost a call per pair and defeat caching)."""
     n = indptr.shape[0] - 1
     nm = side.shape[1]
     for i in prange(n):
@@ -217,29 +216,10 @@ class ThinPlateFilter(ThinMemberFilter):
         self._frame = np.array([[f.origin, f.t1, f.t2, f.normal] for f in s.frames])
         self._size = np.array([f.size for f in s.frames], dtype=np.float64)
 
-    def _filter(self, nb: NeighbourList, pos: np.ndarray, kind: np.ndarray) -> NeighbourList:
+    _classify = staticmethod(classify_plate_sides)
+    _mark = staticmethod(mark_plate_pairs)
+
+    def _geometry(self, pos: np.ndarray) -> tuple:
+        """The plates' frames, sizes and current mid-surface height fields."""
         heights, hptr, grid = self.surface.mid_surface(pos)
-        reach = nb.radius + self._extra + self.surface.l0
-        args = (self._frame, self._size, grid, hptr, heights)
-        classify_plate_sides(pos, *args, reach, self._side)
-        nnz = nb.indices.shape[0]
-        if self._keep.shape[0] < nnz:
-            self._keep = np.zeros(int(nnz * HEADROOM) + 16, dtype=np.int8)
-        total = mark_plate_pairs(
-            pos,
-            kind,
-            nb.indptr,
-            nb.indices,
-            self.member_of,
-            self.side_of,
-            self.half,
-            self._side,
-            *args,
-            self._keep,
-            self._drops,
-        )
-        self.dropped = int(total)
-        if total == 0:
-            return nb
-        w = compact(nb.indptr, nb.indices, self._keep, self._drops)
-        return NeighbourList(nb.indptr, nb.indices[:w], nb.radius)
+        return self._frame, self._size, grid, hptr, heights
