@@ -22,6 +22,7 @@ import numpy as np
 from mpsfem.coupler.coupling_scheme import create_scheme
 from mpsfem.coupler.errors import CouplingError, PeerError, PeerLostError
 from mpsfem.coupler.launch import connect_structure, participant_role, spawn_structure
+from mpsfem.coupler.mapping.shape_function import project
 from mpsfem.coupler.participant import InterfaceMesh, as_interface_mesh
 from mpsfem.coupler.time_window import TIME_EPS
 from mpsfem.fluid_mps.participant import FluidParticipant
@@ -232,8 +233,9 @@ def coupling_config(scenario, transport: str | None = None):
 
 def member_nodes(scenario) -> list[tuple[str, slice | None]]:
     """(member name, its slice of the structure's interface points), in scenario order (the
-    structure participant concatenates the members' nodes in that order). Plates get None: their
-    node counts come from the interface mesh (:func:`plate_member_nodes`). Only rectangular
+    structure participant concatenates the members' nodes in that order), to check the
+    structure's interface against the scenario. Plates get None: their meshes' node counts are
+    the structure's business, and the fluid splits plates by their cells. Only rectangular
     plates are laid out in the fluid; a polygonal one is refused here, before any compute."""
     out, start = [], 0
     for m in scenario.structure.members:
@@ -251,51 +253,26 @@ def member_nodes(scenario) -> list[tuple[str, slice | None]]:
     return out
 
 
-def plate_member_nodes(fluid) -> list[tuple[str, slice]]:
-    """(member name, slice of interface points) of the plates the fluid participant laid."""
-    return [(f.name, f.nodes) for f in fluid.surface.frames]
-
-
-class PlateDisplacementProbe:
-    """Displacement of a plate point: the member's own interpolation (bilinear on a quad, linear
-    on a triangle) of its nodal displacements at the projection of ``position`` on its reference
-    mid-surface, m."""
+class DisplacementProbe:
+    """Displacement of a structure point (m): the member's linear interpolation of its nodal
+    displacements (along a beam segment, bilinear on a plate quad, linear on a triangle) at the
+    projection of ``position`` on its reference mid-line / mid-surface (the coupler's
+    shape-function projection; the end node beyond a beam's end)."""
 
     def __init__(self, probe, mesh, nodes: slice) -> None:
-        from mpsfem.coupler.mapping.shape_function import project
-
         self.probe = probe
         m = as_interface_mesh(mesh)
         cells = {
             k: c[(c >= nodes.start).all(axis=1) & (c < nodes.stop).all(axis=1)]
             for k, c in m.cells.items()
         }
-        sub = InterfaceMesh(m.points, m.normals, cells)
+        member = InterfaceMesh(m.points, m.normals, cells)
         x = np.asarray([probe.position], dtype=np.float64)
-        _, idx, N, _, _ = project(x, sub, math.inf)
+        _, idx, N, _, _ = project(x, member, math.inf)
         self.nodes, self.N = idx[0], N[0]
 
     def value(self, displacement: np.ndarray) -> np.ndarray:
         return self.N @ displacement[self.nodes]
-
-
-class DisplacementProbe:
-    """Displacement of a structure point: linear interpolation of the member's nodal
-    displacements at the projection of ``position`` on its reference centre line (exact at a
-    node, the end node beyond an end), m."""
-
-    def __init__(self, probe, nodes: np.ndarray, offset: int) -> None:
-        self.probe = probe
-        x = np.asarray(probe.position, dtype=np.float64)
-        a, b = nodes[:-1], nodes[1:]
-        e = b - a
-        u = np.clip(np.einsum("kd,kd->k", x - a, e) / np.einsum("kd,kd->k", e, e), 0.0, 1.0)
-        d = np.linalg.norm(a + u[:, None] * e - x, axis=1)
-        k = int(np.argmin(d))
-        self.i0, self.i1, self.w = offset + k, offset + k + 1, float(u[k])
-
-    def value(self, displacement: np.ndarray) -> np.ndarray:
-        return (1.0 - self.w) * displacement[self.i0] + self.w * displacement[self.i1]
 
 
 def _split_state(state: dict) -> tuple[dict[str, np.ndarray], dict]:
@@ -421,17 +398,16 @@ def _fluid_side(
     try:
         mesh = structure.interface()
         n_nodes = int(np.asarray(mesh.points).shape[0])
-        plates = members[-1][1] is None
-        if not plates and members[-1][1].stop != n_nodes:
+        expected = members[-1][1]
+        if expected is not None and expected.stop != n_nodes:
             raise ValueError(
                 f"the structure interface has {n_nodes} points, the scenario's members "
-                f"{[m for m, _ in members]} give {members[-1][1].stop}"
+                f"{[m for m, _ in members]} give {expected.stop}"
             )
         fluid = FluidParticipant(
             sc.fluid, mesh, base_dir=loaded.path.parent, member_names=[m for m, _ in members]
         )
-        if plates:
-            members = plate_member_nodes(fluid)
+        members = [(f.name, f.nodes) for f in fluid.surface.frames]
         scheme = create_scheme(fluid, structure, config, log=log)
         scheme.initialize()
     except BaseException:
@@ -450,11 +426,7 @@ def _fluid_side(
     ]
     member_energy = [p for p in sc.probes if p.kind == "energy" and p.target in slices]
     disp = [
-        PlateDisplacementProbe(p, mesh, slices[p.target])
-        if solver.dim == 3
-        else DisplacementProbe(p, nodes[p.target], slices[p.target].start)
-        for p in sc.probes
-        if p.kind == "displacement"
+        DisplacementProbe(p, mesh, slices[p.target]) for p in sc.probes if p.kind == "displacement"
     ]
     every = list(probes) + member_energy + [d.probe for d in disp]
     interval = {

@@ -12,8 +12,8 @@ Data (SI; 2D forces per unit width, 3D forces in N):
   reference configuration, normals out of the structure (``cells`` empty: a point cloud);
 * written: ``"displacement"`` (m) and ``"velocity"`` (m/s) at those points, the values for the
   end of the next ``advance``; dummies follow by the rigid link of their column;
-* read: ``"forces"``, F_i = -p_i A_i n_i (N; N/m in 2D), the force of the fluid on the structure at each
-  interface point after the last step (zero on dry particles).
+* read: ``"forces"``, F_i = -p_i A_i n_i (N; N/m in 2D), the force of the fluid on the
+  structure at each interface point after the last step (zero on dry particles).
 
 ``advance(dt)`` places the structure particles (``FluidSolver.set_patch_state``) and takes one
 MPS step of exactly ``dt``; ``max_dt()`` is the solver's next stable step. ``checkpoint()`` /

@@ -169,11 +169,10 @@ def plates_from_interface(mesh, names: Sequence[str] | None = None) -> list[dict
                 e = e - (e @ normal) * normal
                 t1 = e / np.linalg.norm(e)
                 t2 = np.cross(normal, t1)
-                s = np.c_[(pts - pts[0]) @ t1, (pts - pts[0]) @ t2]
-                box = np.ptp(s, axis=0)
+                box = np.ptp(np.c_[(pts - pts[0]) @ t1, (pts - pts[0]) @ t2], axis=0)
                 if best is None or box.prod() < best[0] - 1e-12 * span**2:
-                    best = (float(box.prod()), t1, t2, s.min(axis=0), box)
-        box_area, t1, t2, smin, box = best
+                    best = (float(box.prod()), t1, t2, box)
+        box_area, t1, t2, box = best
         if abs(area - box_area) > 1e-9 * box_area:
             raise ValueError(
                 f"member {name!r}: the fluid participant lays rectangular plates only (its cells "
@@ -304,6 +303,9 @@ class PlateSurface(StructureSurface):
                 free = tuple(wall_clearance(q, fluid) > l0 for q in frame.edge_midpoints())
             self.frames.append(replace(frame, free=free))
         self.grids = [column_grid(f, l0) for f in self.frames]
+        # the height fields' layout (mid_surface): (n1 + 2) x (n2 + 2) nodes per member
+        self._grid = np.array([g[:2] for g in self.grids], dtype=np.int64)
+        self._hptr = np.concatenate([[0], np.cumsum((self._grid + 2).prod(axis=1))])
         self.sides = [
             lay_plate_side(f, i, side, l0, self.layers)
             for i, f in enumerate(self.frames)
@@ -343,17 +345,13 @@ class PlateSurface(StructureSurface):
         pressure particles) on the (n1 + 2) x (n2 + 2) node grid s = 0, h/2, 3h/2, ..., L
         (edge rows extrapolated linearly). Returns (heights (sum of grid sizes,) m,
         pointer (members + 1,), grid (members, 2) = (n1, n2))."""
-        out, ptr = [], [0]
+        out = []
         for m, f in enumerate(self.frames):
             n1, n2, _, _ = self.grids[m]
             mid = 0.5 * (pos[self.index[self.col_plus[m]]] + pos[self.index[self.col_minus[m]]])
             g = ((mid - f.origin) @ f.normal).reshape(n1, n2)
-            g = _extend(g, 0)
-            g = _extend(g, 1)
-            out.append(g.ravel())
-            ptr.append(ptr[-1] + g.size)
-        grid = np.array([g[:2] for g in self.grids], dtype=np.int64)
-        return np.ascontiguousarray(np.concatenate(out)), np.array(ptr, dtype=np.int64), grid
+            out.append(_extend(_extend(g, 0), 1).ravel())
+        return np.concatenate(out), self._hptr, self._grid
 
 
 def _extend(g: np.ndarray, axis: int) -> np.ndarray:

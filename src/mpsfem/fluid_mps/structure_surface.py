@@ -286,7 +286,6 @@ class StructureSurface:
             for i, f in enumerate(self.frames)
             for side in (+1, -1)
         ]
-        self.bound = False
 
     def _setup(self, interface, fluid: FluidSection) -> InterfaceMesh:
         """Common set-up: the mesh, l0 and the layer count (enough for the largest kernel)."""

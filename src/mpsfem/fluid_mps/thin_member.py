@@ -13,9 +13,9 @@ the pairs that would act through a member, in place:
    the body once: each side's particles on its own half of the body, and its own side's row
    nearest the mid-line when that row lies on the mid-line or less than half a spacing past it
    (:func:`body_half`; a member thinner than l0 has no row on its own half, and its tip would
-   otherwise be invisible from beyond the end). The member particles' own rows keep all fluid beyond the end (a pressure
-   particle at the end then has a full neighbourhood and is not taken for a dry, free-surface
-   one); this is the only place where the list is not symmetric;
+   otherwise be invisible from beyond the end). The member particles' own rows keep all fluid
+   beyond the end (a pressure particle at the end then has a full neighbourhood and is not
+   taken for a dry, free-surface one); this is the only place where the list is not symmetric;
 3. two fluid particles whose connecting segment crosses a member's mid-line: both beside the
    member on opposite sides, or, near an end, a segment that intersects the mid-line polyline.
 

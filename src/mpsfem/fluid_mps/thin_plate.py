@@ -15,9 +15,9 @@ an edge the surface is continued flat at the edge's height; the 2D filter contin
 segment's slope: the two differ by the distance past the edge times the edge slope, a small
 fraction of l0 for the small slopes of a Kirchhoff plate within the kernel radius). The rule-3
 test for a pair beyond an edge clips the segment to the rectangle in plane and drops the pair if
-eta - eta_mid changes sign over the clipped part (the crossing is on the rectangle). In-plane coordinates
-are those of the reference configuration: a Kirchhoff plate has no membrane displacement, and its
-faces' in-plane rotation terms cancel in the column mid-points.
+eta - eta_mid changes sign over the clipped part (the crossing is on the rectangle). In-plane
+coordinates are those of the reference configuration: a Kirchhoff plate has no membrane
+displacement, and its faces' in-plane rotation terms cancel in the column mid-points.
 
 Rows keep their ascending order (bit-identical for any thread count).
 """
