@@ -88,3 +88,20 @@ def test_within_filters_the_last_build(rng):
         np.testing.assert_array_equal(small.indices[small.indptr[i] : small.indptr[i + 1]], ref[i])
     with pytest.raises(ValueError, match="exceeds"):
         search.within(pos, 2.0)
+
+
+def test_long_rows_match_brute_force(rng):
+    """3D rows at the Laplacian radius 4.01 l0 hold ~270 neighbours, above LONG_ROW: they take
+    the quicksort branch and must still be the brute-force rows, ascending."""
+    from mpsfem.fluid_mps.neighbours import LONG_ROW
+
+    g = np.arange(12, dtype=np.float64)
+    pos = np.stack(np.meshgrid(g, g, g, indexing="ij"), axis=-1).reshape(-1, 3)
+    pos += rng.uniform(-0.2, 0.2, size=pos.shape)
+    pos = pos[rng.permutation(len(pos))]  # indices unrelated to the cell order
+    nl = NeighbourSearch(3, 4.01).build(pos)
+    ref = brute_force_neighbours(pos, 4.01)
+    lengths = np.diff(nl.indptr)
+    assert lengths.max() > LONG_ROW and lengths.min() < LONG_ROW  # both branches run
+    for i in range(len(pos)):
+        np.testing.assert_array_equal(nl.indices[nl.indptr[i] : nl.indptr[i + 1]], ref[i])
