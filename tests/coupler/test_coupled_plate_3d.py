@@ -57,3 +57,16 @@ def test_windows_converge_and_results_are_3d(run):
     assert w.shape == (WINDOWS + 1, 3) and t[-1] == pytest.approx(WINDOWS * 2e-4)
     # the plate starts to sag under the water: only the normal component moves
     assert w[-1, 2] < 0.0 and np.abs(w[:, :2]).max() == 0.0
+
+
+def test_polygonal_plate_is_refused_before_any_compute(tmp_path):
+    member = (
+        'structure.members.0={name = "plate", type = "plate", element = "morley", '
+        'origin = [0.0, 0.0, -0.005], shape = "polygon", outline = [[0, 0], [0.2, 0], [0.1, 0.2]], '
+        'mesh_size = 0.05, bc = "clamped", thickness = 0.01, '
+        "material = {youngs_modulus = 1e9, poisson_ratio = 0.3, density = 1200.0}}"
+    )
+    out = tmp_path / "poly.h5"
+    with pytest.raises(ValueError, match=r"'plate': shape = 'polygon'.*shape = \"rectangle\""):
+        run_coupled(load_scenario(SCENE, [member]), out, 2e-4, progress=False, log=lambda m: None)
+    assert not out.exists()
