@@ -214,16 +214,17 @@ def reflection(
     t_crest: float,
     x_gauge: float,
     still: float,
+    sponge_start: float = SPONGE_START,
 ) -> tuple[float, tuple[float, float]]:
     """Largest |eta - still| at an upstream gauge x_g after the incident wave has passed and
     before a wave reflected by the paddle could arrive, as a fraction of A; and that window (s).
     eta is the record's running mean over 0.11 s (11 samples at 0.01 s), which removes most of
-    the surface particles' noise and changes a reflected wave as long as the incident one by
-    < 1 %.
+    the surface particles' noise and lowers the peak of a pulse as long as the incident wave by
+    (k c 0.055 s)^2 / 3 = 1.3-3.2 % (A/H = 0.2-0.5).
 
     Window: from t_c + P, P = 3.8 / (k c) (the incident first-order wave is below
     sech^2(3.8) = 0.2 % of A after it), to t_c + (x_s - x_g) / c + (x_s - S + x_g - S) / c0 - P:
-    the crest of a wave reflected at the sponge's inner edge x_s = 2.0 m and again at the paddle
+    the crest of a wave reflected at the sponge's inner edge x_s (2.0 m in the thesis's tank) and again at the paddle
     (at rest at x = S after its stroke) reaches x_g at t_c + (x_s - x_g) / c + ..., and its front
     P earlier (c = sqrt(g (H + A)) to the sponge, c0 = sqrt(g H) back); cut at the end of the
     record. In between pass the crest reflected at the sponge's inner edge (t_c + (x_s - x_g)
@@ -235,7 +236,7 @@ def reflection(
     stroke = math.tanh(GORING_HALF_SPAN) * math.sqrt(16.0 * wave.amplitude * wave.depth / 3.0)
     p = wave.passage_time
     t_start = t_crest + p
-    t_back = t_crest + (SPONGE_START - x_gauge) / c + (SPONGE_START + x_gauge - 2.0 * stroke) / c0
+    t_back = t_crest + (sponge_start - x_gauge) / c + (sponge_start + x_gauge - 2.0 * stroke) / c0
     t_stop = min(t_back - p, float(t[-1]))
     smooth = running_mean(eta, 11)
     sel = (t >= t_start) & (t <= t_stop) & np.isfinite(smooth)
@@ -254,6 +255,150 @@ def closed_tank_setup(wave: SolitaryWave, tank_end: float = TANK_END) -> float:
     can make the reflection metric smaller."""
     travel = math.tanh(GORING_HALF_SPAN) * math.sqrt(16.0 * wave.amplitude * wave.depth / 3.0)
     return travel * wave.depth / (tank_end - travel)
+
+
+def long_wave_sponge_record(
+    wave: SolitaryWave,
+    alpha_s: float,
+    sponge_start: float = SPONGE_START,
+    tank_end: float = TANK_END,
+    x_gauge: float = REFLECTION_GAUGE,
+    dx: float = 0.0025,
+    end_time: float | None = None,
+    sample: float = 0.01,
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """What a gauge at x_gauge records in a 1D model of the tank's sponge: linear long waves,
+    eta_t + H u_x = 0, u_t + g eta_x = -alpha(x) u with alpha = alpha_s (x - x_s) / L_s in the
+    zone (thesis eq. 3-9, the same velocity damping as the MPS sponge), a reflecting end wall
+    at tank_end. The incident wave is the first-order profile A sech^2(k (x - x_0)) with the
+    right-going velocity u = sqrt(g / H) eta, started upstream of the gauge; the upstream end
+    lets left-going waves out (u = -sqrt(g / H) eta), so nothing comes back from there (the
+    MPS analysis window closes before the paddle's re-reflection arrives, see :func:`reflection`).
+    Staggered grid, forward-backward in time, dt = 0.4 dx / sqrt(g H), damping implicit. The model has no dispersion and no nonlinearity: it estimates what a velocity
+    sponge in a closed tank sends back, not the wave's shape.
+
+    Returns (t (s), eta (m) sampled every ``sample`` s, t_crest (s) of the incident wave at the
+    gauge)."""
+    h, g = wave.depth, wave.gravity
+    c0 = math.sqrt(g * h)
+    half = GORING_HALF_SPAN / wave.k
+    x_left = x_gauge - 3.0 * half  # crest starts 2 half-lengths upstream of the gauge
+    x0 = x_gauge - 2.0 * half
+    n = int(round((tank_end - x_left) / dx))
+    dx = (tank_end - x_left) / n
+    xc = x_left + (np.arange(n) + 0.5) * dx  # eta at cell centres
+    xf = x_left + np.arange(n + 1) * dx  # u at faces; face n is the end wall
+    eta = wave.amplitude / np.cosh(wave.k * (xc - x0)) ** 2
+    u = c0 / h * wave.amplitude / np.cosh(wave.k * (xf - x0)) ** 2
+    u[-1] = 0.0
+    length = tank_end - sponge_start
+    rate = np.where(xf > sponge_start, alpha_s * (xf - sponge_start) / length, 0.0)
+    dt = 0.4 * dx / c0
+    if end_time is None:  # the incident crest at the wall and back past the gauge, plus its length
+        end_time = (tank_end - x0) / c0 + (tank_end - x_gauge) / c0 + 4.0 * half / c0
+    steps = int(math.ceil(end_time / dt))
+    every = max(1, int(round(sample / dt)))
+    i_gauge = int(np.searchsorted(xc, x_gauge))
+    w = (x_gauge - xc[i_gauge - 1]) / dx  # linear between the two cells around the gauge
+    t_out, eta_out = [], []
+    damp = 1.0 / (1.0 + dt * rate[1:-1])  # implicit in the damping: stable for any alpha_s
+    for step in range(steps + 1):
+        if step % every == 0:
+            t_out.append(step * dt)
+            eta_out.append((1.0 - w) * eta[i_gauge - 1] + w * eta[i_gauge])
+        eta -= dt * h * np.diff(u) / dx
+        u[1:-1] = (u[1:-1] - dt * g * np.diff(eta) / dx) * damp
+        u[0] = -math.sqrt(g / h) * eta[0]  # upstream end: left-going waves leave
+    t_arr, eta_arr = np.asarray(t_out), np.asarray(eta_out)
+    passing = t_arr < (x_gauge - x0 + half) / c0
+    t_crest = float(t_arr[passing][np.argmax(eta_arr[passing])])
+    return t_arr, eta_arr, t_crest
+
+
+def long_wave_sponge_reflection(
+    wave: SolitaryWave,
+    alpha_s: float,
+    sponge_start: float = SPONGE_START,
+    tank_end: float = TANK_END,
+    x_gauge: float = REFLECTION_GAUGE,
+) -> float:
+    """The :func:`reflection` metric (fraction of A) of the 1D long-wave model
+    (:func:`long_wave_sponge_record`): what the MPS tank's measurement would read if the sponge
+    acted as on linear long waves."""
+    t, eta, t_crest = long_wave_sponge_record(wave, alpha_s, sponge_start, tank_end, x_gauge)
+    return reflection(t, eta, wave, t_crest, x_gauge, 0.0, sponge_start)[0]
+
+
+def long_wave_return_peak(
+    wave: SolitaryWave,
+    alpha_s: float,
+    sponge_start: float,
+    tank_end: float,
+    x_gauge: float = REFLECTION_GAUGE,
+    horizon: float = 40.0,
+) -> tuple[float, float]:
+    """Everything the sponge and the end wall send back in the 1D long-wave model
+    (:func:`long_wave_sponge_record`), without a window: the largest |eta| at x_gauge (fraction
+    of A) from the incident wave's passage (t_c + 3.8 / (k c)) to ``horizon`` s, and when it
+    comes (s after t_c). In a closed tank the wave's volume 2 A / k must come back: it leaves
+    the model through its open upstream end, as a pulse whose height is that volume over its
+    duration times sqrt(g H). A sponge lowers the return only by spreading it in time."""
+    t, eta, t_crest = long_wave_sponge_record(
+        wave, alpha_s, sponge_start, tank_end, x_gauge, end_time=horizon, sample=0.02
+    )
+    sel = t > t_crest + wave.passage_time
+    i = int(np.argmax(np.abs(eta[sel])))
+    return float(np.abs(eta[sel][i]) / wave.amplitude), float(t[sel][i] - t_crest)
+
+
+SPONGE_SCAN_COLUMNS = (
+    "a_over_h",
+    "tank_end_m",
+    "sponge_start_m",
+    "alpha_s",
+    "window_reflection_pct",
+    "return_peak_pct",
+    "return_peak_after_s",
+    "closed_tank_setup_pct",
+)
+
+
+def sponge_scan(
+    ratios: tuple[float, ...] = (0.2, 0.5),
+    layouts: tuple[tuple[float, float], ...] = (
+        (2.5, 2.0),
+        (2.5, 1.6),
+        (4.0, 2.0),
+        (6.0, 2.0),
+        (10.0, 2.0),
+    ),
+    alphas: tuple[float, ...] = (1.0, 2.0, 4.0, 8.0, 16.0, 50.0),
+) -> list[dict]:
+    """The 1D long-wave model over sponge layouts (tank end, sponge start; m) and rates alpha_s
+    (1/s): the windowed metric of the MPS analysis (:func:`reflection`) and the whole return
+    (:func:`long_wave_return_peak`), both % of A, and the closed tank's set-up."""
+    rows = []
+    for tank_end, start in layouts:
+        for alpha in alphas:
+            for ratio in ratios:
+                wave = SolitaryWave(ratio * DEPTH)
+                peak, after = long_wave_return_peak(wave, alpha, start, tank_end)
+                rows.append(
+                    {
+                        "a_over_h": ratio,
+                        "tank_end_m": tank_end,
+                        "sponge_start_m": start,
+                        "alpha_s": alpha,
+                        "window_reflection_pct": 100.0
+                        * long_wave_sponge_reflection(wave, alpha, start, tank_end),
+                        "return_peak_pct": 100.0 * peak,
+                        "return_peak_after_s": after,
+                        "closed_tank_setup_pct": 100.0
+                        * closed_tank_setup(wave, tank_end)
+                        / wave.amplitude,
+                    }
+                )
+    return rows
 
 
 def still_level(t: np.ndarray, eta: np.ndarray, start_time: float) -> float:
@@ -323,7 +468,7 @@ def analyse(path: Path) -> CaseResult:
         wall = float(h5.attrs.get("wall_time", math.nan))
         gauges = {x: read_gauge(h5, x) for x in (*CREST_GAUGES, SPONGE_GAUGE)}
         snaps = h5["particles"]
-        n_fluid = int(np.count_nonzero(snaps[next(iter(snaps))]["kind"][:] == 0)) if snaps else -1
+        n_fluid = int(np.count_nonzero(snaps[next(iter(snaps))]["kind"][:] == 0)) if len(snaps) else -1
     crests = {
         x: crest(*gauges[x], wave, predicted_crest_time(wave, start, x)) for x in CREST_GAUGES
     }
@@ -332,7 +477,11 @@ def analyse(path: Path) -> CaseResult:
     speed = crest_speed(crests[SPEED_GAUGES[0]][0], crests[SPEED_GAUGES[1]][0], *SPEED_GAUGES)
     tr, er = gauges[REFLECTION_GAUGE]
     still = still_level(tr, er, start)
-    refl, window = reflection(tr, er, wave, crests[REFLECTION_GAUGE][0], REFLECTION_GAUGE, still)
+    sponges = fluid.get("sponges") or []
+    sponge_start = float(sponges[0]["start"]) if sponges else TANK_END
+    refl, window = reflection(
+        tr, er, wave, crests[REFLECTION_GAUGE][0], REFLECTION_GAUGE, still, sponge_start
+    )
     ts, es = gauges[SPONGE_GAUGE]
     sponge = float(np.nanmax(np.abs(running_mean(es, 11) - still_level(ts, es, start))))
 
@@ -494,7 +643,24 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--threads", type=int, default=1, help="numba threads per run (default 1)")
     ap.add_argument("--analyse-only", action="store_true", help="do not run, only analyse")
     ap.add_argument("--retry-failed", action="store_true", help="rerun failed cases")
+    ap.add_argument(
+        "--sponge-scan",
+        action="store_true",
+        help="only the 1D long-wave model of the sponge over zones and rates: "
+        "validation/results/sponge_long_wave_model.csv",
+    )
     args = ap.parse_args(argv)
+    if args.sponge_scan:
+        rows = sponge_scan()
+        out = RESULTS_DIR / "sponge_long_wave_model.csv"
+        with out.open("w") as f:
+            f.write(",".join(SPONGE_SCAN_COLUMNS) + "\n")
+            for row in rows:
+                f.write(",".join(f"{row[c]:.6g}" for c in SPONGE_SCAN_COLUMNS) + "\n")
+        for row in rows:
+            print(" ".join(f"{c}={row[c]:.4g}" for c in SPONGE_SCAN_COLUMNS))
+        print(f"wrote {out.relative_to(ROOT)}")
+        return 0
     l0 = float(args.l0)
     if not l0 > 0.0:
         ap.error(f"--l0 = {args.l0}: must be > 0")
