@@ -1,0 +1,224 @@
+"""2D dam break against Koshizuka & Oka (1996) and Martin & Moyce (1952): the surge front's
+resolution study (issue 2; references.md section 2).
+
+Runs scenarios/dam_break_2d.toml at l0 = L/20, L/40, L/80 for 0.27 s (T = t sqrt(2 g / L) up to
+3.1; each case an ``mpsfem run`` subprocess on NUMBA_NUM_THREADS threads, default 1, resumable
+like every study in validation/), then writes
+
+* docs/figures/dam_break_front_convergence.csv: per resolution the RMS relative error in Z over
+  0.5 <= T <= 3 against both experiments, the best time offset and the error with it, Z at
+  T = 1, 1.5, 2, 2.5, and the RMS difference to the next finer curve;
+* docs/figures/dam_break_front_convergence.png: Z(T) of the three runs with both experiments,
+  and the finest run shifted by its offset;
+
+and prints the table. Definitions: :func:`front_error`, :func:`time_offset`; discussion in
+docs/fluid.md ("Validation status").
+
+    python validation/dam_break.py [--threads 1] [--analyse-only] [--retry-failed]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import case_runner  # noqa: E402 - validation/case_runner.py: resumable runs of one case
+from case_runner import read_status  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIO = ROOT / "scenarios" / "dam_break_2d.toml"
+RESULTS_DIR = ROOT / "validation" / "results"
+FIGURES_DIR = ROOT / "docs" / "figures"
+REFERENCE_DIR = ROOT.parent / "shared" / "reference-data"
+REFERENCES = {
+    "Koshizuka & Oka 1996": "dam_break_front_koshizuka_oka_1996.csv",
+    "Martin & Moyce 1952": "dam_break_front_martin_moyce_1952.csv",
+}
+
+L = 0.146  # column width, m (references.md section 2)
+G = 9.81  # m/s^2
+RESOLUTIONS = (20, 40, 80)  # L / l0
+END_TIME = 0.27  # s: T = 3.13, the front reaches the far wall (Z = 4) at T ~ 2.9
+T_RANGE = (0.5, 3.0)  # the issue's comparison window in T
+TARGET = 0.10  # RMS relative error in Z (issue 2)
+T_SCALE = float(np.sqrt(2.0 * G / L))  # T = t * T_SCALE
+
+
+def read_reference(path: Path) -> np.ndarray:
+    """(T, Z) rows of a reference CSV (comment lines start with #, then a header)."""
+    return np.loadtxt(path, delimiter=",", comments="#", skiprows=3)
+
+
+def front_curve(results: Path) -> tuple[np.ndarray, np.ndarray]:
+    """(T, Z) of the ``front`` probe of a results file: T = t sqrt(2 g / L), Z = x / L."""
+    with h5py.File(results, "r") as h5:
+        t = h5["probes/front/time"][:]
+        x = h5["probes/front/value"][:]
+    return t * T_SCALE, x / L
+
+
+def front_error(T: np.ndarray, Z: np.ndarray, reference: np.ndarray, shift: float = 0.0) -> float:
+    """RMS over the reference points with 0.5 <= T <= 3 of (Z_sim(T - shift) - Z_ref) / Z_ref
+    (issue 2's metric at shift = 0)."""
+    sel = (reference[:, 0] >= T_RANGE[0]) & (reference[:, 0] <= T_RANGE[1])
+    z_sim = np.interp(reference[sel, 0] - shift, T, Z)
+    rel = (z_sim - reference[sel, 1]) / reference[sel, 1]
+    return float(np.sqrt(np.mean(rel**2)))
+
+
+def time_offset(T: np.ndarray, Z: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
+    """The shift dT in [0, 1] (T units; dT / sqrt(2 g / L) in s) that minimises
+    :func:`front_error`, and the error with it: how far the measured front lags the simulated
+    one where both move at the same speed."""
+    best = minimize_scalar(
+        lambda s: front_error(T, Z, reference, s),
+        bounds=(0.0, 1.0),
+        method="bounded",
+        options={"xatol": 1e-4},
+    )
+    return float(best.x), float(best.fun)
+
+
+def curve_difference(
+    fine: tuple[np.ndarray, np.ndarray], coarse: tuple[np.ndarray, np.ndarray]
+) -> float:
+    """RMS relative difference of two Z(T) curves over 0.5 <= T <= 2.8 (before the front
+    reaches the far wall)."""
+    grid = np.linspace(T_RANGE[0], 2.8, 47)
+    zf, zc = np.interp(grid, *fine), np.interp(grid, *coarse)
+    return float(np.sqrt(np.mean(((zf - zc) / zc) ** 2)))
+
+
+def case_path(n: int) -> Path:
+    return RESULTS_DIR / f"dam_break_L{n}.h5"
+
+
+def overrides(n: int) -> list[str]:
+    return [f"fluid.spacing={L / n!r}", "output.snapshot_interval=0", f"run.end_time={END_TIME}"]
+
+
+def analyse(paths: dict[int, Path]) -> list[dict]:
+    """One row per resolution: errors, offsets, Z at T = 1 ... 2.5, difference to the next finer
+    curve, wall time."""
+    refs = {name: read_reference(REFERENCE_DIR / f) for name, f in REFERENCES.items()}
+    curves = {n: front_curve(p) for n, p in paths.items()}
+    rows = []
+    for n in sorted(curves):
+        T, Z = curves[n]
+        with h5py.File(paths[n], "r") as h5:
+            wall = float(h5.attrs.get("wall_time", np.nan))
+        row: dict = {"resolution_L_over_l0": n, "wall_time_s": wall}
+        for key, ref in zip(("ko", "mm"), refs.values(), strict=True):
+            shift, shifted = time_offset(T, Z, ref)
+            row[f"rms_error_{key}"] = front_error(T, Z, ref)
+            row[f"offset_T_{key}"] = shift
+            row[f"offset_ms_{key}"] = 1e3 * shift / T_SCALE
+            row[f"rms_error_shifted_{key}"] = shifted
+        for t_probe in (1.0, 1.5, 2.0, 2.5):
+            row[f"Z_T{t_probe:g}"] = float(np.interp(t_probe, T, Z))
+        finer = [m for m in sorted(curves) if m > n]
+        row["difference_to_finer"] = (
+            curve_difference(curves[finer[0]], curves[n]) if finer else float("nan")
+        )
+        rows.append(row)
+    return rows
+
+
+def write_outputs(rows: list[dict], paths: dict[int, Path]) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    FIGURES_DIR.mkdir(parents=True, exist_ok=True)
+    csv = FIGURES_DIR / "dam_break_front_convergence.csv"
+    columns = list(rows[0])
+    with csv.open("w") as f:
+        f.write(
+            "# dam break front (scenarios/dam_break_2d.toml), validation/dam_break.py: RMS "
+            "relative error in Z over 0.5 <= T <= 3 against Koshizuka & Oka (ko) and Martin & "
+            "Moyce (mm), unshifted and after the best time offset\n"
+        )
+        f.write(",".join(columns) + "\n")
+        for row in rows:
+            f.write(",".join(f"{row[c]:.6g}" for c in columns) + "\n")
+    fig, ax = plt.subplots(figsize=(6.5, 4.2))
+    for row in rows:
+        n = row["resolution_L_over_l0"]
+        T, Z = front_curve(paths[n])
+        ax.plot(T, Z, label=f"MPS l0 = L/{n} (RMS error {100 * row['rms_error_ko']:.1f} %)")
+    finest = rows[-1]
+    T, Z = front_curve(paths[finest["resolution_L_over_l0"]])
+    shift = finest["offset_T_mm"]
+    ax.plot(
+        T + shift,
+        Z,
+        "k--",
+        lw=1,
+        label=f"L/{finest['resolution_L_over_l0']} shifted by dT = {shift:.2f} "
+        f"({finest['offset_ms_mm']:.0f} ms): {100 * finest['rms_error_shifted_mm']:.1f} % (M & M)",
+    )
+    markers = ("o", "s")
+    for (name, f), m in zip(REFERENCES.items(), markers, strict=True):
+        ref = read_reference(REFERENCE_DIR / f)
+        ax.plot(ref[:, 0], ref[:, 1], m, mfc="k" if m == "o" else "none", mec="k", label=name)
+    ax.set_xlim(0.0, 3.5)
+    ax.set_ylim(1.0, 4.5)
+    ax.set_xlabel("T = t sqrt(2g/L)")
+    ax.set_ylabel("Z = x/L")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7.5)
+    fig.tight_layout()
+    fig.savefig(FIGURES_DIR / "dam_break_front_convergence.png", dpi=110)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--threads", type=int, default=1, help="numba threads per run (default 1)")
+    ap.add_argument("--analyse-only", action="store_true", help="do not run, only analyse")
+    ap.add_argument("--retry-failed", action="store_true", help="rerun failed cases")
+    args = ap.parse_args(argv)
+    RESULTS_DIR.mkdir(parents=True, exist_ok=True)
+    paths = {}
+    for n in RESOLUTIONS:
+        out = case_path(n)
+        status = (
+            read_status(out)
+            if args.analyse_only
+            else case_runner.ensure_case(
+                SCENARIO, out, overrides(n), args.threads, args.retry_failed, f"[L/{n}]"
+            )
+        )
+        if status == "finished":
+            paths[n] = out
+        else:
+            print(f"L/{n}: {status}, not analysed")
+    if not paths:
+        print("nothing to analyse")
+        return 1
+    rows = analyse(paths)
+    write_outputs(rows, paths)
+    print(
+        "L/l0  error KO   error MM   offset (T, ms)     error shifted KO / MM   diff. to finer  wall"
+    )
+    for r in rows:
+        print(
+            f"{r['resolution_L_over_l0']:>4}  {100 * r['rms_error_ko']:6.2f} %  "
+            f"{100 * r['rms_error_mm']:6.2f} %  {r['offset_T_mm']:.3f} ({r['offset_ms_mm']:.1f})"
+            f"      {100 * r['rms_error_shifted_ko']:.2f} / {100 * r['rms_error_shifted_mm']:.2f} %"
+            f"         {100 * r['difference_to_finer']:.2f} %      {r['wall_time_s']:.0f} s"
+        )
+    met = all(r["rms_error_ko"] <= TARGET for r in rows)
+    print(f"issue target (RMS <= {TARGET:.0%} unshifted): {'met' if met else 'not met'}")
+    return 0 if len(paths) == len(RESOLUTIONS) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
