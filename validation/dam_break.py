@@ -205,9 +205,8 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     rows = analyse(paths)
     write_outputs(rows, paths)
-    print(
-        "L/l0  error KO   error MM   offset (T, ms)     error shifted KO / MM   diff. to finer  wall"
-    )
+    print("L/l0  error KO   error MM   offset (T, ms)     error shifted KO / MM   ", end="")
+    print("diff. to finer  wall")
     for r in rows:
         print(
             f"{r['resolution_L_over_l0']:>4}  {100 * r['rms_error_ko']:6.2f} %  "

@@ -224,9 +224,9 @@ def reflection(
 
     Window: from t_c + P, P = 3.8 / (k c) (the incident first-order wave is below
     sech^2(3.8) = 0.2 % of A after it), to t_c + (x_s - x_g) / c + (x_s - S + x_g - S) / c0 - P:
-    the crest of a wave reflected at the sponge's inner edge x_s (2.0 m in the thesis's tank) and again at the paddle
-    (at rest at x = S after its stroke) reaches x_g at t_c + (x_s - x_g) / c + ..., and its front
-    P earlier (c = sqrt(g (H + A)) to the sponge, c0 = sqrt(g H) back); cut at the end of the
+    the crest of a wave reflected at the sponge's inner edge x_s (2.0 m in the thesis's tank)
+    and again at the paddle (at rest at x = S after its stroke) reaches x_g at
+    t_c + (x_s - x_g) / c + ..., and its front P earlier (c = sqrt(g (H + A)) to the sponge, c0 = sqrt(g H) back); cut at the end of the
     record. In between pass the crest reflected at the sponge's inner edge (t_c + (x_s - x_g)
     (1/c + 1/c0)) and part of what the end wall sends back. Whatever is in the window came from
     the sponge and the end wall, plus the incident wave's own trailing tail, so this is an upper
@@ -274,16 +274,17 @@ def long_wave_sponge_record(
     right-going velocity u = sqrt(g / H) eta, started upstream of the gauge; the upstream end
     lets left-going waves out (u = -sqrt(g / H) eta), so nothing comes back from there (the
     MPS analysis window closes before the paddle's re-reflection arrives, see :func:`reflection`).
-    Staggered grid, forward-backward in time, dt = 0.4 dx / sqrt(g H), damping implicit. The model has no dispersion and no nonlinearity: it estimates what a velocity
-    sponge in a closed tank sends back, not the wave's shape.
+    Staggered grid, forward-backward in time, dt = 0.4 dx / sqrt(g H), damping implicit. The
+    model has no dispersion and no nonlinearity: it estimates what a velocity sponge in a
+    closed tank sends back, not the wave's shape.
 
     Returns (t (s), eta (m) sampled every ``sample`` s, t_crest (s) of the incident wave at the
     gauge)."""
     h, g = wave.depth, wave.gravity
     c0 = math.sqrt(g * h)
     half = GORING_HALF_SPAN / wave.k
-    x_left = x_gauge - 3.0 * half  # crest starts 2 half-lengths upstream of the gauge
-    x0 = x_gauge - 2.0 * half
+    x0 = x_gauge - 2.0 * half  # the crest starts 2 half-lengths upstream of the gauge,
+    x_left = x_gauge - 3.0 * half  # its back (sech^2(3.8) = 0.2 % of A) at the upstream end
     n = int(round((tank_end - x_left) / dx))
     dx = (tank_end - x_left) / n
     xc = x_left + (np.arange(n) + 0.5) * dx  # eta at cell centres
@@ -468,7 +469,9 @@ def analyse(path: Path) -> CaseResult:
         wall = float(h5.attrs.get("wall_time", math.nan))
         gauges = {x: read_gauge(h5, x) for x in (*CREST_GAUGES, SPONGE_GAUGE)}
         snaps = h5["particles"]
-        n_fluid = int(np.count_nonzero(snaps[next(iter(snaps))]["kind"][:] == 0)) if len(snaps) else -1
+        n_fluid = (
+            int(np.count_nonzero(snaps[next(iter(snaps))]["kind"][:] == 0)) if len(snaps) else -1
+        )
     crests = {
         x: crest(*gauges[x], wave, predicted_crest_time(wave, start, x)) for x in CREST_GAUGES
     }
