@@ -227,8 +227,8 @@ def reflection(
     the crest of a wave reflected at the sponge's inner edge x_s (2.0 m in the thesis's tank)
     and again at the paddle (at rest at x = S after its stroke) reaches x_g at
     t_c + (x_s - x_g) / c + ..., and its front P earlier (c = sqrt(g (H + A)) to the sponge,
-    c0 = sqrt(g H) back); cut at the end of the record. In between pass the crest reflected at the sponge's inner edge (t_c + (x_s - x_g)
-    (1/c + 1/c0)) and part of what the end wall sends back. Whatever is in the window came from
+    c0 = sqrt(g H) back); cut at the end of the record. In between pass the crest reflected at
+    the sponge's inner edge (t_c + (x_s - x_g) (1/c + 1/c0)) and part of what the end wall sends back. Whatever is in the window came from
     the sponge and the end wall, plus the incident wave's own trailing tail, so this is an upper
     bound of the sponge's reflection. ``still`` is the gauge's still-water level before the
     paddle started (m), subtracted first."""
