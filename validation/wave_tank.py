@@ -222,16 +222,16 @@ def reflection(
     the surface particles' noise and lowers the peak of a pulse as long as the incident wave by
     (k c 0.055 s)^2 / 3 = 1.3-3.2 % (A/H = 0.2-0.5).
 
-    Window: from t_c + P, P = 3.8 / (k c) (the incident first-order wave is below
-    sech^2(3.8) = 0.2 % of A after it), to t_c + (x_s - x_g) / c + (x_s - S + x_g - S) / c0 - P:
-    the crest of a wave reflected at the sponge's inner edge x_s (2.0 m in the thesis's tank)
-    and again at the paddle (at rest at x = S after its stroke) reaches x_g at
-    t_c + (x_s - x_g) / c + ..., and its front P earlier (c = sqrt(g (H + A)) to the sponge,
-    c0 = sqrt(g H) back); cut at the end of the record. In between pass the crest reflected at
-    the sponge's inner edge (t_c + (x_s - x_g) (1/c + 1/c0)) and part of what the end wall sends back. Whatever is in the window came from
-    the sponge and the end wall, plus the incident wave's own trailing tail, so this is an upper
-    bound of the sponge's reflection. ``still`` is the gauge's still-water level before the
-    paddle started (m), subtracted first."""
+    Window: from t_c + P, P = 3.8 / (k c) (the incident first-order wave is below sech^2(3.8) =
+    0.2 % of A after it), to t_c + (x_s - x_g) / c + (x_s - S + x_g - S) / c0 - P: the crest of
+    a wave reflected at the sponge's inner edge x_s (2.0 m in the thesis's tank) and again at
+    the paddle (at rest at x = S after its stroke) reaches x_g at t_c + (x_s - x_g) / c + ...,
+    and its front P earlier (c = sqrt(g (H + A)) to the sponge, c0 = sqrt(g H) back); cut at the
+    end of the record. In between pass the crest reflected at the sponge's inner edge (t_c +
+    (x_s - x_g) (1/c + 1/c0)) and part of what the end wall sends back. Whatever is in the
+    window came from the sponge and the end wall, plus the incident wave's own trailing tail, so
+    this is an upper bound of the sponge's reflection. ``still`` is the gauge's still-water
+    level before the paddle started (m), subtracted first."""
     c, c0 = wave.c_first_order, math.sqrt(wave.gravity * wave.depth)
     stroke = math.tanh(GORING_HALF_SPAN) * math.sqrt(16.0 * wave.amplitude * wave.depth / 3.0)
     p = wave.passage_time
