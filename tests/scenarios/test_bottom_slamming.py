@@ -12,14 +12,13 @@ runs take 5-15 min each on one thread and are not started here).
 """
 
 import csv
-import importlib.util
-import sys
 import tomllib
 from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
+from validation_script import load
 
 from mpsfem.scenario.loader import load_scenario
 from mpsfem.simulation import run_coupled, run_fluid
@@ -27,16 +26,7 @@ from mpsfem.simulation import run_coupled, run_fluid
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _load_script():
-    path = ROOT / "validation" / "bottom_slamming.py"
-    spec = importlib.util.spec_from_file_location("bottom_slamming", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up there
-    spec.loader.exec_module(module)
-    return module
-
-
-bs = _load_script()
+bs = load("bottom_slamming")
 
 H = bs.DEPTH
 L0_COARSE = H / 12

@@ -3,29 +3,17 @@
 CI runs l0 = L/40 (0.3 s simulated, a few seconds); the resolution study (L/20, L/40, L/80) is slow.
 """
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
+from validation_script import load
 
 from mpsfem.scenario.loader import load_scenario
 from mpsfem.simulation import run_fluid
 
-ROOT = Path(__file__).resolve().parents[2]
-
-
-def _load_dam_break():
-    spec = importlib.util.spec_from_file_location("dam_break", ROOT / "validation" / "dam_break.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-db = _load_dam_break()
+db = load("dam_break")
 L, G = db.L, db.G
 
 

@@ -12,14 +12,13 @@ quasi-static beam under the measured plate force allows.
 """
 
 import csv
-import importlib.util
 import math
-import sys
 from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
+from validation_script import load
 
 from mpsfem.scenario.loader import load_scenario
 from mpsfem.simulation import run_fluid
@@ -27,17 +26,7 @@ from mpsfem.simulation import run_fluid
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _load_green_water():
-    spec = importlib.util.spec_from_file_location(
-        "green_water", ROOT / "validation" / "green_water.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up there
-    spec.loader.exec_module(module)
-    return module
-
-
-gw = _load_green_water()
+gw = load("green_water")
 
 H = gw.DEPTH
 A = gw.AMPLITUDE

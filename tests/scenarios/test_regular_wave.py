@@ -14,14 +14,13 @@ CSV in validation/results/ or by running it (about 30-40 min on one thread).
 
 import cmath
 import csv
-import importlib.util
 import math
-import sys
 from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
+from validation_script import load
 
 from mpsfem.scenario.loader import load_scenario
 from mpsfem.simulation import run_fluid
@@ -29,17 +28,7 @@ from mpsfem.simulation import run_fluid
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _load_regular_wave():
-    spec = importlib.util.spec_from_file_location(
-        "regular_wave", ROOT / "validation" / "regular_wave.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up there
-    spec.loader.exec_module(module)
-    return module
-
-
-rw = _load_regular_wave()
+rw = load("regular_wave")
 
 H = rw.DEPTH
 WAVE = rw.LinearWave(0.7)  # the scenario's period

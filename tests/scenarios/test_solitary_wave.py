@@ -14,14 +14,13 @@ validation/results/ and run the case otherwise (10-22 min each on one thread at 
 on two threads at 0.002 m).
 """
 
-import importlib.util
 import math
-import sys
 from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
+from validation_script import load
 
 from mpsfem.scenario.loader import load_scenario
 from mpsfem.simulation import run_fluid
@@ -29,15 +28,7 @@ from mpsfem.simulation import run_fluid
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _load_wave_tank():
-    spec = importlib.util.spec_from_file_location("wave_tank", ROOT / "validation" / "wave_tank.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up there
-    spec.loader.exec_module(module)
-    return module
-
-
-wt = _load_wave_tank()
+wt = load("wave_tank")
 
 H = wt.DEPTH
 RATIO = 0.3

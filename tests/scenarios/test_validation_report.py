@@ -1,23 +1,15 @@
 """docs/validation.md's generated section matches the committed result CSVs
 (validation/report.py), so the summary cannot drift from the numbers."""
 
-import importlib.util
-import sys
 from pathlib import Path
+
+from validation_script import load
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _report():
-    spec = importlib.util.spec_from_file_location("report", ROOT / "validation" / "report.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
 def test_generated_summary_is_current():
-    report = _report()
+    report = load("report")
     text = (ROOT / "docs" / "validation.md").read_text()
     assert report.BEGIN in text and report.END in text
     block = report.BEGIN + text.split(report.BEGIN, 1)[1].split(report.END, 1)[0] + report.END
@@ -25,7 +17,7 @@ def test_generated_summary_is_current():
 
 
 def test_write_replaces_only_the_generated_block(tmp_path):
-    report = _report()
+    report = load("report")
     doc = tmp_path / "validation.md"
     doc.write_text("# V\n\nhand-written\n")
     report.write(doc)
