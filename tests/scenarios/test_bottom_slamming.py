@@ -231,3 +231,32 @@ def test_full_resolution_elastic_plate_yields(clearance):
     )
     assert rise > 0.1 * static
     assert 0.0 < mf < 1.0
+
+
+@pytest.mark.slow
+def test_resolution_study_elastic_rise_settles():
+    """Thesis Table 5-1's spacings (l0 = 0.0025, 0.002, 0.0015 m; A/H = 0.3, D/H = 0.1; the
+    committed CSVs of validation/bottom_slamming.py): the elastic plate's largest mid-span rise
+    lies within 3 % of the three runs' mean, and MF stays below one at each.
+
+    3 %: the rise integrates the load over the ~0.3 s of uplift, so the particle noise that
+    spoils the peaks averages out, and what remains is the load's O(l0) error: the pressure is
+    taken on a layer l0/2 inside the wetted face (thesis eq. 2-51), which put the 3D
+    hydrostatic plate's load 2.7-4.0 % high at its spacings (docs/validation.md); 3 % allows an
+    error of that order changing with l0, not a trend that would double it. Measured: 18.19, 18.47, 18.89 mm (mean 18.52, spread -1.8 ... +2.0 %);
+    the peak uplift (51.6, 47.8, 57.4 N/m) is not asserted, it scatters with the contact spike."""
+    rises, mfs = [], []
+    for label in ("0.0025", "0.002", "0.0015"):
+        path = bs.RESULTS_DIR / f"bottom_slamming_{label}.csv"
+        if not path.is_file():
+            pytest.skip(f"{path} missing: validation/bottom_slamming.py --l0 {label}")
+        with path.open() as f:
+            rows = {r["kind"]: r for r in csv.DictReader(f)}
+        if "elastic" not in rows or "rigid" not in rows:
+            pytest.skip(f"l0 = {label}: rigid and elastic not both run")
+        rises.append(float(rows["elastic"]["mid_disp_max_mm"]))
+        mfs.append(float(rows["elastic"]["peak_uplift"]) / float(rows["rigid"]["peak_uplift"]))
+    mean = float(np.mean(rises))
+    print(f"mid-span rise {rises} mm (mean {mean:.2f}), MF {[round(m, 2) for m in mfs]}")
+    assert all(abs(r / mean - 1.0) < 0.03 for r in rises)
+    assert all(0.0 < m < 1.0 for m in mfs)
