@@ -822,15 +822,13 @@ def cost_section(summaries: dict) -> str:
 
 DISCUSSION = """\
 - **Height at the paddle.** At the first gauge (x = 0.25 m, 2.2 depths from the paddle, past
-  its evanescent modes) the first-harmonic height is {first_fine} of linear piston theory at
-  H/{layers_fine} and {first_coarse} at H/{layers_coarse}. Extrapolated back to the paddle face
-  with the exponential fit of the incident heights it is {paddle_fine} (H/{layers_fine}) and
-  {paddle_coarse} (H/{layers_coarse}): by that model the paddle makes the height the transfer
-  function predicts to within 2 %, and what the gauges are short of is lost on the way. The
-  decay is not uniform, though: the first two gauges read the same at both spacings
-  ({near_fine} at H/{layers_fine}, {near_coarse} at H/{layers_coarse} for x = 0.25 and 0.5 m),
-  so the shortfall of 6-10 % there does not shrink from H/20 to H/28, while the heights further
-  down the tank do grow with resolution. The negative-pressure clamp is the cause near the
+  its evanescent modes) the first-harmonic height is {first_all} of linear piston theory at
+  {labels}. Extrapolated back to the paddle face with the exponential fit of the incident
+  heights it is {paddle_all}: by that model the paddle makes close to the height the transfer
+  function predicts, and what the gauges are short of is lost on the way. The first gauge
+  reads the same at every spacing, so the shortfall of {first_short} there does not shrink
+  with resolution, while the heights further down the tank grow with it (x = 1 m:
+  {far_all}). The negative-pressure clamp is the cause near the
   paddle: the same H/20 run with `fluid.pressure.clamp_negative = false` (measured
   2026-11-21, 645 s, stable to the end) reads 1.085 / 0.992 / 0.790 / 0.776 of piston theory
   at 0.25 / 0.5 / 0.75 / 1.0 m against 0.930 / 0.904 / 0.823 / 0.805 with the clamp: with
@@ -838,35 +836,33 @@ DISCUSSION = """\
   trough the backstroke should make is cut short. Without the clamp the near field overshoots
   (evanescent modes and a steeper crest) and the height falls faster along the tank, so the
   clamp trades near-paddle height for smoother propagation; the scenario keeps it on.
-- **Decay along the tank.** The incident height falls by {loss_fine} per metre at
-  H/{layers_fine} and {loss_coarse} at H/{layers_coarse} (exponential fit over the gauges with
-  an incident window). Physical damping is below 1 % per metre here (laminar bottom boundary
-  layer 2 k^2 sqrt(nu / (2 omega)) / (2kd + sinh 2kd) = 0.66 % per metre, Dean & Dalrymple
-  1991; interior viscosity 2 nu k^2 / cg = 0.03 % per metre; the MPS wall does not resolve the
-  0.24 mm boundary layer anyway), so the loss is the method's numerical dissipation
-  {conv_comment}.{scatter_comment} The solitary wave at H/28 lost 5-6 % per metre
-  (docs/validation_wave_tank.md); this wave is three times shorter than that one and has a
-  third of its height in spacings.
+- **Decay along the tank.** The incident height falls by {loss_all} per metre at {labels}
+  (exponential fit over the gauges with an incident window). Physical damping is below 1 %
+  per metre here (laminar bottom boundary layer 2 k^2 sqrt(nu / (2 omega)) / (2kd + sinh 2kd)
+  = 0.66 % per metre, Dean & Dalrymple 1991; interior viscosity 2 nu k^2 / cg = 0.03 % per
+  metre; the MPS wall does not resolve the 0.24 mm boundary layer anyway), so the loss is the
+  method's numerical dissipation. {conv_comment}{scatter_comment} The solitary wave at H/28
+  lost 5-6 % per metre (docs/validation_wave_tank.md); this wave is three times shorter than
+  that one and has a third of its height in spacings.
 - **Wave number.** The measured k (slope of the incident first-harmonic phase) is
-  {kratio_fine} of the linear k at H/{layers_fine} and {kratio_coarse} at H/{layers_coarse}:
-  the numerical wave is {speed_fine} faster than linear theory. Stokes' third-order amplitude
-  dispersion, c = c0 (1 + (ka)^2 (9 + 8 cosh^4 kd - 8 cosh^2 kd) / (8 sinh^4 kd)), accounts for
-  {stokes} of it at the design amplitude.
+  {kratio_all} of the linear k at {labels}: at H/{layers_fine} the numerical wave is
+  {speed_fine} faster than linear theory. Stokes' third-order amplitude dispersion,
+  c = c0 (1 + (ka)^2 (9 + 8 cosh^4 kd - 8 cosh^2 kd) / (8 sinh^4 kd)), makes {stokes} at the
+  design amplitude, so what is left is within the wave's own nonlinearity.
 - **Zero-up-crossing heights** read {zc_fine} above the first-harmonic ones on average at
   H/{layers_fine}: they include the higher harmonics (a piston also makes a free second
   harmonic, whose phase against the bound one changes along the tank) and the particle noise at
   every crest and trough (the residual of the fit at the first gauge is {res_fine} mm RMS at
   H/{layers_fine}). They are listed, not compared with the linear theory.
 - **Sponge reflection.** The least-squares split of the three gauges before the sponge gives
-  {refl_fine} at the sponge's inner edge at H/{layers_fine} ({refl_coarse} at
-  H/{layers_coarse}); the 1D model predicts {refl_model}. {refl_comment} How much the number
-  depends on the split's choices (`reflection_variants`: half windows, four gauges, each gauge
-  pair): {spread_fine} % at H/{layers_fine}, {spread_coarse} % at H/{layers_coarse}. So the
-  sponge reflects about {spread_lo}-{spread_hi} % of this wave: at the issue's 5 % rather than
-  clearly below it, and the difference between the spacings is within this spread. The
-  estimate is limited by the short reflection window (2.5 periods after the reflected wave is
-  established, while the paddle's re-reflection is arriving) and by the particle noise on the
-  first harmonics (1-2 % of the amplitude, the size of the split's residual).
+  {refl_all} at the sponge's inner edge at {labels}; the 1D model predicts {refl_model}.
+  {refl_comment} How much the number depends on the split's choices (`reflection_variants`:
+  half windows, four gauges, each gauge pair): {spread_all} %. So the sponge reflects about
+  {spread_lo}-{spread_hi} % of this wave, below the issue's 5 % at the thesis's spacing, and
+  the differences between the spacings are within this spread. The estimate is limited by the
+  short reflection window (2.5 periods after the reflected wave is established, while the
+  paddle's re-reflection is arriving) and by the particle noise on the first harmonics (1-2 %
+  of the amplitude, the size of the split's residual).
 """
 
 
@@ -888,16 +884,15 @@ def scatter_sentence(summaries: dict, others: dict) -> str:
     for o in others.values():
         for s in summaries.values():
             if _num(o["l0"]) == _num(s["l0"]):
+                a, b = _num(o["height_loss_per_m_pct"]), _num(s["height_loss_per_m_pct"])
                 return (
                     f" A second H/{s['layers']} run that differs only in the sponge "
                     f"(alpha_s = {_num(o['alpha_s']):g}; identical until the wave reaches it, "
                     "after which the global pressure equation passes the difference to every "
                     "particle and the two runs' particle noise becomes independent) gives "
-                    f"{_num(o['height_loss_per_m_pct']):.1f} % per metre instead of "
-                    f"{_num(s['height_loss_per_m_pct']):.1f} %, and heights that differ by up to "
-                    "6 % at x = 0.75 m: the decay estimate scatters by a few per cent per metre "
-                    "between realisations, as much as the difference between the two spacings, "
-                    "so these runs do not demonstrate that the decay converges."
+                    f"{a:.1f} % per metre instead of {b:.1f} %: the decay estimate scatters by "
+                    f"about {abs(a - b):.0f} % per metre between realisations, so a step between "
+                    "two spacings counts only where it is clearly larger than that."
                 )
     return ""
 
@@ -905,34 +900,48 @@ def scatter_sentence(summaries: dict, others: dict) -> str:
 def discussion_section(summaries: dict, tables: dict, others: dict | None = None) -> str:
     if not summaries:
         return ""
-    ordered = sorted(summaries.values(), key=lambda s: _num(s["l0"]))
-    fine, coarse = ordered[0], ordered[-1]
-    lb_fine = next(lb for lb, s in summaries.items() if s is fine)
+    ordered = sorted(summaries.items(), key=lambda kv: -_num(kv[1]["l0"]))  # coarse to fine
+    labels_of = [lb for lb, _ in ordered]
+    runs = [s for _, s in ordered]
+    fine = runs[-1]
+    lb_fine = labels_of[-1]
+    labels = ", ".join(f"H/{s['layers']}" for s in runs)
 
-    def f3(v: float) -> str:
-        return f"{v:.3f}" if math.isfinite(v) else "n/a"
+    def each(key: str, fmt: str = "{:.3f}") -> str:
+        return " / ".join(fmt.format(_num(s[key])) for s in runs)
 
-    loss_f, loss_c = _num(fine["height_loss_per_m_pct"]), _num(coarse["height_loss_per_m_pct"])
-    if fine is not coarse and math.isfinite(loss_f) and loss_f > 0:
-        order = math.log(loss_c / loss_f) / math.log(_num(coarse["l0"]) / _num(fine["l0"]))
-        conv = (
-            f"(it falls by the factor {loss_c / loss_f:.2f} for l0 smaller by "
-            f"{_num(coarse['l0']) / _num(fine['l0']):.2f}: an apparent order {order:.1f} in "
-            "l0 from two spacings, a weak statement of convergence)"
-        )
-    else:
-        conv = "(one spacing only so far)"
-    refl_f, refl_c = _num(fine["reflection_pct"]), _num(coarse["reflection_pct"])
+    def gauge(lb: str, x: float) -> float:
+        vals = [_num(r["ratio"]) for r in tables.get(lb, []) if _num(r["x"]) == x]
+        return vals[0] if vals else math.nan
+
+    firsts = [gauge(lb, 0.25) for lb in labels_of]
+    losses = [_num(s["height_loss_per_m_pct"]) for s in runs]
+    steps = []
+    for a, b in zip(runs[:-1], runs[1:], strict=True):
+        la, lb_ = _num(a["height_loss_per_m_pct"]), _num(b["height_loss_per_m_pct"])
+        if la > 0 and lb_ > 0:
+            order = math.log(la / lb_) / math.log(_num(a["l0"]) / _num(b["l0"]))
+            steps.append(
+                f"H/{a['layers']} -> H/{b['layers']}: {la - lb_:.1f} % per metre less, a "
+                f"factor {la / lb_:.2f} for l0 smaller by {_num(a['l0']) / _num(b['l0']):.2f}, "
+                f"apparent order {order:.1f}"
+            )
+    conv = "It falls with l0 (" + "; ".join(steps) + ")." if steps else "One spacing only so far."
+    refl_f = _num(fine["reflection_pct"])
     model = _num(fine["reflection_1d_model_pct"])
     res_part = (
         f"The split's residual ({_num(fine['split_residual_pct']):.1f} % of the incident "
-        "amplitude) is the part of the three gauges' first harmonics that an incident plus a "
-        "reflected wave with the measured k and decay do not explain (particle noise, the "
-        "paddle's re-reflection still settling, nonlinearity)."
+        f"amplitude at H/{fine['layers']}) is the part of the three gauges' first harmonics that "
+        "an incident plus a reflected wave with the measured k and decay do not explain "
+        "(particle noise, the paddle's re-reflection still settling, nonlinearity)."
     )
     if math.isfinite(refl_f) and refl_f < 100 * REFLECTION_TARGET:
         refl_comment = (
-            f"Below the issue's {100 * REFLECTION_TARGET:.0f} % by this estimate. " + res_part
+            f"Below the issue's {100 * REFLECTION_TARGET:.0f} % at every spacing by this "
+            "estimate. " + res_part
+            if all(_num(s["reflection_pct"]) < 100 * REFLECTION_TARGET for s in runs)
+            else f"Below the issue's {100 * REFLECTION_TARGET:.0f} % at the finest spacing. "
+            + res_part
         )
     else:
         refl_comment = f"Not below the issue's {100 * REFLECTION_TARGET:.0f} %. " + res_part
@@ -945,43 +954,32 @@ def discussion_section(summaries: dict, tables: dict, others: dict | None = None
     ]
     wave = LinearWave(_num(fine["period"]))
     lo, hi = [], []
-    for sm in (fine, coarse):
+    for sm in runs:
         parts = sm["reflection_spread_pct"].split("-")
         if len(parts) == 2:
             lo.append(_num(parts[0]))
             hi.append(_num(parts[1]))
     kr = _num(fine["k_measured"]) / _num(fine["k_theory"])
-
-    def near(lb: str) -> str:
-        vals = [_num(r["ratio"]) for r in tables.get(lb, []) if _num(r["x"]) in (0.25, 0.5)]
-        return " / ".join(f"{v:.3f}" for v in vals) if vals else "n/a"
-
-    lb_coarse = next(lb for lb, sm in summaries.items() if sm is coarse)
+    short = [100 * (1 - f) for f in firsts if math.isfinite(f)]
     return DISCUSSION.format(
-        first_fine=f3(_num(fine["ratio_first_gauge"])),
-        first_coarse=f3(_num(coarse["ratio_first_gauge"])),
-        paddle_fine=f3(_num(fine["ratio_at_paddle"])),
-        near_fine=near(lb_fine),
-        near_coarse=near(lb_coarse),
-        paddle_coarse=f3(_num(coarse["ratio_at_paddle"])),
-        layers_fine=fine["layers"],
-        layers_coarse=coarse["layers"],
-        loss_fine=_pct(loss_f, False),
-        loss_coarse=_pct(loss_c, False),
+        labels=labels,
+        first_all=" / ".join(f"{f:.3f}" for f in firsts),
+        paddle_all=each("ratio_at_paddle"),
+        first_short=f"{min(short):.1f}-{max(short):.1f} %" if short else "n/a",
+        far_all=" / ".join(f"{gauge(lb, 1.0):.3f}" for lb in labels_of),
+        loss_all=" / ".join(_pct(v, False) for v in losses),
         conv_comment=conv,
         scatter_comment=scatter_sentence(summaries, others or {}),
-        kratio_fine=f3(kr),
-        kratio_coarse=f3(_num(coarse["k_measured"]) / _num(coarse["k_theory"])),
+        kratio_all=" / ".join(f"{_num(s['k_measured']) / _num(s['k_theory']):.3f}" for s in runs),
+        layers_fine=fine["layers"],
         speed_fine=_pct(100 * (1 / kr - 1), False),
         stokes=_pct(100 * stokes_speed_correction(wave, 0.5 * _num(fine["wave_height"])), False),
         zc_fine=_pct(100 * float(np.mean(zc)) if zc else math.nan, False),
         res_fine=f"{res:.2f}",
-        refl_fine=_pct(refl_f, False),
-        refl_coarse=_pct(refl_c, False),
+        refl_all=" / ".join(_pct(_num(s["reflection_pct"]), False) for s in runs),
         refl_model=_pct(model, False),
         refl_comment=refl_comment,
-        spread_fine=fine["reflection_spread_pct"],
-        spread_coarse=coarse["reflection_spread_pct"],
+        spread_all=" / ".join(s["reflection_spread_pct"] for s in runs),
         spread_lo=f"{min(lo):.0f}" if lo else "n/a",
         spread_hi=f"{max(hi):.0f}" if hi else "n/a",
     )
@@ -1010,6 +1008,9 @@ CI_SECTION = """\
   10 % of piston theory (reasoned in its docstring: at H/20 the height at 0.5 m was 9.6 %
   short, 1.4 % at the paddle and the rest numerical decay, which a converging method must not
   exceed at H/28), and the sponge's reflection below the issue's 5 %.
+  `test_thesis_resolution_decay_converges` checks the H/57 CSVs: the same height and
+  reflection checks, and a decay per metre below H/28's by more than the 4 % per metre that two
+  realisations at one spacing differ by.
 """
 
 
@@ -1114,14 +1115,11 @@ Reading:
 {CI_SECTION}
 ## Open points
 
-- **H/57** (the thesis's l0 = 0.002 m) is supported (`--l0 0.002`) but not run (cost above);
-  it is the third point that would show whether the decay keeps falling at the order the two
-  spacings here suggest.
-- **The numerical decay** dominates the comparison with theory beyond the first gauges. By
-  the exponential fit extrapolated to x = 0 the paddle makes the right height, but the first
-  two gauges read 6-10 % low at both spacings, and whether that shrinks at H/57 is open. A tank
-  for structures further away than about half a metre needs the finer spacing, or a wave
-  height set higher to make up for the loss to the structure's position.
+- **The numerical decay** dominates the comparison with theory beyond the first gauges at
+  H/20 and H/28; at H/57 it is 6 % per metre. The first gauge reads 6-7 % low at every
+  spacing (the negative-pressure clamp at the paddle, above). A tank for structures further
+  away than about half a metre needs the thesis's spacing, or a wave height set higher to make
+  up for the loss to the structure's position.
 - **Heights beyond x = 1 m** are not measured incident-only: the tank's 2 m before the sponge
   leave fewer than {MIN_PERIODS:g} periods there. A longer tank (cost grows with its length
   and with the run time 2 x_s / cg) would extend the decay fit.

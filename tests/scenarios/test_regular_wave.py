@@ -251,3 +251,31 @@ def test_production_height_and_reflection():
         assert abs(ratios[x] - 1.0) <= rw.HEIGHT_TARGET
     print(f"reflection at the sponge's inner edge: {reflection:.2f} %")
     assert reflection < 100.0 * rw.REFLECTION_TARGET
+
+
+@pytest.mark.slow
+def test_thesis_resolution_decay_converges():
+    """l0 = H/57 (the thesis's 0.002 m; its committed CSVs, a 115 min run): the height at
+    x = 0.25 and 0.5 m within 10 % of piston theory (as at H/28), the sponge's reflection below
+    the issue's 5 %, and the numerical decay per metre smaller than at H/28 by more than the
+    4 % per metre that two realisations at one spacing differ by (H/20 with alpha_s = 10 and
+    50: 19.0 and 15.2 % per metre). A dissipation that did not fall with l0 fails the last
+    check. Measured: 0.935 / 0.944 of theory, 1.3 %, 6.4 against 15.6 % per metre."""
+    summaries = {}
+    for l0 in (0.004, 0.002):
+        label = rw.label_for(rw.spacing_for(l0), None)
+        path = rw.RESULTS_DIR / f"regular_wave_{label}_summary.csv"
+        if not path.is_file():
+            pytest.skip(f"{path} missing: python validation/regular_wave.py --l0 {l0}")
+        with path.open() as f:
+            summaries[l0] = next(csv.DictReader(f))
+    fine_label = rw.label_for(rw.spacing_for(0.002), None)
+    with (rw.RESULTS_DIR / f"regular_wave_{fine_label}.csv").open() as f:
+        ratios = {float(r["x"]): float(r["ratio"]) for r in csv.DictReader(f)}
+    loss = {l0: float(s["height_loss_per_m_pct"]) for l0, s in summaries.items()}
+    reflection = float(summaries[0.002]["reflection_pct"])
+    print(f"H/57: H1/H_th {ratios[0.25]:.3f}, {ratios[0.5]:.3f}; loss {loss}; R {reflection} %")
+    for x in (0.25, 0.5):
+        assert abs(ratios[x] - 1.0) <= rw.HEIGHT_TARGET
+    assert reflection < 100.0 * rw.REFLECTION_TARGET
+    assert loss[0.002] < loss[0.004] - 4.0
