@@ -35,7 +35,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "dam_break_2d.toml"
 RESULTS_DIR = ROOT / "validation" / "results"
 FIGURES_DIR = ROOT / "docs" / "figures"
-REFERENCE_DIR = ROOT.parent / "shared" / "reference-data"
+REFERENCE_DIR = ROOT / "reference_data"  # copies of ../shared/reference-data, in the repository
 REFERENCES = {
     "Koshizuka & Oka 1996": "dam_break_front_koshizuka_oka_1996.csv",
     "Martin & Moyce 1952": "dam_break_front_martin_moyce_1952.csv",
