@@ -1054,8 +1054,8 @@ were computed before it, the other A/H = 0.4 and 0.5 rows after it, 3.2-4.8 %: a
 bookkeeping gave 8.6 % at rtol 1e-3 and 0.25 % at 1e-4). For runs whose energy matters, use rtol
 1e-4 (a third more fluid solves over this run).
 
-**Resolution (measured 2026-11-21 and 22, table above).** For A/H = 0.3, D/H = 0.1 the rigid plate's
-integrated load settles at the thesis's spacings but its peaks do not: from l0 = 0.004 over
+**Resolution (measured 2026-11-21 and 22, table above).** For A/H = 0.3, D/H = 0.1 the rigid
+plate's integrated load settles at the thesis's spacings but its peaks do not: from l0 = 0.004 over
 0.0025 and 0.002 to 0.0015 m the uplift impulse from contact to the window's end is 10.9,
 12.3, 14.0, 12.9 N s/m (the three thesis spacings within 7 % of their mean, H/28 16 % below
 it), while the raw peak goes 157, 163, 231, 221 N/m and the 11 ms mean peak 65, 99, 142,
@@ -1075,8 +1075,8 @@ inherits the rigid peak's lack of convergence (157, 163, 231, 221 N/m): it is be
 every spacing, but its value at a given spacing is only as good as the rigid spike it divides
 by. The coupling behaves the same at every thesis spacing: 1.04-1.05 iterations per window
 (2827, 2838 and 2860 in 2730 windows at 0.0025, 0.002 and 0.0015 m, none unconverged),
-interface work error 1.8, 1.1 and 1.2 % of the structure's largest energy. Wall time on one thread (other runs beside it): 970, 1831 and 5850 s for the
-elastic runs at 0.0025, 0.002 and 0.0015 m (46 414, 71 250 and 126 692 fluid particles;
+interface work error 1.8, 1.1 and 1.2 % of the structure's largest energy. Wall time on one
+thread (other runs beside it): 970, 1831 and 5850 s for the elastic runs at 0.0025, 0.002 and 0.0015 m (46 414, 71 250 and 126 692 fluid particles;
 3220, 3586 and 4977 steps), 954, 1858 and 4035 s for the rigid ones.
 
 **What is not done.** Whether the uplift noise changes with another pressure treatment (the

@@ -28,7 +28,7 @@ import argparse
 import json
 import math
 import sys
-from dataclasses import dataclass, fields
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
 import h5py
@@ -330,38 +330,32 @@ def long_wave_sponge_reflection(
     return reflection(t, eta, wave, t_crest, x_gauge, 0.0, sponge_start)[0]
 
 
-def long_wave_return_peak(
-    wave: SolitaryWave,
-    alpha_s: float,
-    sponge_start: float,
-    tank_end: float,
-    x_gauge: float = REFLECTION_GAUGE,
-    horizon: float = 40.0,
+def return_peak(
+    t: np.ndarray, eta: np.ndarray, wave: SolitaryWave, t_crest: float
 ) -> tuple[float, float]:
-    """Everything the sponge and the end wall send back in the 1D long-wave model
-    (:func:`long_wave_sponge_record`), without a window: the largest |eta| at x_gauge (fraction
-    of A) from the incident wave's passage (t_c + 3.8 / (k c)) to ``horizon`` s, and when it
-    comes (s after t_c). In a closed tank the wave's volume 2 A / k must come back: it leaves
-    the model through its open upstream end, as a pulse whose height is that volume over its
-    duration times sqrt(g H). A sponge lowers the return only by spreading it in time."""
-    t, eta, t_crest = long_wave_sponge_record(
-        wave, alpha_s, sponge_start, tank_end, x_gauge, end_time=horizon, sample=0.02
-    )
+    """Everything the sponge and the end wall send back in a record of the 1D long-wave model
+    (:func:`long_wave_sponge_record`), without a window: the largest |eta| (fraction of A) after
+    the incident wave's passage (t_c + 3.8 / (k c)) to the record's end, and when it comes (s
+    after t_c). In a closed tank the wave's volume 2 A / k must come back: it leaves the model
+    through its open upstream end, as a pulse whose height is that volume over its duration
+    times sqrt(g H). A sponge lowers the return only by spreading it in time."""
     sel = t > t_crest + wave.passage_time
     i = int(np.argmax(np.abs(eta[sel])))
     return float(np.abs(eta[sel][i]) / wave.amplitude), float(t[sel][i] - t_crest)
 
 
-SPONGE_SCAN_COLUMNS = (
-    "a_over_h",
-    "tank_end_m",
-    "sponge_start_m",
-    "alpha_s",
-    "window_reflection_pct",
-    "return_peak_pct",
-    "return_peak_after_s",
-    "closed_tank_setup_pct",
-)
+@dataclass(frozen=True)
+class SpongeScanRow:
+    """One zone and rate of :func:`sponge_scan` (lengths m, alpha_s 1/s, metrics % of A)."""
+
+    a_over_h: float
+    tank_end_m: float
+    sponge_start_m: float
+    alpha_s: float
+    window_reflection_pct: float  # the MPS analysis's windowed metric (:func:`reflection`)
+    return_peak_pct: float  # everything sent back within the horizon (:func:`return_peak`)
+    return_peak_after_s: float
+    closed_tank_setup_pct: float
 
 
 def sponge_scan(
@@ -374,30 +368,26 @@ def sponge_scan(
         (10.0, 2.0),
     ),
     alphas: tuple[float, ...] = (1.0, 2.0, 4.0, 8.0, 16.0, 50.0),
-) -> list[dict]:
+    horizon: float = 40.0,
+) -> list[SpongeScanRow]:
     """The 1D long-wave model over sponge layouts (tank end, sponge start; m) and rates alpha_s
-    (1/s): the windowed metric of the MPS analysis (:func:`reflection`) and the whole return
-    (:func:`long_wave_return_peak`), both % of A, and the closed tank's set-up."""
+    (1/s): one record per zone, ``horizon`` s long, read both through the MPS analysis's window
+    and whole, with the closed tank's set-up."""
     rows = []
     for tank_end, start in layouts:
         for alpha in alphas:
             for ratio in ratios:
                 wave = SolitaryWave(ratio * DEPTH)
-                peak, after = long_wave_return_peak(wave, alpha, start, tank_end)
+                t, eta, t_c = long_wave_sponge_record(
+                    wave, alpha, start, tank_end, end_time=horizon
+                )
+                peak, after = return_peak(t, eta, wave, t_c)
+                window = reflection(t, eta, wave, t_c, REFLECTION_GAUGE, 0.0, start)[0]
+                setup = closed_tank_setup(wave, tank_end) / wave.amplitude
                 rows.append(
-                    {
-                        "a_over_h": ratio,
-                        "tank_end_m": tank_end,
-                        "sponge_start_m": start,
-                        "alpha_s": alpha,
-                        "window_reflection_pct": 100.0
-                        * long_wave_sponge_reflection(wave, alpha, start, tank_end),
-                        "return_peak_pct": 100.0 * peak,
-                        "return_peak_after_s": after,
-                        "closed_tank_setup_pct": 100.0
-                        * closed_tank_setup(wave, tank_end)
-                        / wave.amplitude,
-                    }
+                    SpongeScanRow(
+                        ratio, tank_end, start, alpha, 100 * window, 100 * peak, after, 100 * setup
+                    )
                 )
     return rows
 
@@ -656,12 +646,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.sponge_scan:
         rows = sponge_scan()
         out = RESULTS_DIR / "sponge_long_wave_model.csv"
-        with out.open("w") as f:
-            f.write(",".join(SPONGE_SCAN_COLUMNS) + "\n")
-            for row in rows:
-                f.write(",".join(f"{row[c]:.6g}" for c in SPONGE_SCAN_COLUMNS) + "\n")
+        write_csv(rows, out)
         for row in rows:
-            print(" ".join(f"{c}={row[c]:.4g}" for c in SPONGE_SCAN_COLUMNS))
+            print(" ".join(f"{k}={v:.4g}" for k, v in asdict(row).items()))
         print(f"wrote {out.relative_to(ROOT)}")
         return 0
     l0 = float(args.l0)

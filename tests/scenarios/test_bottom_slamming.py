@@ -243,8 +243,8 @@ def test_resolution_study_elastic_rise_settles():
     spoils the peaks averages out, and what remains is the load's O(l0) error: the pressure is
     taken on a layer l0/2 inside the wetted face (thesis eq. 2-51), which put the 3D
     hydrostatic plate's load 2.7-4.0 % high at its spacings (docs/validation.md); 3 % allows an
-    error of that order changing with l0, not a trend that would double it. Measured: 18.19, 18.47, 18.89 mm (mean 18.52, spread -1.8 ... +2.0 %);
-    the peak uplift (51.6, 47.8, 57.4 N/m) is not asserted, it scatters with the contact spike."""
+    error of that order changing with l0, not a trend that would double it. Measured: 18.19,
+    18.47, 18.89 mm (mean 18.52, spread -1.8 ... +2.0 %); the peak uplift (51.6, 47.8, 57.4 N/m) is not asserted, it scatters with the contact spike."""
     rises, mfs = [], []
     for label in ("0.0025", "0.002", "0.0015"):
         path = bs.RESULTS_DIR / f"bottom_slamming_{label}.csv"

@@ -71,7 +71,7 @@ def test_front_converges_with_resolution(tmp_path, scenarios_dir, reference_dir)
     * Converged: the L/40 and L/80 curves differ by less than 3 % RMS over 0.5 <= T <= 2.8 (the
       front's own jitter is one spacing, 1/40 = 2.5 % of L at Z = 1, less further out;
       measured 2.3 % L/20-L/40 and 1.3 % L/40-L/80, an observed order of 0.8); the
-      errors against Koshizuka & Oka do not fall with l0 (14.6 / 15.5 / 16.7 %, above the
+      errors against Koshizuka & Oka do not fall with l0 (14.5 / 15.6 / 16.7 %, above the
       issue's 10 %: test_front_against_koshizuka_oka is a strict xfail).
     * Shifted in time by the best-fitting offset, every resolution is within the issue's 10 %
       of both experiments, with an offset below 0.35 in T (30 ms): past T ~ 1.2 the simulated
@@ -89,7 +89,7 @@ def test_front_converges_with_resolution(tmp_path, scenarios_dir, reference_dir)
             ref = db.read_reference(reference_dir / f"dam_break_front_{name}.csv")
             shift, shifted = db.time_offset(T, Z, ref)
             print(
-                f"  {name}: time offset dT = {shift:.3f} ({shift / np.sqrt(2 * G / L) * 1e3:.1f}"
+                f"  {name}: time offset dT = {shift:.3f} ({shift / db.T_SCALE * 1e3:.1f}"
                 f" ms), error with it {shifted * 100:.2f} %"
             )
             assert 0.0 < shift < 0.35
