@@ -8,6 +8,7 @@ runs a missing one.
 
 from __future__ import annotations
 
+import argparse
 import os
 import subprocess
 import sys
@@ -19,6 +20,17 @@ import h5py
 from mpsfem.results.checkpoint import default_checkpoint_path
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def thread_count(text: str) -> int:
+    """argparse type of ``--threads``: a whole number >= 1, refused before any run starts."""
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"--threads = {text!r}: must be a whole number >= 1")
+    return n
 
 
 def read_status(path: Path) -> str | None:

@@ -181,7 +181,12 @@ def write_outputs(rows: list[dict], paths: dict[int, Path]) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--threads", type=int, default=1, help="numba threads per run (default 1)")
+    ap.add_argument(
+        "--threads",
+        type=case_runner.thread_count,
+        default=1,
+        help="numba threads per run (default 1)",
+    )
     ap.add_argument("--analyse-only", action="store_true", help="do not run, only analyse")
     ap.add_argument("--retry-failed", action="store_true", help="rerun failed cases")
     args = ap.parse_args(argv)
