@@ -14,13 +14,20 @@ like every study in validation/), then writes
 and prints the table. Definitions: :func:`front_error`, :func:`time_offset`; discussion in
 docs/fluid.md ("Validation status").
 
-    python validation/dam_break.py [--threads 1] [--analyse-only] [--retry-failed]
+``--sensitivity`` runs instead the L/40 case once per model choice of :data:`VARIANTS` (the
+defaults, the thesis's gradient and surface value, the original kernel, gamma, the wall model,
+the Courant number; two variants are unstable and are reported with the time they stopped) and
+writes docs/figures/dam_break_front_sensitivity.csv: does any choice of the method close the
+gap to the experiments?
+
+    python validation/dam_break.py [--threads 1] [--analyse-only] [--retry-failed] [--sensitivity]
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from csv import DictWriter
 from pathlib import Path
 
 import h5py
@@ -95,12 +102,129 @@ def curve_difference(
     return float(np.sqrt(np.mean(((zf - zc) / zc) ** 2)))
 
 
+SENSITIVITY_RESOLUTION = 40  # L / l0 of the model-choice study
+#: (name, what it changes, --set overrides) of the model-choice study, defaults first
+VARIANTS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
+    ("defaults", "the scenario's defaults", ()),
+    (
+        "gradient_pmin",
+        "p_min gradient without the C_i^-1 correction",
+        ('fluid.pressure.gradient="pmin"',),
+    ),
+    ("gradient_tanaka", "Tanaka's gradient (eq. 2-12)", ('fluid.pressure.gradient="tanaka"',)),
+    ("surface_zero", "p = 0 at surface particles", ('fluid.surface.pressure="zero"',)),
+    (
+        "thesis",
+        "thesis: p_min gradient, p = 0 at the surface, pressure wall layer",
+        (
+            'fluid.pressure.gradient="pmin"',
+            'fluid.surface.pressure="zero"',
+            'fluid.pressure.wall_model="pressure_layer"',
+        ),
+    ),
+    (
+        "wall_pressure_layer",
+        "pressure wall layer instead of Neumann ghosts",
+        ('fluid.pressure.wall_model="pressure_layer"',),
+    ),
+    ("kernel_original", "original kernel re/r - 1", ('fluid.kernel.weight="original"',)),
+    ("gamma_0.05", "gamma = 0.05 (default 0.01)", ("fluid.pressure.gamma=0.05",)),
+    ("courant_0.1", "Courant number 0.1 (default 0.2)", ("fluid.time_step.courant=0.1",)),
+    ("no_collision", "collision model off", ("fluid.collision.enabled=false",)),
+)
+
+
 def case_path(n: int) -> Path:
     return RESULTS_DIR / f"dam_break_L{n}.h5"
 
 
 def overrides(n: int) -> list[str]:
     return [f"fluid.spacing={L / n!r}", "output.snapshot_interval=0", f"run.end_time={END_TIME}"]
+
+
+def variant_path(name: str) -> Path:
+    return RESULTS_DIR / f"dam_break_L{SENSITIVITY_RESOLUTION}_{name}.h5"
+
+
+def stop_time(results: Path) -> float:
+    """Last time (s) of the front probe: where a failed run stopped."""
+    with h5py.File(results, "r") as h5:
+        t = h5["probes/front/time"][:]
+    return float(t[-1]) if len(t) else 0.0
+
+
+def sensitivity_rows(statuses: dict[str, str | None]) -> list[dict]:
+    """One row per variant: the errors of a finished run, the stop time of a failed one."""
+    refs = {name: read_reference(REFERENCE_DIR / f) for name, f in REFERENCES.items()}
+    rows = []
+    for name, what, _ in VARIANTS:
+        status = statuses.get(name)
+        path = variant_path(name)
+        row: dict = {"variant": name, "change": what}
+        if status == "finished":
+            T, Z = front_curve(path)
+            row["outcome"] = "finished"
+            for key, ref in zip(("ko", "mm"), refs.values(), strict=True):
+                shift, shifted = time_offset(T, Z, ref)
+                row[f"rms_error_{key}"] = front_error(T, Z, ref)
+                row[f"offset_ms_{key}"] = 1e3 * shift / T_SCALE
+                row[f"rms_error_shifted_{key}"] = shifted
+            for t_probe in (1.0, 2.0):
+                row[f"Z_T{t_probe:g}"] = float(np.interp(t_probe, T, Z))
+        elif status is not None and path.is_file() and status.startswith("failed"):
+            row["outcome"] = f"stopped at t = {stop_time(path):.3f} s"
+        else:
+            row["outcome"] = str(status)
+        rows.append(row)
+    return rows
+
+
+def write_sensitivity(rows: list[dict]) -> Path:
+    """docs/figures/dam_break_front_sensitivity.csv (numbers; blank where a run stopped)."""
+    FIGURES_DIR.mkdir(parents=True, exist_ok=True)
+    csv = FIGURES_DIR / "dam_break_front_sensitivity.csv"
+    columns = ["variant", "change", "outcome"]
+    for key in ("ko", "mm"):
+        columns += [f"rms_error_{key}", f"offset_ms_{key}", f"rms_error_shifted_{key}"]
+    columns += ["Z_T1", "Z_T2"]
+    with csv.open("w", newline="") as f:
+        f.write(
+            f"# dam break front at l0 = L/{SENSITIVITY_RESOLUTION} per model choice, "
+            "validation/dam_break.py --sensitivity: RMS relative error in Z over 0.5 <= T <= 3 "
+            "against Koshizuka & Oka (ko) and Martin & Moyce (mm), best time offset, error "
+            "after it\n"
+        )
+        writer = DictWriter(f, fieldnames=columns, restval="")
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: f"{v:.6g}" if isinstance(v, float) else v for k, v in row.items()})
+    return csv
+
+
+def run_sensitivity(threads: int, analyse_only: bool, retry: bool) -> int:
+    """The model-choice study: run (or read) every variant, write the CSV, print the table."""
+    statuses: dict[str, str | None] = {}
+    base = overrides(SENSITIVITY_RESOLUTION)
+    for name, _, extra in VARIANTS:
+        out = variant_path(name)
+        statuses[name] = (
+            read_status(out)
+            if analyse_only
+            else case_runner.ensure_case(SCENARIO, out, base + list(extra), threads, retry, name)
+        )
+    rows = sensitivity_rows(statuses)
+    csv = write_sensitivity(rows)
+    print(f"variant               error KO / MM      offset MM   shifted KO / MM   ({csv.name})")
+    for r in rows:
+        if r["outcome"] == "finished":
+            print(
+                f"{r['variant']:<20}  {100 * r['rms_error_ko']:5.1f} / {100 * r['rms_error_mm']:4.1f} %"
+                f"    {r['offset_ms_mm']:5.1f} ms   {100 * r['rms_error_shifted_ko']:4.1f} / "
+                f"{100 * r['rms_error_shifted_mm']:3.1f} %"
+            )
+        else:
+            print(f"{r['variant']:<20}  {r['outcome']}")
+    return 0 if all(s is not None for s in statuses.values()) else 1
 
 
 def analyse(paths: dict[int, Path]) -> list[dict]:
@@ -189,8 +313,15 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--analyse-only", action="store_true", help="do not run, only analyse")
     ap.add_argument("--retry-failed", action="store_true", help="rerun failed cases")
+    ap.add_argument(
+        "--sensitivity",
+        action="store_true",
+        help=f"the model-choice study at L/{SENSITIVITY_RESOLUTION} instead of the resolution study",
+    )
     args = ap.parse_args(argv)
     RESULTS_DIR.mkdir(parents=True, exist_ok=True)
+    if args.sensitivity:
+        return run_sensitivity(args.threads, args.analyse_only, args.retry_failed)
     paths = {}
     for n in RESOLUTIONS:
         out = case_path(n)

@@ -97,3 +97,35 @@ def test_front_converges_with_resolution(tmp_path, scenarios_dir, reference_dir)
     diff = db.curve_difference(curves[80], curves[40])
     print(f"L/40 vs L/80: RMS relative difference {diff * 100:.2f} %")
     assert diff < 0.03
+
+
+def _write_front(path: Path, t: np.ndarray, x: np.ndarray, status: str) -> None:
+    with h5py.File(path, "w") as h5:
+        h5.attrs["status"] = status
+        h5["probes/front/time"] = t
+        h5["probes/front/value"] = x
+
+
+def test_sensitivity_table_reads_offsets_and_stops(tmp_path, monkeypatch, reference_dir):
+    """validation/dam_break.py --sensitivity's analysis: a synthetic front that is Martin &
+    Moyce's curve moved 20 ms earlier gives that offset and ~0 error after it; a failed run is
+    reported with the time it stopped, and the CSV has a row per variant."""
+    monkeypatch.setattr(db, "RESULTS_DIR", tmp_path)
+    monkeypatch.setattr(db, "FIGURES_DIR", tmp_path)
+    mm = db.read_reference(reference_dir / "dam_break_front_martin_moyce_1952.csv")
+    ref_T = np.concatenate([[0.0], mm[:, 0]])
+    ref_Z = np.concatenate([[1.0], mm[:, 1]])
+    shift_T = 0.020 * db.T_SCALE
+    T = np.linspace(0.0, 3.2, 321)
+    Z = np.interp(T + shift_T, ref_T, ref_Z)  # the simulation leads by 20 ms
+    first, second = db.VARIANTS[0][0], db.VARIANTS[1][0]
+    _write_front(db.variant_path(first), T / db.T_SCALE, Z * db.L, "finished")
+    _write_front(db.variant_path(second), T[:101] / db.T_SCALE, Z[:101] * db.L, "failed: boom")
+    rows = db.sensitivity_rows({first: "finished", second: "failed: boom"})
+    assert rows[0]["offset_ms_mm"] == pytest.approx(20.0, abs=0.5)
+    assert rows[0]["rms_error_shifted_mm"] < 0.005
+    assert rows[0]["rms_error_mm"] > 0.05
+    assert rows[1]["outcome"] == f"stopped at t = {T[100] / db.T_SCALE:.3f} s"
+    csv = db.write_sensitivity(rows)
+    lines = [ln for ln in csv.read_text().splitlines() if not ln.startswith("#")]
+    assert len(lines) == 1 + len(db.VARIANTS)
