@@ -105,6 +105,10 @@ def run_fluid(
     if restart is not None:
         arrays, meta, _ = read_checkpoint(restart)
         solver.restore(arrays["fluid"], meta["fluid"])
+        if "fluid_preconditioner" in meta:  # (checkpoints of 0.1.0 before 2026-11-22 lack it)
+            solver.load_preconditioner_arrays(
+                arrays.get("fluid_preconditioner", {}), meta["fluid_preconditioner"]
+            )
         next_probe.update(meta["next_probe"])
         next_snap = meta["next_snapshot"]
         next_ckpt = meta["next_checkpoint"]
@@ -117,18 +121,19 @@ def run_fluid(
         results.add_probe(p.name, p.kind, unit, comps, getattr(p, "position", None))
 
     def checkpoint() -> Path:
+        pre_arrays, pre_meta = solver.preconditioner_arrays()
         meta = {
             "fluid": solver.meta(),
+            "fluid_preconditioner": pre_meta,
             "next_probe": next_probe,
             "next_snapshot": next_snap,
             "next_checkpoint": next_ckpt,
         }
         results.flush()  # the file holds every sample up to the checkpoint before it exists
-        path = write_checkpoint(ckpt_path, {"fluid": solver.state()}, meta, loaded.text)
-        # the restarted run starts with a fresh preconditioner; so does this one from here on,
-        # which keeps both bit-identical
-        solver.pressure.reset()
-        return path
+        # the preconditioner travels with the state: the resumed run solves with the very same
+        # one, so it is bit-identical, and writing a checkpoint changes nothing in this run
+        arrays = {"fluid": solver.state(), "fluid_preconditioner": pre_arrays}
+        return write_checkpoint(ckpt_path, arrays, meta, loaded.text)
 
     def sample(force: bool = False) -> None:
         nonlocal next_snap
@@ -147,6 +152,8 @@ def run_fluid(
     last_flush = time.perf_counter()
     good = {k: np.empty_like(v) for k, v in solver.state().items()}
     good_meta = solver.meta()
+    good_pre = solver.preconditioner_state()
+    good_next = (dict(next_probe), next_snap, next_ckpt)
     _stop_request.clear()
     old_handlers = {s: signal.signal(s, _on_signal) for s in (signal.SIGTERM,) if _main_thread()}
     t_wall = time.perf_counter()
@@ -157,6 +164,8 @@ def run_fluid(
             for k, v in solver.state().items():
                 np.copyto(good[k], v)
             good_meta = solver.meta()
+            good_pre = solver.preconditioner_state()  # by reference
+            good_next = (dict(next_probe), next_snap, next_ckpt)
             dt = solver.dt_towards(t_end)
             solver.step(dt)
             sample()
@@ -178,7 +187,12 @@ def run_fluid(
             pass
         for k, v in good.items():
             np.copyto(solver.state()[k], v)
-        solver.restore(solver.state(), good_meta)
+        solver.restore(solver.state(), good_meta, good_pre)
+        # the output schedule of the last good state too: the failed step's samples are
+        # dropped on restart (truncate_after), so the resumed run must take them again
+        next_probe.clear()
+        next_probe.update(good_next[0])
+        next_snap, next_ckpt = good_next[1], good_next[2]
         ckpt = checkpoint()
         results.close(status=f"failed: {exc}")
         for s, h in old_handlers.items():
@@ -453,6 +467,10 @@ def _fluid_side(
         if meta.get("kind") != "coupled":
             raise ValueError(f"{restart} is not a checkpoint of a coupled run")
         fluid.load_state(_join_state(arrays["fluid"], meta["fluid"]))
+        if "fluid_preconditioner" in meta:  # (checkpoints of 0.1.0 before 2026-11-22 lack it)
+            solver.load_preconditioner_arrays(
+                arrays.get("fluid_preconditioner", {}), meta["fluid_preconditioner"]
+            )
         _load_structure_state(structure, _join_state(arrays["structure"], meta["structure"]))
         scheme.load_state_dict(_join_state(arrays["scheme"], meta["scheme"]))
         next_probe.update(meta["next_probe"])
@@ -480,20 +498,25 @@ def _fluid_side(
         f_arr, f_num = _split_state(fluid.state())
         s_arr, s_num = _split_state(_structure_state(structure))
         c_arr, c_num = _split_state(scheme.state_dict())
+        pre_arr, pre_num = solver.preconditioner_arrays()
         meta = {
             "kind": "coupled",
             "fluid": f_num,
+            "fluid_preconditioner": pre_num,
             "structure": s_num,
             "scheme": c_num,
             "next_probe": next_probe,
             "schedule": sched,
         }
-        arrays = {"fluid": f_arr, "structure": s_arr, "scheme": c_arr}
+        arrays = {
+            "fluid": f_arr,
+            "fluid_preconditioner": pre_arr,
+            "structure": s_arr,
+            "scheme": c_arr,
+        }
         results.flush()  # the file holds every sample up to the checkpoint before it exists
-        path = write_checkpoint(ckpt_path, arrays, meta, loaded.text)
-        # a restarted run starts with a fresh preconditioner; so does this one from here on
-        solver.pressure.reset()
-        return path
+        # the pressure preconditioner travels with the state (see run_fluid's checkpoint)
+        return write_checkpoint(ckpt_path, arrays, meta, loaded.text)
 
     def sample(force: bool = False) -> None:
         t = scheme.t
@@ -538,6 +561,7 @@ def _fluid_side(
     old_handlers = {s: signal.signal(s, _on_signal) for s in (signal.SIGTERM,) if _main_thread()}
     window = scheme.window
     good = scheme.state_dict()
+    good_schedule = (dict(next_probe), dict(sched))
     try:
         if restart is None:
             sample(force=True)
@@ -547,6 +571,7 @@ def _fluid_side(
             if t_next > t_end - TIME_EPS * window:
                 t_next = t_end
             good = scheme.state_dict()
+            good_schedule = (dict(next_probe), dict(sched))
             if not scheme.implicit:  # the implicit scheme checkpoints both itself
                 fluid.checkpoint()
                 structure.checkpoint()
@@ -578,6 +603,11 @@ def _fluid_side(
                 fluid.restore()
                 structure.restore()
                 scheme.load_state_dict(good)
+                # and the output schedule of that window: its samples are dropped on restart
+                next_probe.clear()
+                next_probe.update(good_schedule[0])
+                sched.clear()
+                sched.update(good_schedule[1])
                 last_ckpt = write_ckpt()
                 where = "a checkpoint of the last good window"
             except (CouplingError, RuntimeError) as exc2:

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENE = ROOT / "scenarios" / "dam_break_2d.toml"
@@ -51,11 +52,28 @@ def last_snapshot(path: Path) -> dict[str, np.ndarray]:
         return {k: g[k][:] for k in ("pos", "vel", "p")} | {"time": g.attrs["time"]}
 
 
-def test_kill_then_restart_is_bit_identical(tmp_path):
-    full = tmp_path / "full.h5"
-    proc = mpsfem("run", str(SCENE), "--out", str(full), "--end-time", END, *SETS)
+def assert_same_run(a: Path, b: Path) -> None:
+    for name in ("front", "right_wall_p", "tank_force", "energy"):
+        ta, va = probe(a, name)
+        tb, vb = probe(b, name)
+        np.testing.assert_array_equal(ta, tb)
+        np.testing.assert_array_equal(va, vb)
+    sa, sb = last_snapshot(a), last_snapshot(b)
+    for k in sa:
+        np.testing.assert_array_equal(sa[k], sb[k])
+
+
+@pytest.fixture(scope="module")
+def full(tmp_path_factory) -> Path:
+    """The uninterrupted run."""
+    path = tmp_path_factory.mktemp("full") / "full.h5"
+    proc = mpsfem("run", str(SCENE), "--out", str(path), "--end-time", END, *SETS)
     out, _ = proc.communicate(timeout=600)
     assert proc.returncode == 0, out
+    return path
+
+
+def test_kill_then_restart_is_bit_identical(tmp_path, full):
 
     killed = tmp_path / "killed.h5"
     ckpt = tmp_path / "killed.ckpt.h5"
@@ -77,14 +95,42 @@ def test_kill_then_restart_is_bit_identical(tmp_path):
     )
     out, _ = proc.communicate(timeout=600)
     assert proc.returncode == 0, out
-    for name in ("front", "right_wall_p", "tank_force", "energy"):
-        ta, va = probe(full, name)
-        tb, vb = probe(killed, name)
-        np.testing.assert_array_equal(ta, tb)
-        np.testing.assert_array_equal(va, vb)
-    a, b = last_snapshot(full), last_snapshot(killed)
-    for k in a:
-        np.testing.assert_array_equal(a[k], b[k])
+    assert_same_run(full, killed)
+
+
+def test_sigterm_then_restart_is_bit_identical(tmp_path, full):
+    """SIGTERM stops the run between steps and writes a checkpoint of the last good state at
+    that moment, not at an interval: it carries the pressure preconditioner and the output
+    schedule of that state, so the resumed run is the uninterrupted one, bit for bit."""
+    stopped = tmp_path / "stopped.h5"
+    ckpt = tmp_path / "stopped.ckpt.h5"
+    proc = mpsfem("run", str(SCENE), "--out", str(stopped), "--end-time", END, *SETS)
+    deadline = time.time() + 600
+    while not ckpt.exists() and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.02)
+    time.sleep(0.3)
+    proc.send_signal(signal.SIGTERM)
+    text, _ = proc.communicate(timeout=120)
+    assert proc.returncode == 1, f"the run was not stopped by the signal: {text}"
+    t_stop = float(text.split("checkpoint of the last good state (t = ")[1].split(" s)")[0])
+    assert t_stop % 0.04 > 1e-6  # between interval checkpoints
+    proc = mpsfem(
+        "run", str(SCENE), "--out", str(stopped), "--end-time", END, "--restart", str(ckpt), *SETS
+    )
+    out, _ = proc.communicate(timeout=600)
+    assert proc.returncode == 0, out
+    assert_same_run(full, stopped)
+
+
+def test_checkpoint_interval_does_not_change_the_run(tmp_path, full):
+    """Writing checkpoints at other times leaves the results alone (the preconditioner is
+    carried, not rebuilt, at a checkpoint)."""
+    other = tmp_path / "other.h5"
+    sets = [*SETS, "--set", "output.checkpoint_interval=0.03"]
+    proc = mpsfem("run", str(SCENE), "--out", str(other), "--end-time", END, *sets)
+    out, _ = proc.communicate(timeout=600)
+    assert proc.returncode == 0, out
+    assert_same_run(full, other)
 
 
 def test_sigterm_stops_between_steps_with_a_clear_status(tmp_path):

@@ -18,8 +18,8 @@ Data (SI; 2D forces per unit width, 3D forces in N):
 ``advance(dt)`` places the structure particles (``FluidSolver.set_patch_state``) and takes one
 MPS step of exactly ``dt``; ``max_dt()`` is the solver's next stable step. ``checkpoint()`` /
 ``restore()`` copy the particle state, the time, the step count, the next dt and the written
-inputs; a restore also resets the pressure solver's preconditioner, so restored steps repeat bit
-for bit whatever happened in between. The free-surface and dry flags of the steps after a
+inputs, and keep the pressure solver's preconditioner of that moment, which a restore reinstates,
+so restored steps repeat bit for bit whatever happened in between. The free-surface and dry flags of the steps after a
 ``checkpoint()`` are recorded and replayed after each ``restore()`` (``surface_freeze.py``;
 ``fluid.surface.freeze_in_coupling_window``).
 """
@@ -100,6 +100,7 @@ class FluidParticipant:
         self._d = np.zeros((n, self.solver.dim))
         self._v = np.zeros((n, self.solver.dim))
         self._ckpt: dict | None = None
+        self._ckpt_preconditioner: dict | None = None
         #: wall time (s) of the fluid side's coupling work: placing the structure particles,
         #: the neighbour filter (inside the MPS step), the force evaluation
         self.times = {"place": 0.0, "filter": 0.0, "forces": 0.0}
@@ -168,6 +169,7 @@ class FluidParticipant:
         self._ckpt = {
             k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in self.state().items()
         }
+        self._ckpt_preconditioner = self.solver.preconditioner_state()  # by reference
         self.freeze.start()  # a new window: its first iteration decides the discrete flags
 
     def restore(self) -> None:
@@ -175,6 +177,9 @@ class FluidParticipant:
         if self._ckpt is None:
             raise RuntimeError("restore() before any checkpoint()")
         self.load_state(self._ckpt)
+        # the repeated steps reuse the window's first preconditioner too, as a run resumed from
+        # a checkpoint file does: every replay and every restart then computes the same numbers
+        self.solver.pressure.set_preconditioner_state(self._ckpt_preconditioner)
         self.freeze.rewind()  # the repeated steps reuse the first iteration's flags
 
     # ------------------------------------------------------------------ disk state
@@ -192,7 +197,8 @@ class FluidParticipant:
 
     def load_state(self, state: dict) -> None:
         """Inverse of :meth:`state` (copies the arrays in; the solver's part through
-        :meth:`FluidSolver.restore`, which also drops the reusable preconditioner)."""
+        :meth:`FluidSolver.restore`, with a fresh preconditioner: a resumed run then loads the
+        checkpoint's one, ``FluidSolver.load_preconditioner_arrays``)."""
         self.solver.restore(state, state)
         self._d = np.array(state["d"], dtype=np.float64)
         self._v = np.array(state["v"], dtype=np.float64)

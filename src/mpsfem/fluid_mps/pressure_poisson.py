@@ -808,9 +808,31 @@ class PressureSolver:
         return info
 
     def reset(self) -> None:
-        """Forget state reused between solves (a preconditioner), so that the next solve starts
-        as a fresh solver would: a checkpointed run and its restart then see the same sequence of
-        preconditioners and stay bit-identical."""
+        """Forget state reused between solves (a preconditioner): the next solve starts as a
+        fresh solver would."""
+
+    # -- state reused between solves, for checkpoints ---------------------------------------
+    # A preconditioner reused across steps is part of the run's state: CG stops at a tolerance,
+    # so two different preconditioners give pressures that differ in the last digits, and a
+    # free-surface flow amplifies that. Checkpoints therefore carry it (by reference in memory,
+    # as arrays on disk), and a resumed or replayed run continues with the very same one.
+    def preconditioner_state(self) -> dict | None:
+        """The state reused between solves, by reference (its arrays are never changed in
+        place; a rebuild makes new ones); None when the solver keeps none."""
+        return None
+
+    def set_preconditioner_state(self, state: dict | None) -> None:
+        """Continue with ``state`` (from :meth:`preconditioner_state` or
+        :meth:`preconditioner_from_arrays`); None: :meth:`reset`."""
+        self.reset()
+
+    def preconditioner_arrays(self, state: dict | None) -> tuple[dict[str, np.ndarray], dict]:
+        """``state`` as named arrays and JSON-able numbers, for a checkpoint file."""
+        return {}, {}
+
+    def preconditioner_from_arrays(self, arrays: dict[str, np.ndarray], meta: dict) -> dict | None:
+        """Inverse of :meth:`preconditioner_arrays`."""
+        return None
 
     def _solve(self, A, b, x, info):  # pragma: no cover - abstract
         raise NotImplementedError
@@ -952,6 +974,77 @@ class AMGPCG(PressureSolver):
     def reset(self) -> None:
         """Rebuild the AMG hierarchy at the next solve."""
         self._rebuild_next = True
+
+    _TRIPLE = ("indptr", "indices", "data")
+
+    def preconditioner_state(self) -> dict | None:
+        """The hierarchy (P, R and the coarse matrices of every level; the finest matrix is the
+        current step's), the coarsest pseudo-inverse, the convergence-rate baseline of the
+        rebuild test and a pending rebuild; None before the first solve."""
+        if self.levels is None:
+            return None
+        return {
+            "levels": [tuple(lv) for lv in self.levels],
+            "coarse_inv": self.coarse_inv,
+            "sizes": list(self.sizes),
+            "base_rate": self.base_rate,
+            "rebuild_next": self._rebuild_next,
+        }
+
+    def set_preconditioner_state(self, state: dict | None) -> None:
+        if state is None:
+            self.levels = None
+            self._rebuild_next = False
+            return
+        self.levels = [list(lv) for lv in state["levels"]]
+        self.coarse_inv = state["coarse_inv"]
+        sizes = list(state["sizes"])
+        if getattr(self, "vecs", None) is None or [v.shape[1] for v in self.vecs] != sizes:
+            self.vecs = [np.zeros((4, m)) for m in sizes]  # V-cycle scratch
+        self.sizes = sizes
+        self.blocks = [max(1, min(self.smoother_blocks, m // 256)) for m in self.sizes]
+        self.base_rate = state["base_rate"]
+        self._rebuild_next = bool(state["rebuild_next"])
+
+    def preconditioner_arrays(self, state: dict | None) -> tuple[dict[str, np.ndarray], dict]:
+        if state is None:
+            return {}, {"built": False}
+        arrays: dict[str, np.ndarray] = {"coarse_inv": state["coarse_inv"]}
+        for i, lv in enumerate(state["levels"]):
+            # the finest A is replaced by the current matrix before every use
+            for name, triple in zip("APR", lv, strict=True):
+                if name == "A" and i == 0:
+                    continue
+                for part, arr in zip(self._TRIPLE, triple, strict=True):
+                    arrays[f"L{i}_{name}_{part}"] = arr
+        meta = {
+            "built": True,
+            "n_levels": len(state["levels"]),
+            "sizes": list(state["sizes"]),
+            "base_rate": state["base_rate"],
+            "rebuild_next": bool(state["rebuild_next"]),
+        }
+        return arrays, meta
+
+    def preconditioner_from_arrays(self, arrays: dict[str, np.ndarray], meta: dict) -> dict | None:
+        if not meta.get("built", False):
+            return None
+        levels = []
+        for i in range(int(meta["n_levels"])):
+            lv = []
+            for name in "APR":
+                if name == "A" and i == 0:
+                    lv.append(None)
+                    continue
+                lv.append(tuple(np.asarray(arrays[f"L{i}_{name}_{part}"]) for part in self._TRIPLE))
+            levels.append(tuple(lv))
+        return {
+            "levels": levels,
+            "coarse_inv": np.asarray(arrays["coarse_inv"]),
+            "sizes": [int(m) for m in meta["sizes"]],
+            "base_rate": meta["base_rate"],
+            "rebuild_next": bool(meta["rebuild_next"]),
+        }
 
     def _build(self, A):
         import pyamg

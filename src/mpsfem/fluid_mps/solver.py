@@ -502,7 +502,13 @@ class FluidSolver:
     def meta(self) -> dict:
         return {"t": self.t, "step": self.step_count, "dt_next": self.dt_next}
 
-    def restore(self, arrays: dict[str, np.ndarray], meta: dict) -> None:
+    def restore(
+        self, arrays: dict[str, np.ndarray], meta: dict, preconditioner: dict | None = None
+    ) -> None:
+        """Set the state from :meth:`state` and :meth:`meta` (copied in). ``preconditioner``:
+        the pressure solver's reused preconditioner at that state
+        (:meth:`preconditioner_state`); None starts a fresh one, which a run that was not
+        restored has not done, so only the first gives bit-identical continuations."""
         self._lap_u_ready = "lap_u" in arrays  # else the next step recomputes it
         for name in ("pos", "vel", "p", "grad_p", "lap_u"):
             if name in ("grad_p", "lap_u") and name not in arrays:
@@ -517,7 +523,22 @@ class FluidSolver:
         self.t = float(meta["t"])
         self.step_count = int(meta["step"])
         self.dt_next = float(meta["dt_next"])
-        self.pressure.reset()
+        self.pressure.set_preconditioner_state(preconditioner)
+
+    def preconditioner_state(self) -> dict | None:
+        """The pressure solver's reused preconditioner, by reference (cheap; see
+        ``PressureSolver.preconditioner_state``)."""
+        return self.pressure.preconditioner_state()
+
+    def preconditioner_arrays(self) -> tuple[dict[str, np.ndarray], dict]:
+        """The current preconditioner as arrays and JSON-able numbers, for checkpoint files."""
+        return self.pressure.preconditioner_arrays(self.pressure.preconditioner_state())
+
+    def load_preconditioner_arrays(self, arrays: dict[str, np.ndarray], meta: dict) -> None:
+        """Continue with the preconditioner of a checkpoint file (:meth:`preconditioner_arrays`)."""
+        self.pressure.set_preconditioner_state(
+            self.pressure.preconditioner_from_arrays(arrays, meta)
+        )
 
     # ------------------------------------------------------------------ probes
     def probe_value(self, probe) -> float | np.ndarray:
