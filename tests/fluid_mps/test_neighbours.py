@@ -105,3 +105,26 @@ def test_long_rows_match_brute_force(rng):
     assert lengths.max() > LONG_ROW and lengths.min() < LONG_ROW  # both branches run
     for i in range(len(pos)):
         np.testing.assert_array_equal(nl.indices[nl.indptr[i] : nl.indptr[i + 1]], ref[i])
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_rows_mask_leaves_rows_empty_and_keeps_the_others(dim, rng):
+    """``build(rows=mask)``: masked rows are empty, the others are exactly the full list's rows
+    (masked particles still appear in them), and ``within`` works on the result."""
+    pos = rng.uniform(0.0, 1.0, size=(600, dim))
+    s = NeighbourSearch(dim, 0.2)
+    full = s.build(pos)
+    full_rows = [full.indices[full.indptr[i] : full.indptr[i + 1]].copy() for i in range(600)]
+    mask = (rng.uniform(size=600) < 0.7).astype(np.int8)
+    part = s.build(pos, rows=mask)
+    for i in range(600):
+        row = part.indices[part.indptr[i] : part.indptr[i + 1]]
+        if mask[i]:
+            np.testing.assert_array_equal(row, full_rows[i])
+        else:
+            assert row.size == 0
+    assert np.any(~mask.astype(bool)[part.indices])  # masked particles are still neighbours
+    small = s.within(pos, 0.1)
+    assert all(small.indptr[i] == small.indptr[i + 1] for i in np.flatnonzero(mask == 0))
+    with pytest.raises(ValueError, match="rows must be an int8 array"):
+        s.build(pos, rows=mask.astype(bool))

@@ -11,6 +11,12 @@ Self is excluded; a pair is a neighbour when ``|r_ij| < radius``.
 One list at the largest radius any operator needs is shared by all operators; each operator filters
 by its own kernel radius.
 
+Rows on demand: ``build(pos, rows=mask)`` fills only the rows with ``mask[i] != 0`` and leaves
+the others empty (every particle still appears as a neighbour in the rows that are built). The
+fluid solver skips the rows of dummy wall particles this way: no operator reads them (they are
+not unknowns, carry no pressure and have no number density of their own to test), and in 3D
+they are three quarters of a tank's particles.
+
 Grid guard: without a ``domain`` the grid spans the particles' bounding box and a particle so far
 away that the grid would exceed ``max_cells`` raises :class:`NeighbourSearchError` naming it. With
 a ``domain=(lo, hi)`` the grid spans that box and particles outside it are clipped into the edge
@@ -156,10 +162,13 @@ def _gather_sorted(pos, order, pos_sorted):
 
 
 @njit(cache=True, parallel=True)
-def _count(pos, r2max, nc, kc, cell_of, cell_start, order, pos_sorted, counts):
+def _count(pos, r2max, nc, kc, cell_of, cell_start, order, pos_sorted, rows, counts):
     n, dim = pos.shape
     nstrip = (2 * kc + 1) ** (dim - 1)
     for i in prange(n):
+        if rows[i] == 0:
+            counts[i] = 0
+            continue
         cnt = 0
         for s in range(nstrip):
             c0, c1 = _strip(cell_of[i], s, nc, dim, kc)
@@ -184,10 +193,12 @@ def _prefix(counts, indptr):
 
 
 @njit(cache=True, parallel=True)
-def _fill(pos, r2max, nc, kc, cell_of, cell_start, order, pos_sorted, indptr, indices):
+def _fill(pos, r2max, nc, kc, cell_of, cell_start, order, pos_sorted, rows, indptr, indices):
     n, dim = pos.shape
     nstrip = (2 * kc + 1) ** (dim - 1)
     for i in prange(n):
+        if rows[i] == 0:
+            continue
         p = indptr[i]
         for s in range(nstrip):
             c0, c1 = _strip(cell_of[i], s, nc, dim, kc)
@@ -303,6 +314,7 @@ class NeighbourSearch:
         self._indptr = np.empty(1, np.int64)
         self._pos_sorted = np.empty((0, dim), np.float64)
         self._indices = np.empty(0, np.int32)
+        self._all_rows = np.empty(0, np.int8)
         self._cell_start = np.empty(1, np.int64)
         self._lo = np.empty(dim)
         self._hi = np.empty(dim)
@@ -351,8 +363,12 @@ class NeighbourSearch:
             )
         return lo, nc, ncell
 
-    def build(self, pos: np.ndarray, radius: float | None = None) -> NeighbourList:
-        """Neighbour list of ``pos`` (N, dim) for ``radius`` (default: the search's radius)."""
+    def build(
+        self, pos: np.ndarray, radius: float | None = None, rows: np.ndarray | None = None
+    ) -> NeighbourList:
+        """Neighbour list of ``pos`` (N, dim) for ``radius`` (default: the search's radius).
+
+        ``rows``: (N,) int8 mask; rows with 0 are left empty (default: every row)."""
         pos = np.ascontiguousarray(pos, dtype=np.float64)
         if pos.ndim != 2 or pos.shape[1] != self.dim:
             raise ValueError(f"pos must have shape (N, {self.dim}), got {pos.shape}")
@@ -360,6 +376,14 @@ class NeighbourSearch:
         if r > self.radius:
             raise ValueError(f"radius {r} exceeds the search's cell size {self.radius}")
         n = pos.shape[0]
+        if rows is None:
+            if self._all_rows.shape[0] < n:
+                self._all_rows = np.ones(n, np.int8)
+            rows = self._all_rows[:n]
+        elif rows.shape != (n,) or rows.dtype != np.int8:
+            raise ValueError(
+                f"rows must be an int8 array of shape ({n},), got {rows.dtype} {rows.shape}"
+            )
         self._ensure(n)
         lo, nc, ncell = self._grid(pos, n)
         if self._cell_start.shape[0] < ncell + 1:
@@ -371,7 +395,8 @@ class NeighbourSearch:
         _bin(pos, lo, self.radius / self.cells_per_radius, nc, cell_of, cell_start, order)
         _gather_sorted(pos, order, pos_sorted)
         r2 = r * r
-        _count(pos, r2, nc, self.cells_per_radius, cell_of, cell_start, order, pos_sorted, counts)
+        kc = self.cells_per_radius
+        _count(pos, r2, nc, kc, cell_of, cell_start, order, pos_sorted, rows, counts)
         _prefix(counts, indptr)
         nnz = int(indptr[n])
         if self._indices.shape[0] < nnz:
@@ -386,6 +411,7 @@ class NeighbourSearch:
             cell_start,
             order,
             pos_sorted,
+            rows,
             indptr,
             indices,
         )

@@ -114,12 +114,16 @@ def pressure_gradient_ghost(
 
 @njit(cache=True, parallel=True)
 def wall_pressure(pos, p, kind, dry, indptr, indices, re, wcode, rho, gravity):
-    """Pressure of wall/dummy particles (Pa) rebuilt from their fluid neighbours:
-    p_w = sum_f w_fw (p_f + D_fw) / sum_f w_fw (0 where no fluid is within ``re``)."""
+    """Pressure of pressure-wall particles (Pa) rebuilt from their fluid neighbours:
+    p_w = sum_f w_fw (p_f + D_fw) / sum_f w_fw (0 where no fluid is within ``re``); dummies
+    carry none (particle_kinds.py), 0."""
     n, dim = pos.shape
     re2 = re * re
     for j in prange(n):
         if kind[j] == 0:
+            continue
+        if kind[j] == 2 or kind[j] == 4:
+            p[j] = 0.0
             continue
         if dry[j]:
             p[j] = 0.0
