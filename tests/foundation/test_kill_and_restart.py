@@ -63,6 +63,29 @@ def assert_same_run(a: Path, b: Path) -> None:
         np.testing.assert_array_equal(sa[k], sb[k])
 
 
+def signal_after_first_checkpoint(out: Path, sig: signal.Signals, end: str = END) -> tuple:
+    """Start a run, send ``sig`` 0.3 s after its first checkpoint appears; (exit code, output)."""
+    ckpt = out.with_name(out.stem + ".ckpt.h5")
+    proc = mpsfem("run", str(SCENE), "--out", str(out), "--end-time", end, *SETS)
+    deadline = time.time() + 600
+    while not ckpt.exists() and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.02)
+    time.sleep(0.3)
+    proc.send_signal(sig)
+    text, _ = proc.communicate(timeout=120)
+    return proc.returncode, text
+
+
+def resume(out: Path) -> None:
+    """Restart the run of ``out`` from its checkpoint to END."""
+    ckpt = out.with_name(out.stem + ".ckpt.h5")
+    proc = mpsfem(
+        "run", str(SCENE), "--out", str(out), "--end-time", END, "--restart", str(ckpt), *SETS
+    )
+    text, _ = proc.communicate(timeout=600)
+    assert proc.returncode == 0, text
+
+
 @pytest.fixture(scope="module")
 def full(tmp_path_factory) -> Path:
     """The uninterrupted run."""
@@ -74,27 +97,13 @@ def full(tmp_path_factory) -> Path:
 
 
 def test_kill_then_restart_is_bit_identical(tmp_path, full):
-
     killed = tmp_path / "killed.h5"
-    ckpt = tmp_path / "killed.ckpt.h5"
-    proc = mpsfem("run", str(SCENE), "--out", str(killed), "--end-time", END, *SETS)
-    deadline = time.time() + 600
-    while not ckpt.exists() and time.time() < deadline and proc.poll() is None:
-        time.sleep(0.02)
-    time.sleep(0.3)
-    proc.send_signal(signal.SIGKILL)
-    proc.communicate()
-    assert proc.returncode == -signal.SIGKILL, "the run finished before it could be killed"
-
+    code, _ = signal_after_first_checkpoint(killed, signal.SIGKILL)
+    assert code == -signal.SIGKILL, "the run finished before it could be killed"
     # the killed run's file opens and holds the probe series up to some time
     t_killed, _ = probe(killed, "front")
     assert t_killed.size > 0 and t_killed[-1] < float(END)
-
-    proc = mpsfem(
-        "run", str(SCENE), "--out", str(killed), "--end-time", END, "--restart", str(ckpt), *SETS
-    )
-    out, _ = proc.communicate(timeout=600)
-    assert proc.returncode == 0, out
+    resume(killed)
     assert_same_run(full, killed)
 
 
@@ -103,22 +112,11 @@ def test_sigterm_then_restart_is_bit_identical(tmp_path, full):
     that moment, not at an interval: it carries the pressure preconditioner and the output
     schedule of that state, so the resumed run is the uninterrupted one, bit for bit."""
     stopped = tmp_path / "stopped.h5"
-    ckpt = tmp_path / "stopped.ckpt.h5"
-    proc = mpsfem("run", str(SCENE), "--out", str(stopped), "--end-time", END, *SETS)
-    deadline = time.time() + 600
-    while not ckpt.exists() and time.time() < deadline and proc.poll() is None:
-        time.sleep(0.02)
-    time.sleep(0.3)
-    proc.send_signal(signal.SIGTERM)
-    text, _ = proc.communicate(timeout=120)
-    assert proc.returncode == 1, f"the run was not stopped by the signal: {text}"
+    code, text = signal_after_first_checkpoint(stopped, signal.SIGTERM)
+    assert code == 1, f"the run was not stopped by the signal: {text}"
     t_stop = float(text.split("checkpoint of the last good state (t = ")[1].split(" s)")[0])
     assert t_stop % 0.04 > 1e-6  # between interval checkpoints
-    proc = mpsfem(
-        "run", str(SCENE), "--out", str(stopped), "--end-time", END, "--restart", str(ckpt), *SETS
-    )
-    out, _ = proc.communicate(timeout=600)
-    assert proc.returncode == 0, out
+    resume(stopped)
     assert_same_run(full, stopped)
 
 
@@ -138,16 +136,9 @@ def test_sigterm_stops_between_steps_with_a_clear_status(tmp_path):
     'failed: received signal SIGTERM' (not an error surfacing from inside a numba kernel), a
     readable file and a checkpoint to restart from."""
     out = tmp_path / "term.h5"
-    ckpt = tmp_path / "term.ckpt.h5"
-    proc = mpsfem("run", str(SCENE), "--out", str(out), "--end-time", "5.0", *SETS)
-    deadline = time.time() + 600
-    while not ckpt.exists() and time.time() < deadline and proc.poll() is None:
-        time.sleep(0.02)
-    time.sleep(0.3)
-    proc.send_signal(signal.SIGTERM)
-    text, _ = proc.communicate(timeout=120)
-    assert proc.returncode == 1, text
+    code, text = signal_after_first_checkpoint(out, signal.SIGTERM, end="5.0")
+    assert code == 1, text
     with h5py.File(out, "r") as h5:
         assert h5.attrs["status"] == "failed: received signal SIGTERM"
-    with h5py.File(ckpt, "r") as h5:
+    with h5py.File(tmp_path / "term.ckpt.h5", "r") as h5:
         assert len(h5.keys()) > 0
