@@ -14,6 +14,7 @@ import h5py
 import numpy as np
 import pytest
 
+from mpsfem import simulation
 from mpsfem.results.checkpoint import read_checkpoint
 from mpsfem.scenario.loader import load_scenario
 from mpsfem.simulation import RunFailed, run_coupled
@@ -117,6 +118,32 @@ def test_checkpoint_interval_does_not_change_the_run(tmp_path, ten_windows):
     _, full = ten_windows
     _, other = run(tmp_path, "other", 10 * WINDOW, ["output.checkpoint_interval=0.0006"])
     assert same_bits(datasets(full), datasets(other)) == []
+
+
+def test_stop_mid_run_then_restart_is_bit_identical(tmp_path, ten_windows, monkeypatch):
+    """A stop request after window 6 (what SIGTERM does: ``_check_stop`` raises between
+    windows) rolls the participants, the scheme, the preconditioner and the output schedule back
+    to the start of window 6 and checkpoints there, between interval checkpoints; the restart
+    from that checkpoint gives the uninterrupted run's bits."""
+    _, full = ten_windows
+    calls = []
+
+    def stop_after_sixth_window():
+        calls.append(1)
+        if len(calls) == 6:
+            raise simulation._Terminated("received signal SIGTERM")
+
+    monkeypatch.setattr(simulation, "_check_stop", stop_after_sixth_window)
+    with pytest.raises(RunFailed, match="received signal SIGTERM"):
+        run(tmp_path, "stopped", 10 * WINDOW)
+    monkeypatch.undo()
+    out = tmp_path / "stopped.h5"
+    ckpt = tmp_path / "stopped.ckpt.h5"
+    _, meta, _ = read_checkpoint(ckpt)
+    assert meta["scheme"]["index"] == 5  # the start of the window that was rolled back
+    run(tmp_path, "stopped", 10 * WINDOW, restart=ckpt, out=out)
+    a, b = datasets(full), datasets(out)
+    assert same_bits(a, b) == []
 
 
 def test_window_that_does_not_converge_stops_the_run(tmp_path):
