@@ -1091,14 +1091,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--l0", default="0.004", help="particle spacing, m (default 0.004)")
     ap.add_argument("--cases", default="all", help="'all' or A/H:D/H pairs, e.g. 0.3:0.06,0.2:*")
     ap.add_argument("--kinds", default="rigid,elastic", help="rigid, elastic or both")
-    ap.add_argument(
-        "--threads",
-        type=case_runner.thread_count,
-        default=1,
-        help="numba threads per run (default 1)",
-    )
-    ap.add_argument("--analyse-only", action="store_true", help="do not run, only analyse")
-    ap.add_argument("--retry-failed", action="store_true", help="rerun failed cases")
+    case_runner.add_run_options(ap)
     args = ap.parse_args(argv)
     l0 = float(args.l0)
     if not l0 > 0.0:

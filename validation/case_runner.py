@@ -33,6 +33,16 @@ def thread_count(text: str) -> int:
     return n
 
 
+def add_run_options(ap: argparse.ArgumentParser) -> None:
+    """The options every study script shares: ``--threads`` (numba threads per run, default 1,
+    checked by :func:`thread_count`), ``--analyse-only`` and ``--retry-failed``."""
+    ap.add_argument(
+        "--threads", type=thread_count, default=1, help="numba threads per run (default 1)"
+    )
+    ap.add_argument("--analyse-only", action="store_true", help="do not run, only analyse")
+    ap.add_argument("--retry-failed", action="store_true", help="rerun failed cases")
+
+
 def read_status(path: Path) -> str | None:
     """The results file's ``status`` attribute, None if there is no file; 'locked' when another
     process is writing it."""

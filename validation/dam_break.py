@@ -93,6 +93,27 @@ def time_offset(T: np.ndarray, Z: np.ndarray, reference: np.ndarray) -> tuple[fl
     return float(best.x), float(best.fun)
 
 
+REFERENCE_KEYS = ("ko", "mm")  # column suffixes of REFERENCES, in order
+
+
+def references() -> dict[str, np.ndarray]:
+    """(T, Z) rows of each experiment of :data:`REFERENCES`."""
+    return {name: read_reference(REFERENCE_DIR / f) for name, f in REFERENCES.items()}
+
+
+def comparison(T: np.ndarray, Z: np.ndarray, refs: dict[str, np.ndarray]) -> dict[str, float]:
+    """Per experiment (suffix ko / mm): the RMS error, the best time offset in T and in ms,
+    and the error after it."""
+    row = {}
+    for key, ref in zip(REFERENCE_KEYS, refs.values(), strict=True):
+        shift, shifted = time_offset(T, Z, ref)
+        row[f"rms_error_{key}"] = front_error(T, Z, ref)
+        row[f"offset_T_{key}"] = shift
+        row[f"offset_ms_{key}"] = 1e3 * shift / T_SCALE
+        row[f"rms_error_shifted_{key}"] = shifted
+    return row
+
+
 def curve_difference(
     fine: tuple[np.ndarray, np.ndarray], coarse: tuple[np.ndarray, np.ndarray]
 ) -> float:
@@ -166,7 +187,7 @@ def stop_time(results: Path) -> float:
 
 def sensitivity_rows(statuses: dict[str, str | None]) -> list[dict]:
     """One row per variant: the errors of a finished run, the stop time of a failed one."""
-    refs = {name: read_reference(REFERENCE_DIR / f) for name, f in REFERENCES.items()}
+    refs = references()
     rows = []
     for name, what, _ in VARIANTS:
         status = statuses.get(name)
@@ -175,11 +196,7 @@ def sensitivity_rows(statuses: dict[str, str | None]) -> list[dict]:
         if status == "finished":
             T, Z = front_curve(path)
             row["outcome"] = "finished"
-            for key, ref in zip(("ko", "mm"), refs.values(), strict=True):
-                shift, shifted = time_offset(T, Z, ref)
-                row[f"rms_error_{key}"] = front_error(T, Z, ref)
-                row[f"offset_ms_{key}"] = 1e3 * shift / T_SCALE
-                row[f"rms_error_shifted_{key}"] = shifted
+            row.update(comparison(T, Z, refs))
             for t_probe in (1.0, 2.0):
                 row[f"Z_T{t_probe:g}"] = float(np.interp(t_probe, T, Z))
         elif status is not None and path.is_file() and status.startswith("failed"):
@@ -195,8 +212,9 @@ def write_sensitivity(rows: list[dict]) -> Path:
     FIGURES_DIR.mkdir(parents=True, exist_ok=True)
     csv = FIGURES_DIR / "dam_break_front_sensitivity.csv"
     columns = ["variant", "change", "outcome"]
-    for key in ("ko", "mm"):
-        columns += [f"rms_error_{key}", f"offset_ms_{key}", f"rms_error_shifted_{key}"]
+    for key in REFERENCE_KEYS:
+        columns += [f"rms_error_{key}", f"offset_T_{key}", f"offset_ms_{key}"]
+        columns.append(f"rms_error_shifted_{key}")
     columns += ["Z_T1", "Z_T2"]
     with csv.open("w", newline="") as f:
         f.write(
@@ -241,7 +259,7 @@ def run_sensitivity(threads: int, analyse_only: bool, retry: bool) -> int:
 def analyse(paths: dict[int, Path]) -> list[dict]:
     """One row per resolution: errors, offsets, Z at T = 1 ... 2.5, difference to the next finer
     curve, wall time."""
-    refs = {name: read_reference(REFERENCE_DIR / f) for name, f in REFERENCES.items()}
+    refs = references()
     curves = {n: front_curve(p) for n, p in paths.items()}
     rows = []
     for n in sorted(curves):
@@ -249,12 +267,7 @@ def analyse(paths: dict[int, Path]) -> list[dict]:
         with h5py.File(paths[n], "r") as h5:
             wall = float(h5.attrs.get("wall_time", np.nan))
         row: dict = {"resolution_L_over_l0": n, "wall_time_s": wall}
-        for key, ref in zip(("ko", "mm"), refs.values(), strict=True):
-            shift, shifted = time_offset(T, Z, ref)
-            row[f"rms_error_{key}"] = front_error(T, Z, ref)
-            row[f"offset_T_{key}"] = shift
-            row[f"offset_ms_{key}"] = 1e3 * shift / T_SCALE
-            row[f"rms_error_shifted_{key}"] = shifted
+        row.update(comparison(T, Z, refs))
         for t_probe in (1.0, 1.5, 2.0, 2.5):
             row[f"Z_T{t_probe:g}"] = float(np.interp(t_probe, T, Z))
         finer = [m for m in sorted(curves) if m > n]
@@ -316,14 +329,7 @@ def write_outputs(rows: list[dict], paths: dict[int, Path]) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument(
-        "--threads",
-        type=case_runner.thread_count,
-        default=1,
-        help="numba threads per run (default 1)",
-    )
-    ap.add_argument("--analyse-only", action="store_true", help="do not run, only analyse")
-    ap.add_argument("--retry-failed", action="store_true", help="rerun failed cases")
+    case_runner.add_run_options(ap)
     ap.add_argument(
         "--sensitivity",
         action="store_true",

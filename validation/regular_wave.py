@@ -1186,11 +1186,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--l0", type=float, default=0.004, help="particle spacing, m (default 0.004)")
     ap.add_argument("--alpha", type=float, default=None, help="sponge alpha_s, 1/s (default: file)")
-    ap.add_argument(
-        "--threads", type=case_runner.thread_count, default=1, help="numba threads (default 1)"
-    )
-    ap.add_argument("--analyse-only", action="store_true", help="do not run; analyse every l0")
-    ap.add_argument("--retry-failed", action="store_true", help="rerun a failed case")
+    case_runner.add_run_options(ap)  # --analyse-only analyses every l0 found
     args = ap.parse_args(argv)
     if not args.l0 > 0.0:
         ap.error(f"--l0 = {args.l0}: must be > 0")

@@ -633,14 +633,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--l0", default="0.004", help="particle spacing, m (default 0.004)")
     ap.add_argument("--ratios", default=",".join(f"{r:g}" for r in RATIOS), help="A/H list")
-    ap.add_argument(
-        "--threads",
-        type=case_runner.thread_count,
-        default=1,
-        help="numba threads per run (default 1)",
-    )
-    ap.add_argument("--analyse-only", action="store_true", help="do not run, only analyse")
-    ap.add_argument("--retry-failed", action="store_true", help="rerun failed cases")
+    case_runner.add_run_options(ap)
     ap.add_argument(
         "--sponge-scan",
         action="store_true",
