@@ -105,10 +105,9 @@ def run_fluid(
     if restart is not None:
         arrays, meta, _ = read_checkpoint(restart)
         solver.restore(arrays["fluid"], meta["fluid"])
-        if "fluid_preconditioner" in meta:  # (checkpoints of 0.1.0 before 2026-11-22 lack it)
-            solver.load_preconditioner_arrays(
-                arrays.get("fluid_preconditioner", {}), meta["fluid_preconditioner"]
-            )
+        solver.load_preconditioner_arrays(
+            arrays.get("fluid_preconditioner", {}), meta.get("fluid_preconditioner")
+        )
         next_probe.update(meta["next_probe"])
         next_snap = meta["next_snapshot"]
         next_ckpt = meta["next_checkpoint"]
@@ -153,7 +152,8 @@ def run_fluid(
     good = {k: np.empty_like(v) for k, v in solver.state().items()}
     good_meta = solver.meta()
     good_pre = solver.preconditioner_state()
-    good_next = (dict(next_probe), next_snap, next_ckpt)
+    good_probe = dict(next_probe)  # output schedule of the last good state (updated in place)
+    good_snap, good_ckpt = next_snap, next_ckpt
     _stop_request.clear()
     old_handlers = {s: signal.signal(s, _on_signal) for s in (signal.SIGTERM,) if _main_thread()}
     t_wall = time.perf_counter()
@@ -165,7 +165,8 @@ def run_fluid(
                 np.copyto(good[k], v)
             good_meta = solver.meta()
             good_pre = solver.preconditioner_state()  # by reference
-            good_next = (dict(next_probe), next_snap, next_ckpt)
+            good_probe.update(next_probe)
+            good_snap, good_ckpt = next_snap, next_ckpt
             dt = solver.dt_towards(t_end)
             solver.step(dt)
             sample()
@@ -190,9 +191,8 @@ def run_fluid(
         solver.restore(solver.state(), good_meta, good_pre)
         # the output schedule of the last good state too: the failed step's samples are
         # dropped on restart (truncate_after), so the resumed run must take them again
-        next_probe.clear()
-        next_probe.update(good_next[0])
-        next_snap, next_ckpt = good_next[1], good_next[2]
+        next_probe.update(good_probe)
+        next_snap, next_ckpt = good_snap, good_ckpt
         ckpt = checkpoint()
         results.close(status=f"failed: {exc}")
         for s, h in old_handlers.items():
@@ -467,10 +467,9 @@ def _fluid_side(
         if meta.get("kind") != "coupled":
             raise ValueError(f"{restart} is not a checkpoint of a coupled run")
         fluid.load_state(_join_state(arrays["fluid"], meta["fluid"]))
-        if "fluid_preconditioner" in meta:  # (checkpoints of 0.1.0 before 2026-11-22 lack it)
-            solver.load_preconditioner_arrays(
-                arrays.get("fluid_preconditioner", {}), meta["fluid_preconditioner"]
-            )
+        solver.load_preconditioner_arrays(
+            arrays.get("fluid_preconditioner", {}), meta.get("fluid_preconditioner")
+        )
         _load_structure_state(structure, _join_state(arrays["structure"], meta["structure"]))
         scheme.load_state_dict(_join_state(arrays["scheme"], meta["scheme"]))
         next_probe.update(meta["next_probe"])
@@ -561,7 +560,7 @@ def _fluid_side(
     old_handlers = {s: signal.signal(s, _on_signal) for s in (signal.SIGTERM,) if _main_thread()}
     window = scheme.window
     good = scheme.state_dict()
-    good_schedule = (dict(next_probe), dict(sched))
+    good_probe, good_sched = dict(next_probe), dict(sched)  # updated in place per window
     try:
         if restart is None:
             sample(force=True)
@@ -571,7 +570,8 @@ def _fluid_side(
             if t_next > t_end - TIME_EPS * window:
                 t_next = t_end
             good = scheme.state_dict()
-            good_schedule = (dict(next_probe), dict(sched))
+            good_probe.update(next_probe)
+            good_sched.update(sched)
             if not scheme.implicit:  # the implicit scheme checkpoints both itself
                 fluid.checkpoint()
                 structure.checkpoint()
@@ -604,10 +604,8 @@ def _fluid_side(
                 structure.restore()
                 scheme.load_state_dict(good)
                 # and the output schedule of that window: its samples are dropped on restart
-                next_probe.clear()
-                next_probe.update(good_schedule[0])
-                sched.clear()
-                sched.update(good_schedule[1])
+                next_probe.update(good_probe)
+                sched.update(good_sched)
                 last_ckpt = write_ckpt()
                 where = "a checkpoint of the last good window"
             except (CouplingError, RuntimeError) as exc2:

@@ -18,9 +18,9 @@ Data (SI; 2D forces per unit width, 3D forces in N):
 ``advance(dt)`` places the structure particles (``FluidSolver.set_patch_state``) and takes one
 MPS step of exactly ``dt``; ``max_dt()`` is the solver's next stable step. ``checkpoint()`` /
 ``restore()`` copy the particle state, the time, the step count, the next dt and the written
-inputs, and keep the pressure solver's preconditioner of that moment, which a restore reinstates,
-so restored steps repeat bit for bit whatever happened in between. The free-surface and dry flags of the steps after a
-``checkpoint()`` are recorded and replayed after each ``restore()`` (``surface_freeze.py``;
+inputs, and keep the pressure solver's preconditioner of that moment, which a restore
+reinstates, so restored steps repeat bit for bit whatever happened in between. The free-surface
+and dry flags of the steps after a ``checkpoint()`` are recorded and replayed after each ``restore()`` (``surface_freeze.py``;
 ``fluid.surface.freeze_in_coupling_window``).
 """
 

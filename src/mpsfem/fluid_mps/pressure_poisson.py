@@ -998,11 +998,8 @@ class AMGPCG(PressureSolver):
             return
         self.levels = [list(lv) for lv in state["levels"]]
         self.coarse_inv = state["coarse_inv"]
-        sizes = list(state["sizes"])
-        if getattr(self, "vecs", None) is None or [v.shape[1] for v in self.vecs] != sizes:
-            self.vecs = [np.zeros((4, m)) for m in sizes]  # V-cycle scratch
-        self.sizes = sizes
-        self.blocks = [max(1, min(self.smoother_blocks, m // 256)) for m in self.sizes]
+        if list(state["sizes"]) != self.sizes:
+            self._level_scratch(list(state["sizes"]))
         self.base_rate = state["base_rate"]
         self._rebuild_next = bool(state["rebuild_next"])
 
@@ -1019,8 +1016,7 @@ class AMGPCG(PressureSolver):
                     arrays[f"L{i}_{name}_{part}"] = arr
         meta = {
             "built": True,
-            "n_levels": len(state["levels"]),
-            "sizes": list(state["sizes"]),
+            "sizes": list(state["sizes"]),  # one per level, the coarsest (pseudo-inverse) last
             "base_rate": state["base_rate"],
             "rebuild_next": bool(state["rebuild_next"]),
         }
@@ -1030,7 +1026,7 @@ class AMGPCG(PressureSolver):
         if not meta.get("built", False):
             return None
         levels = []
-        for i in range(int(meta["n_levels"])):
+        for i in range(len(meta["sizes"]) - 1):
             lv = []
             for name in "APR":
                 if name == "A" and i == 0:
@@ -1066,11 +1062,16 @@ class AMGPCG(PressureSolver):
             np.random.set_state(state)  # noqa: NPY002
         self.levels = [[_csr32(lv.A), _csr32(lv.P), _csr32(lv.R)] for lv in ml.levels[:-1]]
         self.coarse_inv = np.linalg.pinv(ml.levels[-1].A.toarray())
-        self.sizes = [lv.A.shape[0] for lv in ml.levels]
-        self.vecs = [np.zeros((4, m)) for m in self.sizes]  # per level: x, b, residual, old x
-        self.blocks = [max(1, min(self.smoother_blocks, m // 256)) for m in self.sizes]
+        self._level_scratch([lv.A.shape[0] for lv in ml.levels])
         self.rebuilds += 1
         self.base_rate = None
+
+    def _level_scratch(self, sizes: list[int]) -> None:
+        """Level sizes, the V-cycle's work vectors (per level: x, b, residual, old x) and the
+        smoother's row blocks for a hierarchy of these sizes."""
+        self.sizes = sizes
+        self.vecs = [np.zeros((4, m)) for m in sizes]
+        self.blocks = [max(1, min(self.smoother_blocks, m // 256)) for m in sizes]
 
     def _vcycle(self, lvl, x, b):
         """x = V-cycle(b) from x = 0 on level lvl."""

@@ -539,11 +539,11 @@ class FluidSolver:
         """The current preconditioner as arrays and JSON-able numbers, for checkpoint files."""
         return self.pressure.preconditioner_arrays(self.pressure.preconditioner_state())
 
-    def load_preconditioner_arrays(self, arrays: dict[str, np.ndarray], meta: dict) -> None:
-        """Continue with the preconditioner of a checkpoint file (:meth:`preconditioner_arrays`)."""
-        self.pressure.set_preconditioner_state(
-            self.pressure.preconditioner_from_arrays(arrays, meta)
-        )
+    def load_preconditioner_arrays(self, arrays: dict[str, np.ndarray], meta: dict | None) -> None:
+        """Continue with the preconditioner of a checkpoint file (:meth:`preconditioner_arrays`);
+        ``meta`` None (a checkpoint written before checkpoints carried it): a fresh one."""
+        state = None if meta is None else self.pressure.preconditioner_from_arrays(arrays, meta)
+        self.pressure.set_preconditioner_state(state)
 
     # ------------------------------------------------------------------ probes
     def probe_value(self, probe) -> float | np.ndarray:

@@ -37,6 +37,7 @@ from numba import njit, prange
 
 from mpsfem.fluid_mps.kernels import weight
 from mpsfem.fluid_mps.operators import gradient_kernel
+from mpsfem.fluid_mps.particle_kinds import is_dummy
 
 
 @njit(cache=True, inline="always")
@@ -122,7 +123,7 @@ def wall_pressure(pos, p, kind, dry, indptr, indices, re, wcode, rho, gravity):
     for j in prange(n):
         if kind[j] == 0:
             continue
-        if kind[j] == 2 or kind[j] == 4:
+        if is_dummy(kind[j]):
             p[j] = 0.0
             continue
         if dry[j]:
