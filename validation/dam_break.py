@@ -8,16 +8,18 @@ like every study in validation/), then writes
 * docs/figures/dam_break_front_convergence.csv: per resolution the RMS relative error in Z over
   0.5 <= T <= 3 against both experiments, the best time offset and the error with it, Z at
   T = 1, 1.5, 2, 2.5, and the RMS difference to the next finer curve;
+* docs/figures/dam_break_front_error_curve.csv: the error curve, the relative error in Z of
+  every resolution at each experiment point with 0.5 <= T <= 3;
 * docs/figures/dam_break_front_convergence.png: Z(T) of the three runs with both experiments,
-  and the finest run shifted by its offset;
+  and the finest run shifted by its offset; below, the error curve;
 
 and prints the table. Definitions: :func:`front_error`, :func:`time_offset`; discussion in
 docs/fluid.md ("Validation status").
 
 ``--sensitivity`` runs instead the L/40 case once per model choice of :data:`VARIANTS` (the
 defaults, the thesis's gradient and surface value, the original kernel, gamma, the wall model,
-the Courant number; two variants are unstable and are reported with the time they stopped), and
-four realisations of the defaults that differ only in the CG tolerance (0.5-2e-6), and writes
+the Courant number, the collision distance; unstable variants are reported with the time they
+stopped), and four realisations of the defaults that differ only in the CG tolerance (0.5-2e-6), and writes
 docs/figures/dam_break_front_sensitivity.csv: does any choice of the method close the gap to the
 experiments, beyond the metric's run-to-run noise?
 
@@ -153,6 +155,9 @@ VARIANTS: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     ("gamma_0.05", "gamma = 0.05 (default 0.01)", ("fluid.pressure.gamma=0.05",)),
     ("courant_0.1", "Courant number 0.1 (default 0.2)", ("fluid.time_step.courant=0.1",)),
     ("no_collision", "collision model off", ("fluid.collision.enabled=false",)),
+    ("collision_0.5", "collision distance 0.5 l0 (default 0.8)", ("fluid.collision.distance=0.5",)),
+    ("collision_0.6", "collision distance 0.6 l0", ("fluid.collision.distance=0.6",)),
+    ("collision_0.7", "collision distance 0.7 l0", ("fluid.collision.distance=0.7",)),
     # realisations: the CG tolerance moves the pressure in its last digits only; how far the
     # splash then carries that is the metric's own noise, the yardstick for the rows above
     (
@@ -278,6 +283,37 @@ def analyse(paths: dict[int, Path]) -> list[dict]:
     return rows
 
 
+def error_curves(paths: dict[int, Path]) -> list[dict]:
+    """The error curve: per experiment point with 0.5 <= T <= 3, the relative error
+    (Z_sim(T) - Z_ref) / Z_ref of every resolution (the terms of :func:`front_error`)."""
+    curves = {n: front_curve(p) for n, p in sorted(paths.items())}
+    rows = []
+    for key, ref in zip(REFERENCE_KEYS, references().values(), strict=True):
+        sel = (ref[:, 0] >= T_RANGE[0]) & (ref[:, 0] <= T_RANGE[1])
+        for T_ref, Z_ref in ref[sel]:
+            row: dict = {"experiment": key, "T": float(T_ref), "Z_ref": float(Z_ref)}
+            for n, (T, Z) in curves.items():
+                row[f"error_L{n}"] = float((np.interp(T_ref, T, Z) - Z_ref) / Z_ref)
+            rows.append(row)
+    return rows
+
+
+def write_error_curves(rows: list[dict]) -> Path:
+    """docs/figures/dam_break_front_error_curve.csv."""
+    csv = FIGURES_DIR / "dam_break_front_error_curve.csv"
+    with csv.open("w", newline="") as f:
+        f.write(
+            "# dam break front error curve, validation/dam_break.py: relative error "
+            "(Z_sim - Z_ref) / Z_ref at each experiment point with 0.5 <= T <= 3, per "
+            "resolution L/n; experiment ko = Koshizuka & Oka 1996, mm = Martin & Moyce 1952\n"
+        )
+        writer = DictWriter(f, fieldnames=list(rows[0]))
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: f"{v:.6g}" if isinstance(v, float) else v for k, v in row.items()})
+    return csv
+
+
 def write_outputs(rows: list[dict], paths: dict[int, Path]) -> None:
     import matplotlib
 
@@ -296,7 +332,9 @@ def write_outputs(rows: list[dict], paths: dict[int, Path]) -> None:
         f.write(",".join(columns) + "\n")
         for row in rows:
             f.write(",".join(f"{row[c]:.6g}" for c in columns) + "\n")
-    fig, ax = plt.subplots(figsize=(6.5, 4.2))
+    errors = error_curves(paths)
+    write_error_curves(errors)
+    fig, (ax, ax_err) = plt.subplots(2, 1, figsize=(6.5, 7.0), height_ratios=(3, 2), sharex=True)
     for row in rows:
         n = row["resolution_L_over_l0"]
         T, Z = front_curve(paths[n])
@@ -318,10 +356,29 @@ def write_outputs(rows: list[dict], paths: dict[int, Path]) -> None:
         ax.plot(ref[:, 0], ref[:, 1], m, mfc="k" if m == "o" else "none", mec="k", label=name)
     ax.set_xlim(0.0, 3.5)
     ax.set_ylim(1.0, 4.5)
-    ax.set_xlabel("T = t sqrt(2g/L)")
     ax.set_ylabel("Z = x/L")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7.5)
+    for i, row in enumerate(rows):  # the error curve: the terms of the RMS error
+        n = row["resolution_L_over_l0"]
+        for key, m in zip(REFERENCE_KEYS, markers, strict=True):
+            pts = [e for e in errors if e["experiment"] == key]
+            ax_err.plot(
+                [e["T"] for e in pts],
+                [100 * e[f"error_L{n}"] for e in pts],
+                m + "-",
+                color=f"C{i}",
+                mfc=f"C{i}" if m == "o" else "none",
+                lw=1,
+                label=f"L/{n}" if key == REFERENCE_KEYS[0] else None,
+            )
+    ax_err.axhline(100 * TARGET, color="k", ls=":", lw=1, label="issue target (RMS)")
+    ax_err.axhline(0.0, color="k", lw=0.5)
+    ax_err.set_xlabel("T = t sqrt(2g/L)")
+    ax_err.set_ylabel("(Z - Z_exp) / Z_exp (%)")
+    ax_err.set_title("error at the experiment points: filled K & O, open M & M", fontsize=8)
+    ax_err.grid(alpha=0.3)
+    ax_err.legend(fontsize=7.5, ncol=4)
     fig.tight_layout()
     fig.savefig(FIGURES_DIR / "dam_break_front_convergence.png", dpi=110)
     plt.close(fig)
