@@ -2,7 +2,12 @@ import numpy as np
 import pytest
 from conftest import brute_force_neighbours, square_lattice
 
-from mpsfem.fluid_mps.neighbours import NeighbourSearch, NeighbourSearchError, build_neighbours
+from mpsfem.fluid_mps.neighbours import (
+    NeighbourSearch,
+    NeighbourSearchError,
+    build_neighbours,
+    radix_sort,
+)
 
 
 @pytest.mark.parametrize("dim", [2, 3])
@@ -92,7 +97,7 @@ def test_within_filters_the_last_build(rng):
 
 def test_long_rows_match_brute_force(rng):
     """3D rows at the Laplacian radius 4.01 l0 hold ~270 neighbours, above LONG_ROW: they take
-    the quicksort branch and must still be the brute-force rows, ascending."""
+    the radix-sort branch and must still be the brute-force rows, ascending."""
     from mpsfem.fluid_mps.neighbours import LONG_ROW
 
     g = np.arange(12, dtype=np.float64)
@@ -105,6 +110,20 @@ def test_long_rows_match_brute_force(rng):
     assert lengths.max() > LONG_ROW and lengths.min() < LONG_ROW  # both branches run
     for i in range(len(pos)):
         np.testing.assert_array_equal(nl.indices[nl.indptr[i] : nl.indptr[i + 1]], ref[i])
+
+
+@pytest.mark.parametrize(
+    ("size", "span"),
+    [(0, 1), (1, 9), (2, 2), (300, 1), (300, 256), (300, 257), (300, 70_000), (300, 2**31 - 1)],
+)
+def test_radix_sort_sorts_any_span(size, span, rng):
+    """The long-row sort against numpy's: spans needing no digit pass (all equal), one, two,
+    three and four 8-bit passes (an odd count leaves the keys in the scratch array), with
+    repeated keys and an offset minimum."""
+    keys = (rng.integers(0, span, size) + (7 if span < 2**31 - 8 else 0)).astype(np.int32)
+    got = keys.copy()
+    radix_sort(got)
+    np.testing.assert_array_equal(got, np.sort(keys))
 
 
 @pytest.mark.parametrize("dim", [2, 3])
