@@ -17,15 +17,16 @@ Each resolution runs in its own process so that peak RSS is measured per run.
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import resource
-import subprocess
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from child_runs import memory_slope, run_child, write_rows  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "hydrostatic_3d.toml"
@@ -102,10 +103,7 @@ def main() -> None:
         return
     rows = []
     for size in args.sizes.split(","):
-        cmd = [sys.executable, __file__, "--child", str(SPACINGS[size])]
-        cmd += ["--end-time", str(args.end_time), "--threads", str(args.threads)]
-        out = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
-        row = json.loads(out.strip().splitlines()[-1])
+        row = run_child(__file__, SPACINGS[size], args.end_time, args.threads)
         rows.append(row)
         print(
             f"{row['fluid_particles']:>6d} fluid {row['all_particles']:>6d} all  "
@@ -117,25 +115,8 @@ def main() -> None:
             f"gauge {row['gauge_error'] * 100:+.2f} %",
             flush=True,
         )
-    if len(rows) >= 2:
-        a, b = rows[-2], rows[-1]
-        slope = (
-            (b["peak_rss_kib"] - a["peak_rss_kib"])
-            * 1024
-            / (b["all_particles"] - a["all_particles"])
-        )
-        for r in rows:
-            r["bytes_per_particle_slope"] = slope
-        print(
-            f"peak memory per particle (slope {a['all_particles']} -> {b['all_particles']}): "
-            f"{slope:.0f} B"
-        )
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    with args.out.open("w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0].keys()))
-        w.writeheader()
-        w.writerows(rows)
-    print(f"wrote {args.out}")
+    memory_slope(rows)
+    write_rows(rows, args.out)
 
 
 if __name__ == "__main__":
