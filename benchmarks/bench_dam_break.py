@@ -13,8 +13,6 @@ Each resolution runs in its own process so that peak RSS is measured per run.
 
 from __future__ import annotations
 
-import argparse
-import json
 import resource
 import sys
 import time
@@ -23,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from child_runs import memory_slope, run_child, write_rows  # noqa: E402
+from child_runs import benchmark_main  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 L, G = 0.146, 9.81
@@ -98,31 +96,28 @@ def one_run(spacing: float, end_time: float, threads: int) -> dict:
     }
 
 
+def describe(row: dict) -> str:
+    """One printed line of the table."""
+    return (
+        f"{row['particles']:>7d} fluid  {row['steps']:>5d} steps  {row['wall_s']:8.1f} s  "
+        f"{row['us_per_particle_step']:6.2f} us/particle-step  "
+        f"nb {row['neighbours_s']:.1f} expl {row['explicit_s']:.1f} asm {row['assembly_s']:.1f} "
+        f"solve {row['solve_s']:.1f} io {row['probes_io_s']:.1f} s  "
+        f"{row['iterations_per_step']:.1f} it/step  front error {row['front_rms_error'] * 100:.1f} %"
+    )
+
+
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", default="4k,16k,64k")
-    ap.add_argument("--end-time", type=float, default=0.27)
-    ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--child", type=float, help=argparse.SUPPRESS)
-    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "dam_break.csv")
-    args = ap.parse_args()
-    if args.child is not None:
-        print(json.dumps(one_run(args.child, args.end_time, args.threads)))
-        return
-    rows = []
-    for size in args.sizes.split(","):
-        row = run_child(__file__, SPACINGS[size], args.end_time, args.threads)
-        rows.append(row)
-        print(
-            f"{row['particles']:>7d} fluid  {row['steps']:>5d} steps  {row['wall_s']:8.1f} s  "
-            f"{row['us_per_particle_step']:6.2f} us/particle-step  "
-            f"nb {row['neighbours_s']:.1f} expl {row['explicit_s']:.1f} asm {row['assembly_s']:.1f} "
-            f"solve {row['solve_s']:.1f} io {row['probes_io_s']:.1f} s  "
-            f"{row['iterations_per_step']:.1f} it/step  front error {row['front_rms_error'] * 100:.1f} %",
-            flush=True,
-        )
-    memory_slope(rows)
-    write_rows(rows, args.out)
+    benchmark_main(
+        __doc__.splitlines()[0],
+        __file__,
+        one_run,
+        SPACINGS,
+        describe,
+        end_time=0.27,
+        threads=2,
+        out=ROOT / "benchmarks" / "results" / "dam_break.csv",
+    )
 
 
 if __name__ == "__main__":

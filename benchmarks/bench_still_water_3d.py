@@ -16,8 +16,6 @@ Each resolution runs in its own process so that peak RSS is measured per run.
 
 from __future__ import annotations
 
-import argparse
-import json
 import resource
 import sys
 import time
@@ -26,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from child_runs import memory_slope, run_child, write_rows  # noqa: E402
+from child_runs import benchmark_main  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "hydrostatic_3d.toml"
@@ -88,35 +86,30 @@ def one_run(spacing: float, end_time: float, threads: int) -> dict:
     }
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", default="1k,6k,23k")
-    ap.add_argument("--end-time", type=float, default=0.2)
-    ap.add_argument("--threads", type=int, default=1)
-    ap.add_argument("--child", type=float, help=argparse.SUPPRESS)
-    ap.add_argument(
-        "--out", type=Path, default=ROOT / "benchmarks" / "results" / "still_water_3d.csv"
+def describe(row: dict) -> str:
+    """One printed line of the table."""
+    return (
+        f"{row['fluid_particles']:>6d} fluid {row['all_particles']:>6d} all  "
+        f"{row['steps']:>4d} steps  {row['wall_s']:7.1f} s  "
+        f"{row['us_per_fluid_particle_step']:6.2f} us/fluid-particle-step "
+        f"({row['us_per_particle_step']:.2f} per particle)  nb {row['neighbours_s']:.1f} "
+        f"expl {row['explicit_s']:.1f} asm {row['assembly_s']:.1f} "
+        f"solve {row['solve_s']:.1f} s  {row['iterations_per_step']:.1f} it/step  "
+        f"gauge {row['gauge_error'] * 100:+.2f} %"
     )
-    args = ap.parse_args()
-    if args.child is not None:
-        print(json.dumps(one_run(args.child, args.end_time, args.threads)))
-        return
-    rows = []
-    for size in args.sizes.split(","):
-        row = run_child(__file__, SPACINGS[size], args.end_time, args.threads)
-        rows.append(row)
-        print(
-            f"{row['fluid_particles']:>6d} fluid {row['all_particles']:>6d} all  "
-            f"{row['steps']:>4d} steps  {row['wall_s']:7.1f} s  "
-            f"{row['us_per_fluid_particle_step']:6.2f} us/fluid-particle-step "
-            f"({row['us_per_particle_step']:.2f} per particle)  nb {row['neighbours_s']:.1f} "
-            f"expl {row['explicit_s']:.1f} asm {row['assembly_s']:.1f} "
-            f"solve {row['solve_s']:.1f} s  {row['iterations_per_step']:.1f} it/step  "
-            f"gauge {row['gauge_error'] * 100:+.2f} %",
-            flush=True,
-        )
-    memory_slope(rows)
-    write_rows(rows, args.out)
+
+
+def main() -> None:
+    benchmark_main(
+        __doc__.splitlines()[0],
+        __file__,
+        one_run,
+        SPACINGS,
+        describe,
+        end_time=0.2,
+        threads=1,
+        out=ROOT / "benchmarks" / "results" / "still_water_3d.csv",
+    )
 
 
 if __name__ == "__main__":

@@ -1,12 +1,15 @@
-"""Shared plumbing of the fluid benchmarks: one resolution per child process (so that peak RSS
-is measured per run), the peak-memory slope between the two largest runs, and the CSV."""
+"""Shared plumbing of the fluid benchmarks: the command line, one resolution per child process
+(so that peak RSS is measured per run), the peak-memory slope between the two largest runs, and
+the CSV."""
 
 from __future__ import annotations
 
+import argparse
 import csv
 import json
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 
@@ -44,3 +47,37 @@ def write_rows(rows: list[dict], path: Path) -> None:
         w.writeheader()
         w.writerows(rows)
     print(f"wrote {path}")
+
+
+def benchmark_main(
+    description: str,
+    script: str,
+    one_run: Callable[[float, float, int], dict],
+    spacings: dict[str, float],
+    describe: Callable[[dict], str],
+    end_time: float,
+    threads: int,
+    out: Path,
+) -> None:
+    """The benchmark's command line: ``--sizes`` (keys of ``spacings``, comma-separated),
+    ``--end-time`` (s), ``--threads``, ``--out``; each size runs ``one_run(spacing, end_time,
+    threads)`` in a child process, prints ``describe(row)``, then the memory slope; the rows go
+    to the CSV."""
+    ap = argparse.ArgumentParser(description=description)
+    ap.add_argument("--sizes", default=",".join(spacings))
+    ap.add_argument("--end-time", type=float, default=end_time)
+    ap.add_argument("--threads", type=int, default=threads)
+    ap.add_argument("--child", type=float, help=argparse.SUPPRESS)
+    ap.add_argument("--out", type=Path, default=out)
+    args = ap.parse_args()
+    if args.child is not None:
+        print(json.dumps(one_run(args.child, args.end_time, args.threads)))
+        return
+    rows = []
+    for size in args.sizes.split(","):
+        if size not in spacings:
+            ap.error(f"--sizes: {size!r} is not one of {', '.join(spacings)}")
+        rows.append(run_child(script, spacings[size], args.end_time, args.threads))
+        print(describe(rows[-1]), flush=True)
+    memory_slope(rows)
+    write_rows(rows, args.out)
