@@ -19,8 +19,8 @@ docs/fluid.md ("Validation status").
 ``--sensitivity`` runs instead the L/40 case once per model choice of :data:`VARIANTS` (the
 defaults, the thesis's gradient and surface value, the original kernel, gamma, the wall model,
 the Courant number, the collision distance; unstable variants are reported with the time they
-stopped), and four realisations of the defaults that differ only in the CG tolerance (0.5-2e-6), and writes
-docs/figures/dam_break_front_sensitivity.csv: does any choice of the method close the gap to the
+stopped), and four realisations of the defaults that differ only in the CG tolerance (0.5-2e-6),
+and writes docs/figures/dam_break_front_sensitivity.csv: does any choice of the method close the gap to the
 experiments, beyond the metric's run-to-run noise?
 
     python validation/dam_break.py [--threads 1] [--analyse-only] [--retry-failed] [--sensitivity]
@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from csv import DictWriter
 from pathlib import Path
 
 import h5py
@@ -40,6 +39,7 @@ from scipy.optimize import minimize_scalar
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import case_runner  # noqa: E402 - validation/case_runner.py: resumable runs of one case
 from case_runner import read_status  # noqa: E402
+from results_csv import write_csv  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "dam_break_2d.toml"
@@ -73,13 +73,18 @@ def front_curve(results: Path) -> tuple[np.ndarray, np.ndarray]:
     return t * T_SCALE, x / L
 
 
+def relative_errors(
+    T: np.ndarray, Z: np.ndarray, reference: np.ndarray, shift: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """The reference points (T_ref, Z_ref) with 0.5 <= T <= 3 and the relative errors
+    (Z_sim(T_ref - shift) - Z_ref) / Z_ref there: the error curve."""
+    ref = reference[(reference[:, 0] >= T_RANGE[0]) & (reference[:, 0] <= T_RANGE[1])]
+    return ref, (np.interp(ref[:, 0] - shift, T, Z) - ref[:, 1]) / ref[:, 1]
+
+
 def front_error(T: np.ndarray, Z: np.ndarray, reference: np.ndarray, shift: float = 0.0) -> float:
-    """RMS over the reference points with 0.5 <= T <= 3 of (Z_sim(T - shift) - Z_ref) / Z_ref
-    (issue 2's metric at shift = 0)."""
-    sel = (reference[:, 0] >= T_RANGE[0]) & (reference[:, 0] <= T_RANGE[1])
-    z_sim = np.interp(reference[sel, 0] - shift, T, Z)
-    rel = (z_sim - reference[sel, 1]) / reference[sel, 1]
-    return float(np.sqrt(np.mean(rel**2)))
+    """RMS of :func:`relative_errors` (issue 2's metric at shift = 0)."""
+    return float(np.sqrt(np.mean(relative_errors(T, Z, reference, shift)[1] ** 2)))
 
 
 def time_offset(T: np.ndarray, Z: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
@@ -214,24 +219,18 @@ def sensitivity_rows(statuses: dict[str, str | None]) -> list[dict]:
 
 def write_sensitivity(rows: list[dict]) -> Path:
     """docs/figures/dam_break_front_sensitivity.csv (numbers; blank where a run stopped)."""
-    FIGURES_DIR.mkdir(parents=True, exist_ok=True)
     csv = FIGURES_DIR / "dam_break_front_sensitivity.csv"
     columns = ["variant", "change", "outcome"]
     for key in REFERENCE_KEYS:
         columns += [f"rms_error_{key}", f"offset_T_{key}", f"offset_ms_{key}"]
         columns.append(f"rms_error_shifted_{key}")
     columns += ["Z_T1", "Z_T2"]
-    with csv.open("w", newline="") as f:
-        f.write(
-            f"# dam break front at l0 = L/{SENSITIVITY_RESOLUTION} per model choice, "
-            "validation/dam_break.py --sensitivity: RMS relative error in Z over 0.5 <= T <= 3 "
-            "against Koshizuka & Oka (ko) and Martin & Moyce (mm), best time offset, error "
-            "after it\n"
-        )
-        writer = DictWriter(f, fieldnames=columns, restval="")
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({k: f"{v:.6g}" if isinstance(v, float) else v for k, v in row.items()})
+    comment = (
+        f"dam break front at l0 = L/{SENSITIVITY_RESOLUTION} per model choice, "
+        "validation/dam_break.py --sensitivity: RMS relative error in Z over 0.5 <= T <= 3 "
+        "against Koshizuka & Oka (ko) and Martin & Moyce (mm), best time offset, error after it"
+    )
+    write_csv(rows, csv, columns, comment)
     return csv
 
 
@@ -284,16 +283,17 @@ def analyse(paths: dict[int, Path]) -> list[dict]:
 
 
 def error_curves(paths: dict[int, Path]) -> list[dict]:
-    """The error curve: per experiment point with 0.5 <= T <= 3, the relative error
-    (Z_sim(T) - Z_ref) / Z_ref of every resolution (the terms of :func:`front_error`)."""
+    """The error curve: per experiment point with 0.5 <= T <= 3, the relative error of every
+    resolution (:func:`relative_errors`, the terms of :func:`front_error`)."""
     curves = {n: front_curve(p) for n, p in sorted(paths.items())}
     rows = []
-    for key, ref in zip(REFERENCE_KEYS, references().values(), strict=True):
-        sel = (ref[:, 0] >= T_RANGE[0]) & (ref[:, 0] <= T_RANGE[1])
-        for T_ref, Z_ref in ref[sel]:
+    for key, reference in zip(REFERENCE_KEYS, references().values(), strict=True):
+        errors = {n: relative_errors(T, Z, reference) for n, (T, Z) in curves.items()}
+        points = next(iter(errors.values()))[0]
+        for k, (T_ref, Z_ref) in enumerate(points):
             row: dict = {"experiment": key, "T": float(T_ref), "Z_ref": float(Z_ref)}
-            for n, (T, Z) in curves.items():
-                row[f"error_L{n}"] = float((np.interp(T_ref, T, Z) - Z_ref) / Z_ref)
+            for n, (_, rel) in errors.items():
+                row[f"error_L{n}"] = float(rel[k])
             rows.append(row)
     return rows
 
@@ -301,16 +301,12 @@ def error_curves(paths: dict[int, Path]) -> list[dict]:
 def write_error_curves(rows: list[dict]) -> Path:
     """docs/figures/dam_break_front_error_curve.csv."""
     csv = FIGURES_DIR / "dam_break_front_error_curve.csv"
-    with csv.open("w", newline="") as f:
-        f.write(
-            "# dam break front error curve, validation/dam_break.py: relative error "
-            "(Z_sim - Z_ref) / Z_ref at each experiment point with 0.5 <= T <= 3, per "
-            "resolution L/n; experiment ko = Koshizuka & Oka 1996, mm = Martin & Moyce 1952\n"
-        )
-        writer = DictWriter(f, fieldnames=list(rows[0]))
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({k: f"{v:.6g}" if isinstance(v, float) else v for k, v in row.items()})
+    comment = (
+        "dam break front error curve, validation/dam_break.py: relative error "
+        "(Z_sim - Z_ref) / Z_ref at each experiment point with 0.5 <= T <= 3, per resolution "
+        "L/n; experiment ko = Koshizuka & Oka 1996, mm = Martin & Moyce 1952"
+    )
+    write_csv(rows, csv, comment=comment)
     return csv
 
 
@@ -322,16 +318,12 @@ def write_outputs(rows: list[dict], paths: dict[int, Path]) -> None:
 
     FIGURES_DIR.mkdir(parents=True, exist_ok=True)
     csv = FIGURES_DIR / "dam_break_front_convergence.csv"
-    columns = list(rows[0])
-    with csv.open("w") as f:
-        f.write(
-            "# dam break front (scenarios/dam_break_2d.toml), validation/dam_break.py: RMS "
-            "relative error in Z over 0.5 <= T <= 3 against Koshizuka & Oka (ko) and Martin & "
-            "Moyce (mm), unshifted and after the best time offset\n"
-        )
-        f.write(",".join(columns) + "\n")
-        for row in rows:
-            f.write(",".join(f"{row[c]:.6g}" for c in columns) + "\n")
+    comment = (
+        "dam break front (scenarios/dam_break_2d.toml), validation/dam_break.py: RMS relative "
+        "error in Z over 0.5 <= T <= 3 against Koshizuka & Oka (ko) and Martin & Moyce (mm), "
+        "unshifted and after the best time offset"
+    )
+    write_csv(rows, csv, comment=comment)
     errors = error_curves(paths)
     write_error_curves(errors)
     fig, (ax, ax_err) = plt.subplots(2, 1, figsize=(6.5, 7.0), height_ratios=(3, 2), sharex=True)

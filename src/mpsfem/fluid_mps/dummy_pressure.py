@@ -14,7 +14,7 @@ import numpy as np
 from numba import njit, prange
 from scipy.spatial import cKDTree
 
-from mpsfem.fluid_mps.particle_kinds import DUMMY, STRUCTURE, STRUCTURE_DUMMY, WALL
+from mpsfem.fluid_mps.particle_kinds import dummy_mask, pressure_wall_mask
 
 
 def dummy_sources(pos: np.ndarray, kind: np.ndarray, ranges: list[tuple[int, int]]) -> np.ndarray:
@@ -26,8 +26,8 @@ def dummy_sources(pos: np.ndarray, kind: np.ndarray, ranges: list[tuple[int, int
     src = np.full(len(pos), -1, dtype=np.int32)
     for start, stop in ranges:
         k = kind[start:stop]
-        press = np.flatnonzero((k == WALL) | (k == STRUCTURE)) + start
-        dummy = np.flatnonzero((k == DUMMY) | (k == STRUCTURE_DUMMY)) + start
+        press = np.flatnonzero(pressure_wall_mask(k)) + start
+        dummy = np.flatnonzero(dummy_mask(k)) + start
         if len(press) == 0 or len(dummy) == 0:
             continue
         _, nearest = cKDTree(pos[press]).query(pos[dummy])

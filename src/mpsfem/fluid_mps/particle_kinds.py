@@ -58,3 +58,15 @@ def carries_pressure(k):
 def is_boundary(k):
     """Any wall or structure particle (not fluid)."""
     return k != 0
+
+
+def dummy_mask(kind: np.ndarray) -> np.ndarray:
+    """Boolean mask of an int8 kind array: True for DUMMY and STRUCTURE_DUMMY (:func:`is_dummy`
+    on a whole array, outside numba)."""
+    return (kind == DUMMY) | (kind == STRUCTURE_DUMMY)
+
+
+def pressure_wall_mask(kind: np.ndarray) -> np.ndarray:
+    """Boolean mask of an int8 kind array: True for WALL and STRUCTURE
+    (:func:`is_pressure_wall` on a whole array, outside numba)."""
+    return (kind == WALL) | (kind == STRUCTURE)

@@ -39,7 +39,7 @@ from mpsfem.fluid_mps.geometry import ExternalPatch, build_particles, hydrostati
 from mpsfem.fluid_mps.kernels import weight_code
 from mpsfem.fluid_mps.lattice import lattice_constants
 from mpsfem.fluid_mps.neighbours import NeighbourSearch
-from mpsfem.fluid_mps.particle_kinds import DUMMY, STRUCTURE_DUMMY
+from mpsfem.fluid_mps.particle_kinds import dummy_mask
 from mpsfem.fluid_mps.pressure_poisson import make_pressure_solver
 from mpsfem.fluid_mps.sponge import SpongeLayer
 from mpsfem.fluid_mps.surface import make_surface_detector
@@ -174,8 +174,7 @@ class FluidSolver:
 
         # dummy particles need no neighbour rows of their own (neighbours.py): skipping them
         # saves three quarters of the search in a 3D tank
-        dummy = (self.kind == DUMMY) | (self.kind == STRUCTURE_DUMMY)
-        self.neighbour_rows = np.where(dummy, 0, 1).astype(np.int8)
+        self.neighbour_rows = np.where(dummy_mask(self.kind), 0, 1).astype(np.int8)
         self.dummy_src = dummy_sources(
             self.pos, self.kind, [(pt.start, pt.stop) for pt in self.patches]
         )

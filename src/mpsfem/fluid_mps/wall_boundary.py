@@ -123,10 +123,7 @@ def wall_pressure(pos, p, kind, dry, indptr, indices, re, wcode, rho, gravity):
     for j in prange(n):
         if kind[j] == 0:
             continue
-        if is_dummy(kind[j]):
-            p[j] = 0.0
-            continue
-        if dry[j]:
+        if is_dummy(kind[j]) or dry[j]:
             p[j] = 0.0
             continue
         num = 0.0
