@@ -147,3 +147,100 @@ def test_rows_mask_leaves_rows_empty_and_keeps_the_others(dim, rng):
     assert all(small.indptr[i] == small.indptr[i + 1] for i in np.flatnonzero(mask == 0))
     with pytest.raises(ValueError, match="rows must be an int8 array"):
         s.build(pos, rows=mask.astype(bool))
+
+
+def _random_walk(dim, n, steps, step_size, rng):
+    """Positions of ``n`` particles in a unit box over ``steps`` calls, each particle moving by
+    up to ``step_size`` per call (some more, to cross skin / 2 now and then)."""
+    pos = rng.uniform(0.0, 1.0, size=(n, dim))
+    for _ in range(steps):
+        pos = pos + rng.uniform(-step_size, step_size, size=pos.shape)
+        yield pos
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_update_is_the_exact_list_whichever_path_it_takes(dim, rng):
+    """Verlet candidates (``update`` with a skin): every call returns exactly the list a fresh
+    ``build`` gives (same rows, same order), both while the candidates are reused and when they
+    are rebuilt; rows masked out stay empty."""
+    n, radius, skin = 700 if dim == 2 else 900, 0.12, 0.04
+    mask = (rng.uniform(size=n) < 0.8).astype(np.int8)
+    search = NeighbourSearch(dim, radius, domain=([0.0] * dim, [1.0] * dim), skin=skin)
+    fresh = NeighbourSearch(dim, radius, domain=([0.0] * dim, [1.0] * dim))
+    for pos in _random_walk(dim, n, 40, 0.004, rng):
+        got = search.update(pos, rows=mask)
+        want = fresh.build(pos, rows=mask)
+        np.testing.assert_array_equal(got.indptr, want.indptr)
+        np.testing.assert_array_equal(got.indices, want.indices)
+        assert got.radius == radius
+    assert search.reuses > 20 and search.builds >= 3  # both paths ran
+
+
+def test_update_finds_a_pair_that_closed_in_by_just_under_the_skin():
+    """The validity bound at its edge: two particles a hair inside radius + skin apart each
+    move just under skin / 2 towards each other; the candidates are reused and the pair, now
+    just inside radius, is in the list."""
+    radius, skin = 1.0, 0.2
+    pos = np.array([[0.0, 0.0], [radius + skin * (1 - 1e-6), 0.0], [5.0, 5.0]])
+    search = NeighbourSearch(2, radius, skin=skin)
+    assert search.update(pos).nnz == 0
+    step = 0.5 * skin * (1 - 2e-9)
+    moved = pos + np.array([[step, 0.0], [-step, 0.0], [0.0, 0.0]])
+    assert np.linalg.norm(moved[1] - moved[0]) < radius
+    nb = search.update(moved)
+    assert search.reuses == 1
+    np.testing.assert_array_equal(nb.indices, [1, 0])
+
+
+def test_update_builds_exact_lists_while_particles_move_fast_and_returns_to_candidates(rng):
+    """Moving more than skin / 4 per call, candidates would not outlive a call: ``update``
+    builds the exact list every call (no reuse); once the motion slows down it reuses again."""
+    radius, skin = 0.1, 0.02
+    search = NeighbourSearch(2, radius, domain=([0.0, 0.0], [1.0, 1.0]), skin=skin)
+    fresh = NeighbourSearch(2, radius, domain=([0.0, 0.0], [1.0, 1.0]))
+    pos = rng.uniform(0.0, 1.0, size=(400, 2))
+    drift = np.zeros_like(pos)
+    drift[0, 0] = 0.6 * skin  # one fast particle is enough
+    for _ in range(10):
+        pos = pos + drift
+        np.testing.assert_array_equal(search.update(pos).indices, fresh.build(pos).indices)
+    assert search.reuses == 0 and search.builds == 10
+    for _ in range(10):
+        pos = pos + 0.1 * drift
+        np.testing.assert_array_equal(search.update(pos).indices, fresh.build(pos).indices)
+    assert search.reuses >= 5
+
+
+def test_update_raises_on_nan_and_escape_while_reusing(rng):
+    """The reuse path keeps the build's guards: a particle that leaves the domain by less than
+    skin / 2 (no rebuild) and a non-finite position both raise, naming the particle."""
+    pos = rng.uniform(1.0, 3.0, size=(200, 2))
+    pos[7] = [3.95, 2.0]
+    search = NeighbourSearch(2, 0.5, domain=([0, 0], [4, 4]), escape="raise", skin=0.2)
+    search.update(pos)
+    search.update(pos)
+    assert search.reuses == 1
+    out = pos.copy()
+    out[7] = [4.001, 2.0]  # moved 0.051 < skin / 2: reused, and outside the domain
+    with pytest.raises(NeighbourSearchError, match="particle 7 .* left the domain"):
+        search.update(out)
+    bad = pos.copy()
+    bad[3, 1] = np.nan
+    with pytest.raises(NeighbourSearchError, match="particle 3 has a non-finite"):
+        search.update(bad)
+
+
+def test_update_rebuilds_for_new_rows_mask(rng):
+    pos = rng.uniform(0.0, 1.0, size=(300, 2))
+    search = NeighbourSearch(2, 0.15, skin=0.05)
+    fresh = NeighbourSearch(2, 0.15)
+    search.update(pos)
+    mask = (rng.uniform(size=300) < 0.5).astype(np.int8)
+    got = search.update(pos, rows=mask)
+    assert search.reuses == 0
+    np.testing.assert_array_equal(got.indices, fresh.build(pos, rows=mask).indices)
+
+
+def test_negative_skin_is_refused():
+    with pytest.raises(ValueError, match="skin"):
+        NeighbourSearch(2, 1.0, skin=-0.1)
