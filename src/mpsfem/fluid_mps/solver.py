@@ -129,7 +129,11 @@ class FluidSolver:
         self.search_radius = max(radii)
         self.lower, self.upper = self._domain(spec)
         self.search = NeighbourSearch(
-            self.dim, self.search_radius, domain=(self.lower, self.upper), escape="clip"
+            self.dim,
+            self.search_radius,
+            domain=(self.lower, self.upper),
+            escape="clip",
+            skin=spec.neighbours.skin * l0,
         )
         self.surface = make_surface_detector(
             spec.surface.detector,
@@ -252,7 +256,7 @@ class FluidSolver:
         return self._patch[name]
 
     def _neighbours(self):
-        nb = self.search.build(self.pos, rows=self.neighbour_rows)
+        nb = self.search.update(self.pos, rows=self.neighbour_rows)
         if self.neighbour_filter is not None:
             nb = self.neighbour_filter(nb, self.pos, self.kind)
         return nb

@@ -150,6 +150,20 @@ class TimeStepSection(Section):
     )
 
 
+class NeighbourSection(Section):
+    """Neighbour search (cell-linked list, fluid_mps/neighbours.py)."""
+
+    skin: float = Field(
+        0.3,
+        ge=0.0,
+        le=2.0,
+        description="Verlet skin, x l0: a candidate list at the search radius + skin is reused "
+        "while no particle has moved more than skin / 2 (0 = build every step). Changes the "
+        "run time, never a result; rebuilt every step where particles move more than skin / 4 "
+        "per step (Courant-limited flows)",
+    )
+
+
 class CollisionSection(Section):
     """Particle collision (anti-penetration) model."""
 
@@ -352,6 +366,9 @@ class FluidSection(Section):
     surface: SurfaceSection = Field(default_factory=SurfaceSection, description="free surface")
     time_step: TimeStepSection = Field(default_factory=TimeStepSection, description="time step")
     collision: CollisionSection = Field(default_factory=CollisionSection, description="collision")
+    neighbours: NeighbourSection = Field(
+        default_factory=NeighbourSection, description="neighbour search"
+    )
     blocks: list[FluidBlock] = Field(min_length=1, description="fluid regions")
     walls: list[Wall] = Field(default_factory=list, description="rigid walls and obstacles")
     sponges: list[SpongeZone] = Field(
