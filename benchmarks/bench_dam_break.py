@@ -42,7 +42,7 @@ def front_error(times: np.ndarray, front: np.ndarray) -> float:
     return float(np.sqrt(np.mean(((z - ref[sel, 1]) / ref[sel, 1]) ** 2)))
 
 
-def one_run(spacing: float, end_time: float, threads: int) -> dict:
+def one_run(spacing: float, end_time: float, threads: int, overrides: list[str]) -> dict:
     """Run in this process and return the measurements (called in a child process)."""
     import numba
 
@@ -51,12 +51,16 @@ def one_run(spacing: float, end_time: float, threads: int) -> dict:
 
     numba.set_num_threads(threads)
     base_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    loaded = load_scenario(ROOT / "scenarios" / "dam_break_2d.toml", [f"fluid.spacing={spacing}"])
+    loaded = load_scenario(
+        ROOT / "scenarios" / "dam_break_2d.toml", [*overrides, f"fluid.spacing={spacing}"]
+    )
     sc = loaded.scenario
     front = next(p for p in sc.probes if p.kind == "front")
     # warm-up: compile every kernel on a few steps of the same scene at L/10 (numba compiles per
     # argument type, not per size), so the peak memory is the measured solver's alone
-    coarse = load_scenario(ROOT / "scenarios" / "dam_break_2d.toml", [f"fluid.spacing={L / 10}"])
+    coarse = load_scenario(
+        ROOT / "scenarios" / "dam_break_2d.toml", [*overrides, f"fluid.spacing={L / 10}"]
+    )
     warm = FluidSolver(coarse.scenario.fluid)
     for _ in range(3):
         warm.step(warm.dt_next)
@@ -89,6 +93,7 @@ def one_run(spacing: float, end_time: float, threads: int) -> dict:
         "solve_s": tm.solve,
         "probes_io_s": io,
         "iterations_per_step": float(np.mean(tm.iterations)),
+        "neighbour_builds": solver.search.builds,
         "peak_rss_kib": peak,
         "base_rss_kib": base_rss,
         "front_rms_error": front_error(np.array(times), np.array(fronts)),

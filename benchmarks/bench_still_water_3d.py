@@ -32,7 +32,7 @@ RHO, G, Z_GAUGE = 1000.0, 9.81, 0.05
 SPACINGS = {"1k": 0.01, "6k": 0.00625, "23k": 0.004}
 
 
-def one_run(spacing: float, end_time: float, threads: int) -> dict:
+def one_run(spacing: float, end_time: float, threads: int, overrides: list[str]) -> dict:
     """Run in this process and return the measurements (called in a child process)."""
     import numba
 
@@ -43,12 +43,12 @@ def one_run(spacing: float, end_time: float, threads: int) -> dict:
     base_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     # warm-up on the coarsest scene: numba compiles per argument type, not per size, so the
     # peak memory is the measured solver's alone
-    coarse = load_scenario(SCENARIO, [f"fluid.spacing={SPACINGS['1k']}"])
+    coarse = load_scenario(SCENARIO, [*overrides, f"fluid.spacing={SPACINGS['1k']}"])
     warm = FluidSolver(coarse.scenario.fluid)
     for _ in range(3):
         warm.step(warm.dt_next)
     del warm
-    sc = load_scenario(SCENARIO, [f"fluid.spacing={spacing}"]).scenario
+    sc = load_scenario(SCENARIO, [*overrides, f"fluid.spacing={spacing}"]).scenario
     gauge = next(p for p in sc.probes if p.name == "gauge")
     solver = FluidSolver(sc.fluid)
     # the water depth the lattice holds: the block's 0.15 m rounded to whole layers (38 layers
@@ -76,6 +76,7 @@ def one_run(spacing: float, end_time: float, threads: int) -> dict:
         "assembly_s": tm.assembly,
         "solve_s": tm.solve,
         "iterations_per_step": float(np.mean(tm.iterations)),
+        "neighbour_builds": solver.search.builds,
         "peak_rss_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
         "base_rss_kib": base_rss,
         "depth_m": depth,

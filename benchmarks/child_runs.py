@@ -13,10 +13,14 @@ from collections.abc import Callable
 from pathlib import Path
 
 
-def run_child(script: str, spacing: float, end_time: float, threads: int) -> dict:
+def run_child(
+    script: str, spacing: float, end_time: float, threads: int, overrides: list[str]
+) -> dict:
     """Run ``script --child spacing`` in a new interpreter; the dict it prints last as JSON."""
     cmd = [sys.executable, script, "--child", str(spacing)]
     cmd += ["--end-time", str(end_time), "--threads", str(threads)]
+    for o in overrides:
+        cmd += ["--set", o]
     out = subprocess.run(cmd, check=True, capture_output=True, text=True).stdout
     return json.loads(out.strip().splitlines()[-1])
 
@@ -52,7 +56,7 @@ def write_rows(rows: list[dict], path: Path) -> None:
 def benchmark_main(
     description: str,
     script: str,
-    one_run: Callable[[float, float, int], dict],
+    one_run: Callable[[float, float, int, list[str]], dict],
     spacings: dict[str, float],
     describe: Callable[[dict], str],
     end_time: float,
@@ -60,24 +64,29 @@ def benchmark_main(
     out: Path,
 ) -> None:
     """The benchmark's command line: ``--sizes`` (keys of ``spacings``, comma-separated),
-    ``--end-time`` (s), ``--threads``, ``--out``; each size runs ``one_run(spacing, end_time,
-    threads)`` in a child process, prints ``describe(row)``, then the memory slope; the rows go
-    to the CSV."""
+    ``--end-time`` (s), ``--threads``, ``--out``, ``--set key=value`` (scenario overrides,
+    repeatable); each size runs ``one_run(spacing, end_time, threads, overrides)`` in a child
+    process, prints ``describe(row)``, then the memory slope; the rows go to the CSV, with the
+    overrides in a column."""
     ap = argparse.ArgumentParser(description=description)
     ap.add_argument("--sizes", default=",".join(spacings))
     ap.add_argument("--end-time", type=float, default=end_time)
     ap.add_argument("--threads", type=int, default=threads)
     ap.add_argument("--child", type=float, help=argparse.SUPPRESS)
     ap.add_argument("--out", type=Path, default=out)
+    ap.add_argument(
+        "--set", action="append", default=[], metavar="KEY=VALUE", help="scenario override"
+    )
     args = ap.parse_args()
     if args.child is not None:
-        print(json.dumps(one_run(args.child, args.end_time, args.threads)))
+        row = one_run(args.child, args.end_time, args.threads, args.set)
+        print(json.dumps(row | {"overrides": " ".join(args.set)}))
         return
     rows = []
     for size in args.sizes.split(","):
         if size not in spacings:
             ap.error(f"--sizes: {size!r} is not one of {', '.join(spacings)}")
-        rows.append(run_child(script, spacings[size], args.end_time, args.threads))
+        rows.append(run_child(script, spacings[size], args.end_time, args.threads, args.set))
         print(describe(rows[-1]), flush=True)
     memory_slope(rows)
     write_rows(rows, args.out)
