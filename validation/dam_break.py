@@ -23,7 +23,12 @@ stopped), and four realisations of the defaults that differ only in the CG toler
 and writes docs/figures/dam_break_front_sensitivity.csv: does any choice of the method close the gap to the
 experiments, beyond the metric's run-to-run noise?
 
-    python validation/dam_break.py [--threads 1] [--analyse-only] [--retry-failed] [--sensitivity]
+``--stability`` runs instead the stability map: L/20 and L/40 at Courant numbers 0.1, 0.2 (the
+default), 0.3, 0.4 and 0.5, and writes docs/figures/dam_break_stability.csv: which runs finish,
+their wall time and front error (run time against error), and why the others stopped.
+
+    python validation/dam_break.py [--threads 1] [--analyse-only] [--retry-failed]
+                                   [--sensitivity | --stability]
 """
 
 from __future__ import annotations
@@ -260,6 +265,95 @@ def run_sensitivity(threads: int, analyse_only: bool, retry: bool) -> int:
     return 0 if all(s is not None for s in statuses.values()) else 1
 
 
+STABILITY_RESOLUTIONS = (20, 40)  # L / l0 of the stability map
+STABILITY_COURANT = (0.1, 0.2, 0.3, 0.4, 0.5)  # fluid.time_step.courant; 0.2 is the default
+
+
+def stability_path(n: int, courant: float) -> Path:
+    """The run of the stability map at L/n and Courant number ``courant``: runs of its own, the
+    default's included, so that the wall times are of one code and one machine state (the
+    default's front must equal the resolution study's run, bit for bit)."""
+    return RESULTS_DIR / f"dam_break_stability_L{n}_C{courant:g}.h5"
+
+
+def stability_overrides(n: int, courant: float) -> list[str]:
+    return [*overrides(n), f"fluid.time_step.courant={courant:g}"]
+
+
+def stability_rows(statuses: dict[tuple[int, float], str | None]) -> list[dict]:
+    """One row per (resolution, Courant number): outcome, time reached, wall time, and for a
+    finished run the front errors."""
+    refs = references()
+    rows = []
+    for (n, courant), status in statuses.items():
+        path = stability_path(n, courant)
+        row: dict = {"resolution_L_over_l0": n, "courant": courant}
+        if status is None or not path.is_file():
+            row["outcome"] = str(status)
+            rows.append(row)
+            continue
+        with h5py.File(path, "r") as h5:
+            row["wall_time_s"] = float(h5.attrs.get("wall_time", np.nan))
+        row["t_reached_s"] = stop_time(path)
+        if status == "finished":
+            row["outcome"] = "finished"
+            T, Z = front_curve(path)
+            row.update(comparison(T, Z, refs))
+            row["Z_T2"] = float(np.interp(2.0, T, Z))
+        else:
+            row["outcome"] = status.split(" at t = ")[0][:120]
+        rows.append(row)
+    return rows
+
+
+def run_stability(threads: int, analyse_only: bool, retry: bool) -> int:
+    """The stability map: the dam break at L/20 and L/40 for Courant numbers 0.1 ... 0.5; does
+    it finish, how fast, how accurate? Writes docs/figures/dam_break_stability.csv."""
+    statuses: dict[tuple[int, float], str | None] = {}
+    for n in STABILITY_RESOLUTIONS:
+        for courant in STABILITY_COURANT:
+            out = stability_path(n, courant)
+            statuses[(n, courant)] = (
+                read_status(out)
+                if analyse_only
+                else case_runner.ensure_case(
+                    SCENARIO,
+                    out,
+                    stability_overrides(n, courant),
+                    threads,
+                    retry,
+                    f"[L/{n} C={courant:g}]",
+                )
+            )
+    rows = stability_rows(statuses)
+    csv = FIGURES_DIR / "dam_break_stability.csv"
+    columns = ["resolution_L_over_l0", "courant", "outcome", "t_reached_s", "wall_time_s"]
+    for key in REFERENCE_KEYS:
+        columns += [f"rms_error_{key}", f"offset_T_{key}", f"offset_ms_{key}"]
+        columns.append(f"rms_error_shifted_{key}")
+    columns.append("Z_T2")
+    comment = (
+        "dam break stability map, validation/dam_break.py --stability: per resolution L/n and "
+        "Courant number, the outcome (finished, or the reason the run stopped), the time "
+        "reached, the wall time (1 thread) and the front's RMS relative error over "
+        "0.5 <= T <= 3 against Koshizuka & Oka (ko) and Martin & Moyce (mm), unshifted and "
+        "after the best time offset"
+    )
+    write_csv(rows, csv, columns, comment)
+    print(f"L/l0  Courant  outcome           t (s)   wall (s)  error KO / MM   ({csv.name})")
+    for r in rows:
+        errors = (
+            f"{100 * r['rms_error_ko']:5.1f} / {100 * r['rms_error_mm']:4.1f} %"
+            if r["outcome"] == "finished"
+            else ""
+        )
+        print(
+            f"{r['resolution_L_over_l0']:>4}  {r['courant']:>7.2f}  {r['outcome'][:16]:<16}  "
+            f"{r.get('t_reached_s', np.nan):6.3f}  {r.get('wall_time_s', np.nan):8.1f}  {errors}"
+        )
+    return 0 if all(s is not None for s in statuses.values()) else 1
+
+
 def analyse(paths: dict[int, Path]) -> list[dict]:
     """One row per resolution: errors, offsets, Z at T = 1 ... 2.5, difference to the next finer
     curve, wall time."""
@@ -384,8 +478,15 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help=f"the model-choice study at L/{SENSITIVITY_RESOLUTION} instead of the resolution study",
     )
+    ap.add_argument(
+        "--stability",
+        action="store_true",
+        help="the stability map (Courant number 0.1-0.5 at L/20 and L/40) instead",
+    )
     args = ap.parse_args(argv)
     RESULTS_DIR.mkdir(parents=True, exist_ok=True)
+    if args.stability:
+        return run_stability(args.threads, args.analyse_only, args.retry_failed)
     if args.sensitivity:
         return run_sensitivity(args.threads, args.analyse_only, args.retry_failed)
     paths = {}

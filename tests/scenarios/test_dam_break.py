@@ -158,3 +158,29 @@ def test_error_curve_is_the_terms_of_the_rms_error(tmp_path, monkeypatch):
     lines = [ln for ln in csv.read_text().splitlines() if not ln.startswith("#")]
     assert lines[0] == "experiment,T,Z_ref,error_L20,error_L40"
     assert len(lines) == 1 + len(rows)
+
+
+def test_stability_rows_report_finished_and_stopped_runs(tmp_path, monkeypatch):
+    """validation/dam_break.py --stability's analysis: a finished run gets its front errors
+    (here a front 20 % ahead of Z = 1 + T) and wall time, a failed one the reason it stopped
+    and the time it reached; the CSV has a row per case."""
+    monkeypatch.setattr(db, "RESULTS_DIR", tmp_path)
+    monkeypatch.setattr(db, "FIGURES_DIR", tmp_path)
+    T = np.linspace(0.0, 3.2, 321)
+    ok, bad = (20, 0.2), (20, 0.5)
+    _write_front(db.stability_path(*ok), T / db.T_SCALE, 1.2 * (1 + T) * db.L, "finished")
+    _write_front(
+        db.stability_path(*bad),
+        T[:101] / db.T_SCALE,
+        1.2 * (1 + T[:101]) * db.L,
+        "failed: time step 1e-9 s at t = 0.1 s is below fluid.time_step.dt_min",
+    )
+    rows = db.stability_rows({ok: "finished", bad: "failed: time step 1e-9 s at t = 0.1 s"})
+    ref = db.references()["Koshizuka & Oka 1996"]
+    assert rows[0]["outcome"] == "finished"
+    assert rows[0]["rms_error_ko"] == pytest.approx(
+        db.front_error(T, 1.2 * (1 + T), ref), rel=1e-12
+    )
+    assert rows[1]["outcome"] == "failed: time step 1e-9 s"
+    assert rows[1]["t_reached_s"] == pytest.approx(T[100] / db.T_SCALE)
+    assert "rms_error_ko" not in rows[1]
