@@ -124,3 +124,19 @@ def ensure_case(
         out.unlink()
     run_scenario(scenario, out, overrides, threads, restart, tag)
     return read_status(out) or "missing"
+
+
+def case_status(
+    scenario: Path,
+    out: Path,
+    overrides: Sequence[str],
+    threads: int,
+    analyse_only: bool,
+    retry: bool,
+    tag: str = "",
+) -> str | None:
+    """The case's status: read from its results file with ``analyse_only`` (None if there is
+    none), else after :func:`ensure_case` ran or resumed it."""
+    if analyse_only:
+        return read_status(out)
+    return ensure_case(scenario, out, overrides, threads, retry, tag)

@@ -43,7 +43,6 @@ from scipy.optimize import minimize_scalar
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import case_runner  # noqa: E402 - validation/case_runner.py: resumable runs of one case
-from case_runner import read_status  # noqa: E402
 from results_csv import write_csv  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -245,10 +244,8 @@ def run_sensitivity(threads: int, analyse_only: bool, retry: bool) -> int:
     base = overrides(SENSITIVITY_RESOLUTION)
     for name, _, extra in VARIANTS:
         out = variant_path(name)
-        statuses[name] = (
-            read_status(out)
-            if analyse_only
-            else case_runner.ensure_case(SCENARIO, out, base + list(extra), threads, retry, name)
+        statuses[name] = case_runner.case_status(
+            SCENARIO, out, base + list(extra), threads, analyse_only, retry, name
         )
     rows = sensitivity_rows(statuses)
     csv = write_sensitivity(rows)
@@ -313,17 +310,14 @@ def run_stability(threads: int, analyse_only: bool, retry: bool) -> int:
     for n in STABILITY_RESOLUTIONS:
         for courant in STABILITY_COURANT:
             out = stability_path(n, courant)
-            statuses[(n, courant)] = (
-                read_status(out)
-                if analyse_only
-                else case_runner.ensure_case(
-                    SCENARIO,
-                    out,
-                    stability_overrides(n, courant),
-                    threads,
-                    retry,
-                    f"[L/{n} C={courant:g}]",
-                )
+            statuses[(n, courant)] = case_runner.case_status(
+                SCENARIO,
+                out,
+                stability_overrides(n, courant),
+                threads,
+                analyse_only,
+                retry,
+                f"[L/{n} C={courant:g}]",
             )
     rows = stability_rows(statuses)
     csv = FIGURES_DIR / "dam_break_stability.csv"
@@ -492,12 +486,14 @@ def main(argv: list[str] | None = None) -> int:
     paths = {}
     for n in RESOLUTIONS:
         out = case_path(n)
-        status = (
-            read_status(out)
-            if args.analyse_only
-            else case_runner.ensure_case(
-                SCENARIO, out, overrides(n), args.threads, args.retry_failed, f"[L/{n}]"
-            )
+        status = case_runner.case_status(
+            SCENARIO,
+            out,
+            overrides(n),
+            args.threads,
+            args.analyse_only,
+            args.retry_failed,
+            f"[L/{n}]",
         )
         if status == "finished":
             paths[n] = out

@@ -36,7 +36,6 @@ from scipy.signal import savgol_coeffs, savgol_filter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import case_runner  # noqa: E402 - validation/case_runner.py: resumable runs of one case
-from case_runner import read_status  # noqa: E402
 from dam_break import FIGURES_DIR, RESULTS_DIR, SCENARIO, L  # noqa: E402
 from results_csv import write_csv  # noqa: E402
 
@@ -157,17 +156,14 @@ def main(argv: list[str] | None = None) -> int:
     paths: dict[tuple[int, float], Path] = {}
     for n, courant in CASES:
         out = case_path(n, courant)
-        status = (
-            read_status(out)
-            if args.analyse_only
-            else case_runner.ensure_case(
-                SCENARIO,
-                out,
-                overrides(n, courant),
-                args.threads,
-                args.retry_failed,
-                f"[L/{n} C={courant:g}]",
-            )
+        status = case_runner.case_status(
+            SCENARIO,
+            out,
+            overrides(n, courant),
+            args.threads,
+            args.analyse_only,
+            args.retry_failed,
+            f"[L/{n} C={courant:g}]",
         )
         if status == "finished":
             paths[(n, courant)] = out
