@@ -94,7 +94,7 @@ def dam_break() -> list[str]:
             fmt(100 * num(r["rms_error_shifted_mm"]), ".1f"),
             fmt(100 * num(r["difference_to_finer"]), ".1f"),
             fmt(num(r["Z_T2"]), ".2f"),
-            minutes(r["wall_time_s"]),
+            fmt(num(r["wall_time_s"]), ".0f"),
         ]
         for r in read_csv(path)
     ]
@@ -114,7 +114,7 @@ def dam_break() -> list[str]:
                 "M & M (%)",
                 "difference to the next finer run (%)",
                 "Z(T = 2)",
-                "wall (min)",
+                "wall, one thread (s)",
             ],
             rows,
         ),
