@@ -563,21 +563,27 @@ class NeighbourSearch:
         self._cand_skin = skin if skin > 0.0 else None
         return nb
 
+    def _filter_into(self, pos, ptr, idx, r, out_ptr, out_buf):
+        """The pairs of the list (``ptr``, ``idx``) closer than ``r`` at ``pos``, rows kept
+        ascending, into ``out_ptr`` (N+1) and ``out_buf`` (grown and returned)."""
+        n = pos.shape[0]
+        counts = self._counts[:n]
+        _count_within(pos, ptr, idx, r * r, counts)
+        _prefix(counts, out_ptr)
+        nnz = int(out_ptr[n])
+        if out_buf.shape[0] < nnz:
+            out_buf = np.empty(int(nnz * 1.1) + 16, np.int32)
+        _fill_within(pos, ptr, idx, r * r, out_ptr, out_buf[:nnz])
+        return NeighbourList(indptr=out_ptr, indices=out_buf[:nnz], radius=r), out_buf
+
     def _filter_candidates(self, pos):
         n = pos.shape[0]
         cptr = self._cand_indptr[: n + 1]
         cidx = self._cand_indices[: int(cptr[n])]
-        indptr = self._indptr[: n + 1]
-        counts = self._counts[:n]
-        r2 = self.radius * self.radius
-        _count_within(pos, cptr, cidx, r2, counts)
-        _prefix(counts, indptr)
-        nnz = int(indptr[n])
-        if self._indices.shape[0] < nnz:
-            self._indices = np.empty(int(nnz * 1.1) + 16, np.int32)
-        indices = self._indices[:nnz]
-        _fill_within(pos, cptr, cidx, r2, indptr, indices)
-        self._last = NeighbourList(indptr=indptr, indices=indices, radius=self.radius)
+        out_ptr = self._indptr[: n + 1]
+        self._last, self._indices = self._filter_into(
+            pos, cptr, cidx, self.radius, out_ptr, self._indices
+        )
         return self._last
 
     def within(self, pos: np.ndarray, radius: float) -> NeighbourList:
@@ -599,16 +605,10 @@ class NeighbourSearch:
         if bufs is None or bufs[0].shape[0] < n + 1:
             bufs = [np.empty(n + 1, np.int64), np.empty(0, np.int32)]
             self._sub[r] = bufs
-        ptr = bufs[0][: n + 1]
-        counts = self._counts[:n]
-        _count_within(pos, last.indptr, last.indices, r * r, counts)
-        _prefix(counts, ptr)
-        nnz = int(ptr[n])
-        if bufs[1].shape[0] < nnz:
-            bufs[1] = np.empty(int(nnz * 1.1) + 16, np.int32)
-        idx = bufs[1][:nnz]
-        _fill_within(pos, last.indptr, last.indices, r * r, ptr, idx)
-        return NeighbourList(indptr=ptr, indices=idx, radius=r)
+        nb, bufs[1] = self._filter_into(
+            pos, last.indptr, last.indices, r, bufs[0][: n + 1], bufs[1]
+        )
+        return nb
 
 
 def build_neighbours(pos, radius, domain=None, escape="clip", search=None) -> NeighbourList:
