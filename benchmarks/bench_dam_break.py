@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from child_runs import benchmark_main  # noqa: E402
+from child_runs import benchmark_main, stage_columns  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 L, G = 0.146, 9.81
@@ -77,7 +77,6 @@ def one_run(spacing: float, end_time: float, threads: int, overrides: list[str])
         fronts.append(solver.probe_value(front))
         io += time.perf_counter() - c
     wall = time.perf_counter() - t0
-    tm = solver.times
     steps = solver.step_count
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss  # KiB on Linux
     return {
@@ -87,12 +86,8 @@ def one_run(spacing: float, end_time: float, threads: int, overrides: list[str])
         "steps": steps,
         "wall_s": wall,
         "us_per_particle_step": wall / (steps * solver.n_fluid) * 1e6,
-        "neighbours_s": tm.neighbours,
-        "explicit_s": tm.explicit,
-        "assembly_s": tm.assembly,
-        "solve_s": tm.solve,
+        **stage_columns(solver),
         "probes_io_s": io,
-        "iterations_per_step": float(np.mean(tm.iterations)),
         "neighbour_builds": solver.search.builds,
         "peak_rss_kib": peak,
         "base_rss_kib": base_rss,

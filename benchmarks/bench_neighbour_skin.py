@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from child_runs import write_rows  # noqa: E402
+from child_runs import stage_columns, write_rows  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = {
@@ -54,7 +54,6 @@ def run(scene: str, overrides: list[str], skin: float, steps: int):
     for _ in range(steps):
         solver.step(solver.dt_next)
     wall = time.perf_counter() - t0
-    tm = solver.times
     row = {
         "scene": scene,
         "skin_l0": skin,
@@ -64,10 +63,7 @@ def run(scene: str, overrides: list[str], skin: float, steps: int):
         "t_end_s": solver.t,
         "wall_s": wall,
         "us_per_fluid_particle_step": wall / (steps * solver.n_fluid) * 1e6,
-        "neighbours_s": tm.neighbours,
-        "explicit_s": tm.explicit,
-        "assembly_s": tm.assembly,
-        "solve_s": tm.solve,
+        **stage_columns(solver),
         "list_builds": solver.search.builds - builds0,
         "candidate_reuses": solver.search.reuses - reuses0,
     }

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from child_runs import benchmark_main  # noqa: E402
+from child_runs import benchmark_main, stage_columns  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "hydrostatic_3d.toml"
@@ -60,7 +60,6 @@ def one_run(spacing: float, end_time: float, threads: int, overrides: list[str])
         solver.step(min(solver.dt_next, end_time - solver.t))
         pressures.append(float(solver.probe_value(gauge)))
     wall = time.perf_counter() - t0
-    tm = solver.times
     steps = solver.step_count
     exact = RHO * G * (depth - Z_GAUGE)
     return {
@@ -71,11 +70,7 @@ def one_run(spacing: float, end_time: float, threads: int, overrides: list[str])
         "wall_s": wall,
         "us_per_fluid_particle_step": wall / (steps * solver.n_fluid) * 1e6,
         "us_per_particle_step": wall / (steps * solver.n) * 1e6,
-        "neighbours_s": tm.neighbours,
-        "explicit_s": tm.explicit,
-        "assembly_s": tm.assembly,
-        "solve_s": tm.solve,
-        "iterations_per_step": float(np.mean(tm.iterations)),
+        **stage_columns(solver),
         "neighbour_builds": solver.search.builds,
         "peak_rss_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
         "base_rss_kib": base_rss,

@@ -12,6 +12,8 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
+
 
 def run_child(
     script: str, spacing: float, end_time: float, threads: int, overrides: list[str]
@@ -41,6 +43,19 @@ def memory_slope(rows: list[dict]) -> float | None:
         f"peak memory per particle (slope {a['all_particles']} -> {b['all_particles']}): {slope:.0f} B"
     )
     return slope
+
+
+def stage_columns(solver) -> dict:
+    """The fluid solver's accumulated stage times (s) and its mean pressure-solve iterations per
+    step, as benchmark columns."""
+    tm = solver.times
+    return {
+        "neighbours_s": tm.neighbours,
+        "explicit_s": tm.explicit,
+        "assembly_s": tm.assembly,
+        "solve_s": tm.solve,
+        "iterations_per_step": float(np.mean(tm.iterations)),
+    }
 
 
 def write_rows(rows: list[dict], path: Path) -> None:
