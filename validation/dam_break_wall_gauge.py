@@ -128,7 +128,10 @@ def write_outputs(rows: list[dict], paths: dict[tuple[int, float], Path]) -> Non
         f"{SETTLE * 1e3:.0f} ms to t = {END_TIME} s, in Pa and relative to the smoothed mean there"
     )
     write_csv(rows, FIGURES_DIR / "dam_break_wall_gauge.csv", comment=comment)
-    fig, axes = plt.subplots(len(paths), 1, figsize=(6.5, 1.9 * len(paths)), sharex=True)
+    fig, axes = plt.subplots(
+        len(paths), 1, figsize=(6.5, 1.9 * len(paths)), sharex=True, squeeze=False
+    )
+    axes = axes[:, 0]  # one panel per run, also when only one run is analysed
     for ax, ((n, courant), path), row in zip(axes, paths.items(), rows, strict=True):
         t, p = read_gauge(path)
         ax.plot(t, p / P_SCALE, lw=0.6, color="0.6", label="raw (1 ms samples)")
