@@ -405,12 +405,12 @@ class NeighbourSearch:
         self._lo = np.empty(dim)
         self._hi = np.empty(dim)
         # Verlet candidates (update): their list, the positions and rows mask they were built
-        # for, the skin they were built with (None: no valid candidates) and the calls since
+        # for, whether they are valid (built with the skin, not an exact build) and the calls since
         self._cand_indptr = np.empty(1, np.int64)
         self._cand_indices = np.empty(0, np.int32)
         self._ref = np.empty((0, dim), np.float64)
         self._ref_rows = np.empty(0, np.int8)
-        self._cand_skin: float | None = None
+        self._cand_valid = False
         self._calls = 0
         #: update() calls that built a list (``builds``) and that filtered the candidates
         self.builds = 0
@@ -532,7 +532,7 @@ class NeighbourSearch:
             return self.build(pos, rows=rows)
         known = self._ref.shape == pos.shape and _same(self._ref_rows, rows)
         moved = _max_displacement(pos, self._ref) if known else np.inf
-        if self._cand_skin is not None and known and 2.0 * moved <= self._cand_skin * (1 - 1e-9):
+        if self._cand_valid and known and 2.0 * moved <= self.skin * (1 - 1e-9):
             self._calls += 1
             self.reuses += 1
             self._check_escape(pos)
@@ -544,7 +544,7 @@ class NeighbourSearch:
             self._ref = np.empty_like(pos)
             self._ref_rows = np.empty(pos.shape[0], np.int8)
         self._calls = 0
-        self._cand_skin = None
+        self._cand_valid = False
         self.builds += 1
         if skin == 0.0:
             nb = self.build(pos, rows=rows)
@@ -560,7 +560,7 @@ class NeighbourSearch:
         # after the build, which raised on a non-finite position
         self._ref[:] = pos
         self._ref_rows[:] = rows
-        self._cand_skin = skin if skin > 0.0 else None
+        self._cand_valid = skin > 0.0
         return nb
 
     def _filter_into(self, pos, ptr, idx, r, out_ptr, out_buf):
