@@ -145,7 +145,7 @@ def _windows_recorded(out) -> bool:
     try:
         with h5py.File(out, "r", locking=False) as h5:
             return "coupling/time" in h5 and h5["coupling/time"].shape[0] > 0
-    except (OSError, KeyError):  # caught mid-flush: not yet
+    except (OSError, KeyError, RuntimeError):  # caught mid-flush (h5py: 'addr overflow'): not yet
         return False
 
 
