@@ -236,6 +236,39 @@ def test_enclosed_fluid_gets_compressibility_and_solves():
     assert np.all(np.isfinite(p))
 
 
+def test_compressibility_leaves_a_steady_pressure_unchanged():
+    """Artificial compressibility kappa is consistent (module docstring): with the divergence
+    source alone (gamma = 0) the equation is div u^{n+1} = -kappa (p^{n+1} - p^n) / dt, so when
+    the previous pressure already solves the incompressible equation it solves this one too, for
+    any kappa. Without the previous pressure's term (rho kappa / dt^2 on the diagonal only) the
+    pressure would shrink by about a tenth here."""
+    col = Column(shape=(20, 30), jitter=0.03)
+    p0, _ = col.solve(col.solver("direct"))
+    for kappa in (1e-7, 1e-5):
+        p, _ = col.solve(col.solver("direct", compressibility=kappa), p0.copy())
+        np.testing.assert_allclose(p, p0, rtol=0, atol=1e-9 * np.abs(p0).max())
+    # the diagonal alone (no previous pressure) is the biased pressure damping
+    s = col.solver("direct", compressibility=1e-5)
+    A, b, m = s.assemble(col.pos, col.vel, col.kind, col.n, col.fs, col.nb, DT)
+    A0, b0, _ = col.solver("direct").assemble(col.pos, col.vel, col.kind, col.n, col.fs, col.nb, DT)
+    np.testing.assert_array_equal(b, b0)
+    rows = s.row_of[s.unknown[: len(col.pos)] == 1]  # the unknowns' rows get the shift
+    np.testing.assert_allclose((A.diagonal() - A0.diagonal())[rows], RHO * 1e-5 / DT**2, rtol=1e-9)
+
+
+def test_compressibility_with_density_source_is_ikeda_form():
+    """With the number-density source alone (gamma = 1) the consistent term reduces to the
+    diagonal rho kappa / dt^2 p^{n+1} (the target density n0 (1 + kappa p^{n+1}), a linear
+    equation of state): the previous pressure does not enter."""
+    col = Column(shape=(20, 30), jitter=0.03)
+    col.vel[:] = 0.0
+    col.n[col.kind == FLUID] *= 1.001  # slightly compressed: a density source
+    p_a, _ = col.solve(col.solver("direct", gamma=1.0, compressibility=1e-6))
+    p_b, _ = col.solve(col.solver("direct", gamma=1.0, compressibility=1e-6), 500.0 + p_a)
+    assert np.abs(p_a).max() > 0.0
+    np.testing.assert_allclose(p_b, p_a, rtol=0, atol=1e-9 * np.abs(p_a).max())
+
+
 def test_deterministic_across_instances_and_threads():
     col = Column(shape=(30, 20), jitter=0.03)
     results = []

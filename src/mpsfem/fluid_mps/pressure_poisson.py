@@ -16,13 +16,20 @@ with that radius' n0. Multiplying by -1 gives ``A p = b`` with A symmetric posit
   not free surface (too far from the fluid). Free-surface neighbours are Dirichlet p = 0: their
   weight stays on the diagonal, the column is eliminated (symmetry is kept).
 - A_ij = -c w_ij (j an unknown), A_ii = c sum_j w_ij + rho kappa / dt^2, c = 2 d / (lambda0 n0),
-  b_i = -(right-hand side above). kappa is the optional artificial compressibility (1/Pa,
-  MPS-Basic style, default 0).
+  b_i = -(right-hand side above) + (1 - gamma) rho kappa / dt^2 p^n_i. kappa is the optional
+  artificial compressibility (1/Pa, default 0; sound speed c_s = 1 / sqrt(rho kappa)), consistent
+  in both parts of the mixed source: the divergence part becomes the compressible continuity
+  equation div u^{n+1} = -kappa (p^{n+1} - p^n) / dt, the density part targets n0 (1 + kappa
+  p^{n+1}) instead of n0 (a linear equation of state); together they add rho kappa / dt^2 (p^{n+1} -
+  (1 - gamma) p^n) to the left-hand side. Still water then sits at p = rho g (H - y), compressed
+  by kappa p. (The diagonal term alone, as in MPS-Basic, would compress it by kappa p / gamma,
+  20 % for kappa = 1e-6 at gamma = 0.01, and damp the pressure towards 0: docs/fluid.md.)
 - SPD: every connected set of unknowns that touches a free-surface particle is strictly diagonally
   dominant somewhere and hence SPD. A set with no free-surface contact (fluid enclosed by walls) is
   singular (pure Neumann); such sets are found each step (breadth-first search over the matrix
-  graph, O(nnz)) and get the compressibility term with ``floating_compressibility`` (default
-  4.5e-10 1/Pa, water's 1/(rho c^2)) when ``compressibility`` is smaller.
+  graph, O(nnz)) and get the diagonal term with ``floating_compressibility`` (default
+  4.5e-10 1/Pa, water's 1/(rho c^2)) when ``compressibility`` is smaller: a regularisation of the
+  singular set (its bias kappa p / gamma is 1e-4 at 2 kPa), without the p^n part.
 
 Index space: the matrix has one row per pressure-carrying particle (FLUID, WALL, STRUCTURE), in
 particle order, whether or not it is an unknown this step; rows that are not unknowns are decoupled
@@ -100,6 +107,17 @@ def mixed_source_term(div_u, number_density, kind, rho, dt, gamma, n0, out):
             out[i] = 0.0
         else:
             out[i] = a * div_u[i] - c * (number_density[i] - n0)
+    return out
+
+
+@njit(cache=True, parallel=True)
+def subtract_compressibility_source(p_prev, kind, coef, out):
+    """out_i -= coef p_prev_i (not on dummies): the previous pressure's share of the
+    artificial-compressibility term, coef = (1 - gamma) rho kappa / dt^2 (module docstring)."""
+    for i in prange(kind.shape[0]):
+        k = kind[i]
+        if k != 2 and k != 4:
+            out[i] -= coef * p_prev[i]
     return out
 
 
@@ -725,10 +743,13 @@ class PressureSolver:
             _shift_floating(A.indptr, A.indices, A.data, self.mark, m, extra)
         return nf
 
-    def assemble(self, pos, vel, kind, number_density, free_surface, nb, dt, extra_rhs=None):
+    def assemble(
+        self, pos, vel, kind, number_density, free_surface, nb, dt, extra_rhs=None, p_prev=None
+    ):
         """Build A (scipy CSR wrapping internal buffers, valid until the next call) and b.
 
-        Returns (A, b, m) with m the number of rows. ``nb`` is the shared neighbour list (its
+        ``p_prev``: the previous step's pressure (Pa), needed by the artificial compressibility
+        (none: taken as 0). Returns (A, b, m) with m the number of rows. ``nb`` is the shared neighbour list (its
         radius must be >= re and >= re_density). With a separate preconditioner matrix, it is
         left in ``self.A_pre``."""
         if nb.radius < max(self.re, self.re_density) * (1 - 1e-12):
@@ -755,6 +776,9 @@ class PressureSolver:
         )
         if extra_rhs is not None:  # b = -src, so b += extra_rhs
             np.subtract(self.src, extra_rhs, out=self.src)
+        if self.compressibility > 0.0 and p_prev is not None:
+            coef = (1.0 - self.gamma) * self.rho * self.compressibility / (dt * dt)
+            subtract_compressibility_source(p_prev, kind, coef, self.src)
         m = _row_map(kind, self.row_of)
         _classify(
             pos,
@@ -789,7 +813,9 @@ class PressureSolver:
         On return p = 0 on every particle that is not an unknown (free surface, dummies, walls
         away from the fluid). Raises PressureSolveError if the tolerance is not reached."""
         t0 = time.perf_counter()
-        A, b, m = self.assemble(pos, vel, kind, number_density, free_surface, nb, dt, extra_rhs)
+        A, b, m = self.assemble(
+            pos, vel, kind, number_density, free_surface, nb, dt, extra_rhs, p_prev=p
+        )
         x = self.x[:m]
         _gather(p, self.row_of, self.unknown, x)
         t1 = time.perf_counter()
