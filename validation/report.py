@@ -165,11 +165,13 @@ def dam_break_wall_gauge() -> list[str]:
         [
             f"L/{int(num(r['resolution_L_over_l0']))}",
             r["courant"],
+            r.get("compressibility_per_pa", "0"),
             fmt(num(r["arrival_s"]), ".3f"),
             fmt(num(r["peak_pa"]), ".0f"),
             fmt(num(r["smoothed_peak_pa"]), ".0f"),
             fmt(num(r["mean_after_impact_pa"]), ".0f"),
             f"{fmt(num(r['noise_rms_pa']), '.0f')} ({fmt(100 * num(r['noise_relative']), '.0f')} %)",
+            fmt(100 * num(r.get("front_rms_error_ko", "nan")), ".1f"),
         ]
         for r in read_csv(path)
     ]
@@ -181,11 +183,13 @@ def dam_break_wall_gauge() -> list[str]:
             [
                 "l0",
                 "Courant number",
+                "compressibility (1/Pa)",
                 "arrival (s)",
                 "peak (Pa)",
                 "smoothed peak (Pa)",
                 "mean after the impact (Pa)",
                 "noise rms, Pa (of the mean)",
+                "front error vs K & O (%)",
             ],
             rows,
         ),
