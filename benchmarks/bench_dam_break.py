@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from child_runs import benchmark_main, stage_columns  # noqa: E402
+from child_runs import benchmark_main, stage_columns, stage_text  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 L, G = 0.146, 9.81
@@ -101,8 +101,7 @@ def describe(row: dict) -> str:
     return (
         f"{row['particles']:>7d} fluid  {row['steps']:>5d} steps  {row['wall_s']:8.1f} s  "
         f"{row['us_per_particle_step']:6.2f} us/particle-step  "
-        f"nb {row['neighbours_s']:.1f} expl {row['explicit_s']:.1f} asm {row['assembly_s']:.1f} "
-        f"solve {row['solve_s']:.1f} io {row['probes_io_s']:.1f} s  "
+        f"{stage_text(row)}  io {row['probes_io_s']:.1f} s  "
         f"{row['iterations_per_step']:.1f} it/step  front error {row['front_rms_error'] * 100:.1f} %"
     )
 

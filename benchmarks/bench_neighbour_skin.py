@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from child_runs import stage_columns, write_rows  # noqa: E402
+from child_runs import stage_columns, stage_text, write_rows  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = {
@@ -118,8 +118,7 @@ def main() -> None:
                 f"{scene:18s} skin {r['skin_l0']:.2f}  {r['all_particles']:>6d} particles  "
                 f"{r['steps']} steps  {r['wall_s']:6.2f} s  "
                 f"{r['us_per_fluid_particle_step']:6.2f} us/fluid particle-step  "
-                f"nb {r['neighbours_s']:.2f} expl {r['explicit_s']:.2f} "
-                f"asm {r['assembly_s']:.2f} solve {r['solve_s']:.2f} s  "
+                f"{stage_text(r, digits=2)}  "
                 f"builds {r['list_builds']} reuses {r['candidate_reuses']}  "
                 f"identical {r['identical_to_skin_0']}",
                 flush=True,

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from child_runs import benchmark_main, stage_columns  # noqa: E402
+from child_runs import benchmark_main, stage_columns, stage_text  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "hydrostatic_3d.toml"
@@ -88,9 +88,8 @@ def describe(row: dict) -> str:
         f"{row['fluid_particles']:>6d} fluid {row['all_particles']:>6d} all  "
         f"{row['steps']:>4d} steps  {row['wall_s']:7.1f} s  "
         f"{row['us_per_fluid_particle_step']:6.2f} us/fluid-particle-step "
-        f"({row['us_per_particle_step']:.2f} per particle)  nb {row['neighbours_s']:.1f} "
-        f"expl {row['explicit_s']:.1f} asm {row['assembly_s']:.1f} "
-        f"solve {row['solve_s']:.1f} s  {row['iterations_per_step']:.1f} it/step  "
+        f"({row['us_per_particle_step']:.2f} per particle)  {stage_text(row)}  "
+        f"{row['iterations_per_step']:.1f} it/step  "
         f"gauge {row['gauge_error'] * 100:+.2f} %"
     )
 

@@ -58,6 +58,14 @@ def stage_columns(solver) -> dict:
     }
 
 
+def stage_text(row: dict, digits: int = 1) -> str:
+    """The :func:`stage_columns` of a row as printed: 'nb .. expl .. asm .. solve .. s'."""
+    return (
+        f"nb {row['neighbours_s']:.{digits}f} expl {row['explicit_s']:.{digits}f} "
+        f"asm {row['assembly_s']:.{digits}f} solve {row['solve_s']:.{digits}f} s"
+    )
+
+
 def write_rows(rows: list[dict], path: Path) -> None:
     """The rows as a CSV with the first row's keys as header."""
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -23,7 +23,7 @@ with that radius' n0. Multiplying by -1 gives ``A p = b`` with A symmetric posit
   p^{n+1}) instead of n0 (a linear equation of state); together they add rho kappa / dt^2 (p^{n+1} -
   (1 - gamma) p^n) to the left-hand side. Still water then sits at p = rho g (H - y), compressed
   by kappa p. (The diagonal term alone, as in MPS-Basic, would compress it by kappa p / gamma,
-  20 % for kappa = 1e-6 at gamma = 0.01, and damp the pressure towards 0: docs/fluid.md.)
+  22 % measured for kappa = 1e-6 at gamma = 0.01, and damp the pressure towards 0: docs/fluid.md.)
 - SPD: every connected set of unknowns that touches a free-surface particle is strictly diagonally
   dominant somewhere and hence SPD. A set with no free-surface contact (fluid enclosed by walls) is
   singular (pure Neumann); such sets are found each step (breadth-first search over the matrix
@@ -749,8 +749,8 @@ class PressureSolver:
         """Build A (scipy CSR wrapping internal buffers, valid until the next call) and b.
 
         ``p_prev``: the previous step's pressure (Pa), needed by the artificial compressibility
-        (none: taken as 0). Returns (A, b, m) with m the number of rows. ``nb`` is the shared neighbour list (its
-        radius must be >= re and >= re_density). With a separate preconditioner matrix, it is
+        (None: taken as 0). Returns (A, b, m) with m the number of rows. ``nb`` is the shared
+        neighbour list (its radius must be >= re and >= re_density). With a separate preconditioner matrix, it is
         left in ``self.A_pre``."""
         if nb.radius < max(self.re, self.re_density) * (1 - 1e-12):
             raise ValueError(
