@@ -15,7 +15,7 @@ after ``timeout_s`` without one (a dead or frozen peer), or when both sides have
 other for ``timeout_s`` (a protocol deadlock: heartbeats say whether the sender is waiting). The
 first exchange (the handshake) may take up to ``startup_timeout_s``: the peer may still be
 building its particles or compiling. Waiting never spins: queue-based transports block on a
-condition variable, MPI polls ``Iprobe`` with sleeps growing from 20 us to 2 ms.
+condition variable, MPI polls ``Iprobe`` with sleeps growing from 50 us to 2 ms.
 """
 
 from __future__ import annotations
