@@ -6,6 +6,7 @@ from mpsfem.fluid_mps.neighbours import (
     NeighbourSearch,
     NeighbourSearchError,
     build_neighbours,
+    merge_runs,
     radix_sort,
 )
 
@@ -122,7 +123,23 @@ def test_radix_sort_sorts_any_span(size, span, rng):
     repeated keys and an offset minimum."""
     keys = (rng.integers(0, span, size) + (7 if span < 2**31 - 8 else 0)).astype(np.int32)
     got = keys.copy()
-    radix_sort(got)
+    radix_sort(got, np.empty(size, np.int32), np.empty(257, np.int64))
+    np.testing.assert_array_equal(got, np.sort(keys))
+
+
+@pytest.mark.parametrize("runs", [0, 1, 2, 5, 40])
+@pytest.mark.parametrize("size", [0, 1, 2, 41, 300])
+def test_merge_runs_sorts_rows_of_ascending_runs(size, runs, rng):
+    """The short-row sort against numpy's: rows made of ``runs`` ascending runs (0: sorted
+    already; 40: nearly random), with repeated keys; the scratch is left longer than needed."""
+    keys = rng.integers(0, 50, size).astype(np.int32)
+    if runs:
+        cuts = np.sort(rng.integers(0, size + 1, runs - 1))
+        keys = np.concatenate([np.sort(part) for part in np.split(keys, cuts)])
+    else:
+        keys = np.sort(keys)
+    got = keys.copy()
+    merge_runs(got, np.full(size + 3, -1, np.int32))
     np.testing.assert_array_equal(got, np.sort(keys))
 
 
