@@ -261,3 +261,44 @@ def test_update_rebuilds_for_new_rows_mask(rng):
 def test_negative_skin_is_refused():
     with pytest.raises(ValueError, match="skin"):
         NeighbourSearch(2, 1.0, skin=-0.1)
+
+
+@pytest.mark.parametrize("box", [8.0, 14.0])
+@pytest.mark.parametrize("dim", [2, 3])
+def test_short_list_is_the_brute_force_list_at_its_radius(dim, box, rng):
+    """With ``short_radius`` every build and update also leaves the pairs closer than it in
+    ``search.short``: the brute-force rows, ascending, on the cell-list path (skin 0) and on
+    the Verlet path (candidates built, then filtered after a small move), next to rows both
+    longer (box 8: short rows picked from the sorted row) and shorter (box 14: short rows
+    sorted on their own) than LONG_ROW; a build at a radius below ``short_radius`` leaves
+    none."""
+    from mpsfem.fluid_mps.neighbours import LONG_ROW
+
+    n = 500 if dim == 2 else 700
+    pos = rng.uniform(0.0, box, size=(n, dim))
+    for skin in (0.0, 0.4):
+        search = NeighbourSearch(dim, 3.0, skin=skin, short_radius=1.6)
+        for step in range(3):
+            if step:
+                pos += rng.uniform(-0.05, 0.05, size=pos.shape)  # within skin / 2
+            nb = search.update(pos)
+            short = search.short
+            assert short is not None and short.radius == 1.6
+            ref_long = brute_force_neighbours(pos, 3.0)
+            ref = brute_force_neighbours(pos, 1.6)
+            for i in range(n):
+                row = nb.indices[nb.indptr[i] : nb.indptr[i + 1]]
+                np.testing.assert_array_equal(row, ref_long[i])
+                row = short.indices[short.indptr[i] : short.indptr[i + 1]]
+                np.testing.assert_array_equal(row, ref[i])
+        if skin:
+            assert search.reuses == 2
+    lengths = np.diff(nb.indptr)
+    assert (np.median(lengths) > LONG_ROW) == (box == 8.0)
+    search.build(pos, radius=1.5)
+    assert search.short is None
+
+
+def test_short_radius_outside_the_search_radius_is_refused():
+    with pytest.raises(ValueError, match="short_radius"):
+        NeighbourSearch(2, 1.0, short_radius=1.5)

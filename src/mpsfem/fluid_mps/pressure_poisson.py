@@ -744,18 +744,35 @@ class PressureSolver:
         return nf
 
     def assemble(
-        self, pos, vel, kind, number_density, free_surface, nb, dt, extra_rhs=None, p_prev=None
+        self,
+        pos,
+        vel,
+        kind,
+        number_density,
+        free_surface,
+        nb,
+        dt,
+        extra_rhs=None,
+        p_prev=None,
+        density_nb=None,
     ):
         """Build A (scipy CSR wrapping internal buffers, valid until the next call) and b.
 
         ``p_prev``: the previous step's pressure (Pa), needed by the artificial compressibility
         (None: taken as 0). Returns (A, b, m) with m the number of rows. ``nb`` is the shared
-        neighbour list (its radius must be >= re and >= re_density). With a separate preconditioner matrix, it is
-        left in ``self.A_pre``."""
+        neighbour list (its radius must be >= re and >= re_density); ``density_nb``, optional,
+        a shorter list (radius >= re_density) for the velocity divergence. With a separate
+        preconditioner matrix, it is left in ``self.A_pre``."""
         if nb.radius < max(self.re, self.re_density) * (1 - 1e-12):
             raise ValueError(
                 f"neighbour list radius {nb.radius} is smaller than the PPE radius {self.re} or "
                 f"the density radius {self.re_density}"
+            )
+        near = nb if density_nb is None else density_nb
+        if near.radius < self.re_density * (1 - 1e-12):
+            raise ValueError(
+                f"density list radius {near.radius} is smaller than the density radius "
+                f"{self.re_density}"
             )
         n = pos.shape[0]
         self._buffers(n)
@@ -763,8 +780,8 @@ class PressureSolver:
             pos,
             vel,
             kind,
-            nb.indptr,
-            nb.indices,
+            near.indptr,
+            near.indices,
             self.re_density,
             self.wcode,
             self.n0_density,
@@ -806,15 +823,35 @@ class PressureSolver:
 
     # -- solve ------------------------------------------------------------------------------
     def solve(
-        self, pos, vel, kind, number_density, free_surface, nb, dt, p, extra_rhs=None
+        self,
+        pos,
+        vel,
+        kind,
+        number_density,
+        free_surface,
+        nb,
+        dt,
+        p,
+        extra_rhs=None,
+        density_nb=None,
     ) -> SolveInfo:
         """Solve the PPE for the pressure ``p`` (N,), updated in place and used as warm start.
 
-        On return p = 0 on every particle that is not an unknown (free surface, dummies, walls
-        away from the fluid). Raises PressureSolveError if the tolerance is not reached."""
+        ``density_nb``: see :meth:`assemble`. On return p = 0 on every particle that is not an
+        unknown (free surface, dummies, walls away from the fluid). Raises PressureSolveError if
+        the tolerance is not reached."""
         t0 = time.perf_counter()
         A, b, m = self.assemble(
-            pos, vel, kind, number_density, free_surface, nb, dt, extra_rhs, p_prev=p
+            pos,
+            vel,
+            kind,
+            number_density,
+            free_surface,
+            nb,
+            dt,
+            extra_rhs,
+            p_prev=p,
+            density_nb=density_nb,
         )
         x = self.x[:m]
         _gather(p, self.row_of, self.unknown, x)

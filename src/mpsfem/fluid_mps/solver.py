@@ -72,6 +72,11 @@ class StageTimes:
         }
 
 
+#: how much wider than the small kernels' radius the search's short list is, in l0 (module
+#: docstring of neighbours.py; _short_list)
+SHORT_MARGIN = 0.1
+
+
 class FluidSolver:
     """MPS fluid state and its time step. Units SI; arrays (N, dim) float64, kinds int8."""
 
@@ -127,6 +132,18 @@ class FluidSolver:
         if spec.collision.enabled:
             radii.append(spec.collision.distance * l0)
         self.search_radius = max(radii)
+        # the small-kernel operators (number density, free surface, divergence, pressure
+        # gradient, wall pressure) read a shorter list of their own where it pays: at 2.1 against
+        # 4.01 l0 they scan 3.5x (2D) or 7.8x (3D) fewer pairs. The search writes it with the
+        # shared list, short_margin wider, so that the collision model's shift (after the
+        # search) cannot bring an unlisted pair within the operators' radius
+        short = max(self.re_n, self.re_grad)
+        self.short_radius = short if (self.search_radius / short) ** self.dim >= 2.0 else None
+        self.short_margin = SHORT_MARGIN * l0 if spec.collision.enabled else 0.0
+        if self.short_radius is not None:
+            self.short_margin = min(self.short_margin, self.search_radius - short)
+        #: steps whose collision shift exceeded short_margin / 2 (short list filtered anew)
+        self.short_refilters = 0
         self.lower, self.upper = self._domain(spec)
         self.search = NeighbourSearch(
             self.dim,
@@ -134,6 +151,9 @@ class FluidSolver:
             domain=(self.lower, self.upper),
             escape="clip",
             skin=spec.neighbours.skin * l0,
+            short_radius=0.0
+            if self.short_radius is None
+            else self.short_radius + self.short_margin,
         )
         self.surface = make_surface_detector(
             spec.surface.detector,
@@ -261,6 +281,27 @@ class FluidSolver:
             nb = self.neighbour_filter(nb, self.pos, self.kind)
         return nb
 
+    def _short_list(self, nb, moved: float):
+        """A list holding every pair of ``nb`` within ``short_radius`` at the current positions
+        (``nb`` itself where no short list pays); ``moved``: the largest displacement since the
+        search, m. The small-kernel operators skip pairs beyond their radius, so they give the
+        same result on either list, bit for bit.
+
+        The search's short list (``short_radius + short_margin`` at the search's positions) holds
+        them while no particle has moved more than half the margin; otherwise, or when a
+        neighbour filter has dropped pairs from ``nb``, ``nb`` is filtered anew."""
+        if self.short_radius is None:
+            return nb
+        short = self.search.short
+        if (
+            short is not None
+            and self.neighbour_filter is None
+            and 2.0 * moved <= self.short_margin * (1 - 1e-9)
+        ):
+            return short
+        self.short_refilters += 1
+        return self.search.within(self.pos, self.short_radius, nb)
+
     def _viscous_laplacian(self, nb) -> None:
         """lap_u = Laplacian of the velocity (thesis eq. 2-13, re_lap) at the current positions.
 
@@ -319,6 +360,7 @@ class FluidSolver:
         c3 = time.perf_counter()
         tm.neighbours += c3 - c2
         col = self.spec.collision
+        moved = 0.0
         if col.enabled:
             self.vel_before[:] = self.vel
             collide(
@@ -333,20 +375,24 @@ class FluidSolver:
             time_integration.shift_by_velocity_change(
                 self.pos, self.vel, self.vel_before, self.kind, dt
             )
-        operators.number_density(
-            self.pos, nb.indptr, nb.indices, self.re_n, self.wcode, self.number_density
-        )
-        self.surface.detect(self.pos, self.kind, self.number_density, nb, self.free_surface)
+            moved = dt * time_integration.max_velocity_change(self.vel, self.vel_before, self.kind)
         c4 = time.perf_counter()
-        tm.explicit += c4 - c3
+        near = self._short_list(nb, moved)
+        c5 = time.perf_counter()
+        tm.neighbours += c5 - c4
+        operators.number_density(
+            self.pos, near.indptr, near.indices, self.re_n, self.wcode, self.number_density
+        )
+        self.surface.detect(self.pos, self.kind, self.number_density, near, self.free_surface)
+        tm.explicit += (c4 - c3) + (time.perf_counter() - c5)
         if self.neumann:
             wall_boundary.mark_dry(
                 self.pos,
                 self.kind,
                 self.free_surface,
                 self.dummy_src,
-                nb.indptr,
-                nb.indices,
+                near.indptr,
+                near.indices,
                 self.re_n,
             )
         if self.surface_freeze is not None:  # implicit coupling: one set of flags per window
@@ -396,12 +442,13 @@ class FluidSolver:
             dt,
             self.p,
             self.ghost_rhs if self.neumann else None,
+            density_nb=near,
         )
         tm.assembly += info.assembly_time
         tm.solve += info.solve_time
         tm.iterations.append(info.iterations)
         self.last_iterations = info.iterations
-        c5 = time.perf_counter()
+        c6 = time.perf_counter()
         if self.surface_offset:
             surface_pressure.write_surface_values(
                 self.kind, self.free_surface, self.p_surface, self.p
@@ -414,8 +461,8 @@ class FluidSolver:
                 self.p,
                 self.kind,
                 self.free_surface,
-                nb.indptr,
-                nb.indices,
+                near.indptr,
+                near.indices,
                 self.re_grad,
                 self.wcode,
                 self.n0_grad,
@@ -429,8 +476,8 @@ class FluidSolver:
                 self.p,
                 self.kind,
                 self.free_surface,
-                nb.indptr,
-                nb.indices,
+                near.indptr,
+                near.indices,
                 self.re_n,
                 self.wcode,
                 self.rho,
@@ -442,8 +489,8 @@ class FluidSolver:
                 self.pos,
                 self.p,
                 self.kind,
-                nb.indptr,
-                nb.indices,
+                near.indptr,
+                near.indices,
                 self.re_grad,
                 self.wcode,
                 self.n0_grad,
@@ -458,7 +505,7 @@ class FluidSolver:
         if self.nu > 0.0:  # nu lap u^{n+1} for the next step's prediction, on this step's list
             self._viscous_laplacian(nb)
         self.dt_next = self.stable_dt()
-        tm.explicit += time.perf_counter() - c5
+        tm.explicit += time.perf_counter() - c6
 
     def _check(self) -> None:
         i, code = time_integration.first_bad_particle(
