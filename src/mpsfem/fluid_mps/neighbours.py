@@ -589,7 +589,10 @@ class NeighbourSearch:
     def _short_buffers(self, n, r, short):
         """(r2s, counts_s, indptr_s) for a pass that also writes the short list, or r2s = 0."""
         if short and 0.0 < self.short_radius <= r:
-            return self.short_radius**2, self._s_counts[:n], self._s_indptr[: n + 1]
+            # r * r as the operators square their radius (x**2 goes through pow and can
+            # differ by an ulp)
+            r2s = self.short_radius * self.short_radius
+            return r2s, self._s_counts[:n], self._s_indptr[: n + 1]
         return 0.0, self._s_counts[:0], self._s_indptr[:1]
 
     def _short_indices(self, indptr_s, r2s):

@@ -133,16 +133,17 @@ class FluidSolver:
             radii.append(spec.collision.distance * l0)
         self.search_radius = max(radii)
         # the small-kernel operators (collision, number density, free surface, divergence,
-        # pressure gradient, wall pressure) read a shorter list of their own where it pays: at 2.1 against
-        # 4.01 l0 they scan 3.5x (2D) or 7.8x (3D) fewer pairs. The search writes it with the
-        # shared list, short_margin wider, so that the collision model's shift (after the
-        # search) cannot bring an unlisted pair within the operators' radius
+        # pressure gradient, wall pressure) read a shorter list of their own where it pays: at
+        # 2.1 against 4.01 l0 they scan 3.5x (2D) or 7.8x (3D) fewer pairs. The search writes
+        # it with the shared list, short_margin wider, so that the collision model's shift
+        # (after the search) cannot bring an unlisted pair within the operators' radius
         short = max(self.re_n, self.re_grad)
         self.short_radius = short if (self.search_radius / short) ** self.dim >= 2.0 else None
         self.short_margin = SHORT_MARGIN * l0 if spec.collision.enabled else 0.0
         if self.short_radius is not None:
             self.short_margin = min(self.short_margin, self.search_radius - short)
-        #: steps whose collision shift exceeded short_margin / 2 (short list filtered anew)
+        #: steps that filtered the shared list anew for the short one (a collision shift over
+        #: short_margin / 2, or a neighbour filter that dropped pairs)
         self.short_refilters = 0
         self.lower, self.upper = self._domain(spec)
         self.search = NeighbourSearch(
