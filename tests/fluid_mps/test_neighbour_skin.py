@@ -38,8 +38,11 @@ def test_skin_leaves_the_wave_tank_bit_identical():
     assert verlet.t == exact.t
 
 
-def _dam_break(steps: int, short: str) -> FluidSolver:
-    sc = load_scenario(ROOT / "scenarios" / "dam_break_2d.toml", ["fluid.spacing=0.0073"]).scenario
+def _dam_break(steps: int, short: str, collision: bool = True) -> FluidSolver:
+    sc = load_scenario(
+        ROOT / "scenarios" / "dam_break_2d.toml",
+        ["fluid.spacing=0.0073", f"fluid.collision.enabled={str(collision).lower()}"],
+    ).scenario
     solver = FluidSolver(sc.fluid)
     if short == "off":  # every operator on the shared 4.01 l0 list
         solver.short_radius = None
@@ -50,21 +53,35 @@ def _dam_break(steps: int, short: str) -> FluidSolver:
     return solver
 
 
+def _assert_same_state(run: FluidSolver, ref: FluidSolver) -> None:
+    a, b = ref.state(), run.state()
+    for key, value in a.items():
+        if isinstance(value, np.ndarray):
+            np.testing.assert_array_equal(b[key], value, err_msg=key)
+    assert run.t == ref.t
+
+
 def test_short_list_leaves_the_dam_break_bit_identical():
-    """The small-kernel operators (number density, free surface, divergence, gradient) read
-    the search's 2.2 l0 list: 60 steps of a coarse dam break (collisions, walls, free surface)
-    end bit-identical to the run where they read the shared 4.01 l0 list, and so does the run
-    that filters the short list anew every step (the path taken after a large collision
-    shift)."""
+    """The small-kernel operators (collision, number density, free surface, divergence,
+    gradient) read the search's 2.2 l0 list: 60 steps of a coarse dam break (collisions, walls,
+    free surface) end bit-identical to the run where they read the shared 4.01 l0 list, and so
+    does the run that filters the short list anew every step (the path taken after a large
+    collision shift)."""
     ref = _dam_break(60, "off")
     fast = _dam_break(60, "on")
     refilter = _dam_break(60, "refilter")
     assert fast.short_radius is not None and fast.search.short is not None
     assert fast.short_refilters < 30 and refilter.short_refilters == 60
-    a = ref.state()
-    for run in (fast, refilter):
-        b = run.state()
-        for key, value in a.items():
-            if isinstance(value, np.ndarray):
-                np.testing.assert_array_equal(b[key], value, err_msg=key)
-        assert run.t == ref.t
+    _assert_same_state(fast, ref)
+    _assert_same_state(refilter, ref)
+
+
+def test_short_list_without_collisions_has_no_margin_and_changes_nothing():
+    """Without the collision model nothing moves between the search and the operators: the
+    short list is exactly 2.1 l0 (no margin), never filtered anew, and 40 steps end
+    bit-identical to the run on the shared list."""
+    ref = _dam_break(40, "off", collision=False)
+    fast = _dam_break(40, "on", collision=False)
+    assert fast.short_margin == 0.0 and fast.short_refilters == 0
+    assert fast.search.short.radius == fast.short_radius
+    _assert_same_state(fast, ref)
