@@ -69,6 +69,7 @@ from numba import njit, prange
 from .kernels import weight, weight_code
 from .lattice import lattice_constants
 from .operators import divergence
+from .particle_kinds import is_dummy
 
 WATER_COMPRESSIBILITY = 4.5e-10  # 1/Pa, 1 / (rho c^2) for water
 WALL_MODELS = ("pressure_layer", "neumann")
@@ -115,8 +116,7 @@ def subtract_compressibility_source(p_prev, kind, coef, out):
     """out_i -= coef p_prev_i (not on dummies): the previous pressure's share of the
     artificial-compressibility term, coef = (1 - gamma) rho kappa / dt^2 (module docstring)."""
     for i in prange(kind.shape[0]):
-        k = kind[i]
-        if k != 2 and k != 4:
+        if not is_dummy(kind[i]):
             out[i] -= coef * p_prev[i]
     return out
 

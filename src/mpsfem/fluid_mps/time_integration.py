@@ -61,23 +61,6 @@ def shift_by_velocity_change(pos, vel, vel_before, kind, dt):
 
 
 @njit(cache=True)
-def max_velocity_change(vel, vel_before, kind):
-    """Largest |u - u_before| over fluid particles, m/s (max is exact in any order)."""
-    dim = vel.shape[1]
-    best = 0.0
-    for i in range(vel.shape[0]):
-        if kind[i] != 0:
-            continue
-        s = 0.0
-        for a in range(dim):
-            d = vel[i, a] - vel_before[i, a]
-            s += d * d
-        if s > best:
-            best = s
-    return np.sqrt(best)
-
-
-@njit(cache=True)
 def max_speed(vel, kind):
     """Largest fluid particle speed, m/s (max is exact in any order)."""
     dim = vel.shape[1]

@@ -13,11 +13,11 @@ first millisecond — MPICH delivers shared-memory messages only while the recei
 sleeping waits measured 6 ms per round trip instead of 0.04 ms — then sleeps growing from 50 us to
 2 ms: 5.5-7.6 % of a core while idle on the 2-core development VM (2026-11-22; with 1 ms sleeps it
 had grown from 2.3 % to 7-11 % there, over the test's 10 % bound). A reply that comes after the
-first few milliseconds of a wait is picked up at most 2 ms late. Heartbeats come from a second thread (MPI_THREAD_MULTIPLE, mpi4py's
-default). A rank killed outright (SIGKILL, segfault) makes ``mpirun`` kill the job within a
-second with its own "BAD TERMINATION" report; a rank that hangs is caught by the timeout, and
-:meth:`MPITransport.abort` then ends every rank (``MPI_Abort``) so nothing waits forever in
-``MPI_Finalize``.
+first few milliseconds of a wait is picked up at most 2 ms late. Heartbeats come from a second
+thread (MPI_THREAD_MULTIPLE, mpi4py's default). A rank killed outright (SIGKILL, segfault) makes
+``mpirun`` kill the job within a second with its own "BAD TERMINATION" report; a rank that hangs
+is caught by the timeout, and :meth:`MPITransport.abort` then ends every rank (``MPI_Abort``) so
+nothing waits forever in ``MPI_Finalize``.
 """
 
 from __future__ import annotations
