@@ -140,3 +140,23 @@ def case_status(
     if analyse_only:
         return read_status(out)
     return ensure_case(scenario, out, overrides, threads, retry, tag)
+
+
+def finished_cases(
+    scenario: Path,
+    cases: dict,
+    threads: int,
+    analyse_only: bool,
+    retry: bool,
+) -> dict:
+    """Run (or read) every case of ``cases`` (key -> (results path, overrides, tag)) with
+    :func:`case_status`; returns {key: results path} of the finished ones and prints the status
+    of the others."""
+    finished = {}
+    for key, (out, overrides, tag) in cases.items():
+        status = case_status(scenario, out, overrides, threads, analyse_only, retry, tag)
+        if status == "finished":
+            finished[key] = out
+        else:
+            print(f"{tag}: {status}, not analysed")
+    return finished

@@ -483,22 +483,10 @@ def main(argv: list[str] | None = None) -> int:
         return run_stability(args.threads, args.analyse_only, args.retry_failed)
     if args.sensitivity:
         return run_sensitivity(args.threads, args.analyse_only, args.retry_failed)
-    paths = {}
-    for n in RESOLUTIONS:
-        out = case_path(n)
-        status = case_runner.case_status(
-            SCENARIO,
-            out,
-            overrides(n),
-            args.threads,
-            args.analyse_only,
-            args.retry_failed,
-            f"[L/{n}]",
-        )
-        if status == "finished":
-            paths[n] = out
-        else:
-            print(f"L/{n}: {status}, not analysed")
+    cases = {n: (case_path(n), overrides(n), f"[L/{n}]") for n in RESOLUTIONS}
+    paths = case_runner.finished_cases(
+        SCENARIO, cases, args.threads, args.analyse_only, args.retry_failed
+    )
     if not paths:
         print("nothing to analyse")
         return 1

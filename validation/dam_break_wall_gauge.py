@@ -196,22 +196,10 @@ def main(argv: list[str] | None = None) -> int:
     case_runner.add_run_options(ap)
     args = ap.parse_args(argv)
     RESULTS_DIR.mkdir(parents=True, exist_ok=True)
-    paths: dict[tuple[int, float, float], Path] = {}
-    for case in CASES:
-        out = case_path(*case)
-        status = case_runner.case_status(
-            SCENARIO,
-            out,
-            overrides(*case),
-            args.threads,
-            args.analyse_only,
-            args.retry_failed,
-            f"[{case_label(*case)}]",
-        )
-        if status == "finished":
-            paths[case] = out
-        else:
-            print(f"{case_label(*case)}: {status}, not analysed")
+    cases = {c: (case_path(*c), overrides(*c), f"[{case_label(*c)}]") for c in CASES}
+    paths: dict[tuple[int, float, float], Path] = case_runner.finished_cases(
+        SCENARIO, cases, args.threads, args.analyse_only, args.retry_failed
+    )
     if not paths:
         print("nothing to analyse")
         return 1
