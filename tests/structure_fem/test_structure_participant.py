@@ -220,3 +220,43 @@ def test_forces_written_at_start_are_initial_data(initial_state):
     else:
         u_static = sla.spsolve(p.system.K.tocsc(), F)
         assert np.allclose(s.u, u_static, rtol=0, atol=1e-9 * np.abs(u_static).max())
+
+
+@pytest.mark.parametrize("how", ["pressure", "interface_forces", "point_force"])
+def test_beam_width_is_per_metre_of_width(how):
+    """A beam's model is per metre of width whatever its `width` b: a simply supported beam under
+    p = 1 kPa (as a prescribed pressure, as the coupler's nodal forces in N/m per metre of width,
+    or as a 10 N/m mid-span point force) deflects as the analytic per-metre beam, and its energy
+    is J/m, for b = 1, for b = 2, and for b = 2 with the whole-width section given explicitly."""
+    E, t, L, p, P = 1e9, 0.01, 1.0, 1000.0, 10.0
+    EI = E * t**3 / 12  # per metre of width
+    ref = 5 * p * L**4 / (384 * EI) if how != "point_force" else P * L**3 / (48 * EI)
+    base = dict(
+        name="b", type="beam", start=[0.0, 0.0], end=[L, 0.0], elements=10,
+        bc="simply_supported", material={"youngs_modulus": E, "density": 1000.0},
+        thickness=t, axial=False,
+    )  # fmt: skip
+    loads = {
+        "pressure": [{"kind": "pressure", "member": "b", "value": p}],
+        "point_force": [
+            {"kind": "point_force", "member": "b", "position": [0.5, 0.0], "force": [0.0, P]}
+        ],
+        "interface_forces": [],
+    }[how]
+    results = []
+    for extra in ({}, {"width": 2.0}, {"width": 2.0, "area": 2 * t, "second_moment": EI / E * 2}):
+        sec = section([dict(base, **extra)], loads=loads, initial_state="static")
+        part = StructureParticipant(sec, prescribed_loads=True)
+        if how == "interface_forces":
+            n = part.interface().n_points
+            f = np.zeros((n, 2))
+            f[:, 1] = p * L / (n - 1)  # tributary lengths: p h inside, p h / 2 at the ends
+            f[[0, -1], 1] /= 2
+            part.write("forces", f)
+        results.append((part.read("displacement")[5, 1], part.energy()[1]))
+    (w1, e1), *others = results
+    # Hermite cubics are exact for the point load at a node and the uniform load's nodal
+    # values; lumped nodal forces differ from the consistent load by O(h^2) = 1 %
+    assert abs(w1 / ref - 1) < (1.5e-2 if how == "interface_forces" else 1e-9)
+    for w, e in others:
+        assert w == pytest.approx(w1, rel=1e-12) and e == pytest.approx(e1, rel=1e-12)

@@ -1,7 +1,7 @@
 """Schema of the ``[structure]`` section of a scenario file.
 
 The structure is a set of independent elastic members: Euler-Bernoulli beams in 2D scenes
-(``type = "beam"``, per unit width unless ``width`` says otherwise) and Kirchhoff plates in 3D scenes
+(``type = "beam"``, per metre of width like every 2D quantity) and Kirchhoff plates in 3D scenes
 (``type = "plate"``). Every physical and numerical parameter is written in the file; geometry is in
 scene coordinates (metres), loads in SI units. See docs/structure.md for the model and its conventions.
 
@@ -131,8 +131,8 @@ TimeFunction = Annotated[
 class PressureLoad(Section):
     """Uniform pressure over a whole member, times a time function (standalone runs only).
 
-    Positive along the member normal (see the module docstring). On a beam it acts over the beam's
-    `width`, i.e. the line load is `value * width` N/m.
+    Positive along the member normal (see the module docstring). On a beam the line load is
+    `value` N/m per metre of width, whatever the beam's `width`.
     """
 
     kind: Literal["pressure"] = Field(description='"pressure".')
@@ -207,7 +207,7 @@ class _MemberCommon(Section):
 
 
 class BeamMember(_MemberCommon):
-    """Euler-Bernoulli beam in a 2D scene (ElementLineHermite), per unit width by default."""
+    """Euler-Bernoulli beam in a 2D scene (ElementLineHermite), per metre of width."""
 
     type: Literal["beam"] = Field(description='"beam" (2D scenes).')
     start: list[float] = Field(
@@ -225,15 +225,25 @@ class BeamMember(_MemberCommon):
         )
     )
     width: float = Field(
-        1.0, gt=0, description="Width b in m out of the plane (default 1: per unit width)."
+        1.0,
+        gt=0,
+        description=(
+            "Width b in m out of the plane over which `area` and `second_moment` are given "
+            "(default 1). The model, its loads and its energies are per metre of width, like "
+            "every 2D quantity: it uses A / b and I / b, so b matters only with those overrides."
+        ),
     )
     area: float | None = Field(
-        None, gt=0, description="Cross-section area in m^2 overriding width x thickness."
+        None,
+        gt=0,
+        description="Cross-section area in m^2 of the whole width b (default b x thickness).",
     )
     second_moment: float | None = Field(
         None,
         gt=0,
-        description="Second moment of area in m^4 overriding width x thickness^3 / 12.",
+        description=(
+            "Second moment of area in m^4 of the whole width b (default b x thickness^3 / 12)."
+        ),
     )
     plate_strip: bool = Field(
         False,

@@ -9,6 +9,10 @@ anticlockwise). Its local coordinate is the arc length s in [0, L]. Unknowns:
 
 The two fields are uncoupled (small deflections), so M and K are block diagonal
 ``[bending | axial]``. Rotary inertia and shear deformation are neglected (Euler-Bernoulli).
+
+Like every 2D quantity the model is per metre of width: EI (N m^2/m), EA (N/m), rho A (kg/m^2),
+loads in N/m per metre of width, energies in J/m. A member ``width`` b only divides the section
+given for the whole width (A = b t, I = b t^3 / 12 or ``area`` / ``second_moment``) by b.
 """
 
 from __future__ import annotations
@@ -62,10 +66,10 @@ class BeamModel(MemberModel):
     normal: np.ndarray
     start: np.ndarray
     s: np.ndarray
-    EI: float
-    EA: float
-    rhoA: float
-    width: float
+    EI: float  # per metre of width, N m^2 / m
+    EA: float  # N / m
+    rhoA: float  # kg / m^2
+    width: float  # m, informative: the properties above are already per metre of width
     w_dofs: np.ndarray
     slope_dofs: np.ndarray
     u_dofs: np.ndarray | None
@@ -78,12 +82,13 @@ class BeamModel(MemberModel):
         E = mat.youngs_modulus
         if cfg.plate_strip:
             E = E / (1.0 - mat.poisson_ratio**2)
-        area = cfg.area if cfg.area is not None else cfg.width * cfg.thickness
+        # the section (A, I) describes the member's whole width b; the 2D model, like every 2D
+        # force and energy it exchanges, is per metre of width: A / b, I / b
+        b = cfg.width
+        area = (cfg.area if cfg.area is not None else b * cfg.thickness) / b
         inertia = (
-            cfg.second_moment
-            if cfg.second_moment is not None
-            else cfg.width * cfg.thickness**3 / 12.0
-        )
+            cfg.second_moment if cfg.second_moment is not None else b * cfg.thickness**3 / 12.0
+        ) / b
         return cls.create(
             name=cfg.name,
             start=cfg.start,
@@ -214,7 +219,7 @@ class BeamModel(MemberModel):
         return self._line_load(self.rhoA * np.asarray(g, dtype=float))
 
     def pressure_load(self, p: float) -> np.ndarray:
-        return self._line_load(p * self.width * self.normal)
+        return self._line_load(p * self.normal)
 
     def local_coordinate(self, point) -> float:
         """Arc length s of the projection of a scene point onto the centreline, clipped to [0, L]."""
