@@ -1,5 +1,6 @@
 """Structure-only runs write the results-file contract; the scenario files load and run."""
 
+import math
 from pathlib import Path
 
 import h5py
@@ -7,7 +8,8 @@ import numpy as np
 import pytest
 from structure_cases import load
 
-from mpsfem.structure_fem.standalone import modal_analysis, run_structure
+from mpsfem.structure_fem.loads import read_table_csv
+from mpsfem.structure_fem.standalone import _last_step, modal_analysis, run_structure
 
 SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
 CANTILEVER = SCENARIOS / "structure_cantilever_demo.toml"
@@ -150,3 +152,31 @@ def test_cli_main_structure_and_modes(tmp_path, monkeypatch, capsys):
     )  # fmt: skip
     assert rc == 0 and h5.is_file()
     assert "finished t = 0.01 s in 20 steps" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("T, dt", [(1.5, 5e-5), (3.0, 1e-4), (0.3, 1e-4), (0.25, 1e-3)])
+def test_last_step_is_dt_up_to_round_off(T, dt):
+    """30000 steps of 5e-5 s leave T - (n - 1) dt a few 1e-12 dt away from dt, beyond the
+    integrator's 1e-12 cache snap: the last step is dt itself, so it reuses the factorisation."""
+    n = math.ceil(T / dt - 1e-9)
+    assert _last_step(T, dt, n) == dt
+    assert _last_step(0.2505, 1e-3, 251) == pytest.approx(5e-4, rel=1e-9)  # a true short step
+
+
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        ("t,f\n0.0,0.0\n0.1,1,5\n", r"line 3: 3 values .*two numbers"),
+        ("0.0,0.0\n0.1\n", r"line 2: 1 values .*two numbers"),
+        ("0.0,0.0\n0.1,x\n", r"line 2: not numbers"),
+        ("0.0,0.0\n0.0,1.0\n", r"strictly increasing"),
+    ],
+)
+def test_bad_load_table_names_file_and_line(tmp_path, text, match):
+    path = tmp_path / "load.csv"
+    path.write_text(text)
+    with pytest.raises(ValueError, match=match) as err:
+        read_table_csv(path)
+    assert str(path) in str(err.value)
+    path.write_text("# t, f\nt,f\n0.0,0.0\n0.1,1.0\n")
+    assert read_table_csv(path).tolist() == [[0.0, 0.0], [0.1, 1.0]]

@@ -1,5 +1,6 @@
 """The structure participant: protocol shapes, force mapping, sub-stepping, checkpoint/restore."""
 
+import warnings
 from types import SimpleNamespace
 
 import numpy as np
@@ -260,3 +261,51 @@ def test_beam_width_is_per_metre_of_width(how):
     assert abs(w1 / ref - 1) < (1.5e-2 if how == "interface_forces" else 1e-9)
     for w, e in others:
         assert w == pytest.approx(w1, rel=1e-12) and e == pytest.approx(e1, rel=1e-12)
+
+
+@pytest.mark.parametrize(
+    "member",
+    [
+        dict(PLATE, bc="free", divisions=[2, 2]),  # 36 unknowns: factorised densely
+        dict(PLATE, bc="free"),  # 180 unknowns: sparse
+        dict(PLATE, bc=["free", "free", "free", "simply_supported"], divisions=[8, 8]),
+        dict(PLATE, element="morley", bc="free", divisions=[8, 8]),
+        dict(BEAM, bc="free", elements=20),  # 63 unknowns: dense
+        dict(BEAM, bc="free", elements=60),
+        dict(BEAM, bc=["simply_supported", "free"], elements=60),
+    ],
+)
+def test_static_start_of_a_mechanism_is_refused(member):
+    """A static start of a member that can move as a rigid body is refused, on the dense and on
+    the sparse factorisation alike (a sparse one used to return deflections of 1e11 m)."""
+    sec = section([dict(member, self_weight=True)], initial_state="static")
+    with pytest.raises(ValueError, match="initial_state.*supported.*singular"):
+        StructureParticipant(sec, prescribed_loads=True)
+    # the supported member starts
+    sec = section([dict(member, bc="clamped", self_weight=True)], initial_state="static")
+    assert np.isfinite(StructureParticipant(sec).read("displacement")).all()
+
+
+@pytest.mark.parametrize(
+    "member, n_dof",
+    [(dict(BEAM, elements=1, bc="clamped"), 6), (dict(PLATE, divisions=[1, 1]), 16)],
+)
+def test_member_with_every_dof_fixed_is_refused(member, n_dof):
+    with pytest.raises(
+        ValueError, match=f"'{member['name']}': bc = 'clamped' fixes every one of its {n_dof}"
+    ):
+        StructureParticipant(section([member]))
+
+
+def test_damping_ratio_of_rigid_body_modes():
+    """Rayleigh damping a1 / (2 omega) + a2 omega / 2; a rigid-body mode (omega = 0) is
+    undamped without a1 and overdamped (inf) with it, without a division warning."""
+    from mpsfem.structure_fem.model import build_member
+
+    for a1, rigid in ((0.0, 0.0), (2.0, np.inf)):
+        sec = section([dict(BEAM, bc="free", rayleigh_a1=a1, rayleigh_a2=1e-3)])
+        model = build_member(sec.members[0])
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            zeta = model.damping_ratio(np.array([0.0, 10.0]))
+        assert zeta[0] == rigid and zeta[1] == pytest.approx(a1 / 20 + 1e-3 * 5)

@@ -34,13 +34,19 @@ def read_table_csv(path: str | Path) -> np.ndarray:
             continue
         cells = [c.strip() for c in line.split(",")]
         try:
-            rows.append([float(c) for c in cells])
+            values = [float(c) for c in cells]
         except ValueError:
             if rows:
                 raise ValueError(
                     f"load table {path}, line {lineno}: not numbers: {line!r}"
                 ) from None
             continue  # a header before the first data row
+        if len(values) != 2:
+            raise ValueError(
+                f"load table {path}, line {lineno}: {len(values)} values ({line!r}); "
+                "each row must be two numbers: t, f"
+            )
+        rows.append(values)
     data = np.array(rows, dtype=float) if rows else np.zeros((0, 2))
     if data.shape[1] != 2 or data.shape[0] < 1:
         raise ValueError(f"load table {path}: need two columns t, f; got shape {data.shape}")

@@ -67,8 +67,10 @@ class MemberModel(ABC):
     def damping_ratio(self, omega: np.ndarray) -> np.ndarray:
         """Modal damping ratio of Rayleigh damping: a1 / (2 omega) + a2 omega / 2."""
         omega = np.asarray(omega, dtype=float)
-        with np.errstate(divide="ignore"):
-            return self.rayleigh_a1 / (2.0 * omega) + self.rayleigh_a2 * omega / 2.0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            zeta = self.rayleigh_a1 / (2.0 * omega) + self.rayleigh_a2 * omega / 2.0
+        # a rigid-body mode (omega = 0) is undamped without a1, overdamped (inf) with it
+        return np.where(omega == 0.0, np.inf if self.rayleigh_a1 > 0.0 else 0.0, zeta)
 
     @abstractmethod
     def gravity_load(self, g: np.ndarray) -> np.ndarray:
@@ -98,7 +100,16 @@ def build_member(cfg) -> MemberModel:
     from .plate import PlateModel
 
     if cfg.type == "beam":
-        return BeamModel.from_config(cfg)
-    if cfg.type == "plate":
-        return PlateModel.from_config(cfg)
-    raise ValueError(f"unknown member type {cfg.type!r}; allowed: 'beam', 'plate'")
+        model = BeamModel.from_config(cfg)
+    elif cfg.type == "plate":
+        model = PlateModel.from_config(cfg)
+    else:
+        raise ValueError(f"unknown member type {cfg.type!r}; allowed: 'beam', 'plate'")
+    if model.free.size == 0:
+        mesh = f"elements = {cfg.elements}" if cfg.type == "beam" else "its mesh"
+        raise ValueError(
+            f"structure member {cfg.name!r}: bc = {cfg.bc!r} fixes every one of its "
+            f"{model.n_dof} degrees of freedom on {mesh}; it cannot move: refine the mesh "
+            "(beam `elements`, plate `divisions` / `mesh_size`) or free a support"
+        )
+    return model

@@ -147,7 +147,9 @@ class StructureParticipant:
                 u0 = factorize(self.system.K.tocsc()).solve(F0)
             except np.linalg.LinAlgError as exc:
                 raise ValueError(
-                    'initial_state = "static" needs every member supported against rigid motion'
+                    'structure.initial_state = "static" needs every member supported against '
+                    'rigid motion (give it supports in `bc`, or use "rest"): the stiffness '
+                    f"matrix is singular: {exc}"
                 ) from exc
             self.integrator.initialize(F0, u0=u0)
         else:

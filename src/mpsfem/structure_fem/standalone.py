@@ -94,6 +94,13 @@ def _every(interval: float | None, dt: float) -> int:
     return max(1, round(interval / dt))
 
 
+def _last_step(T: float, dt: float, n_steps: int) -> float:
+    """The last step to reach T (s) after n_steps - 1 steps of dt: dt where T - (n - 1) dt
+    differs from it by round-off only (n_steps = ceil(T / dt - 1e-9) admits 1e-9 dt)."""
+    h = T - (n_steps - 1) * dt
+    return dt if abs(h - dt) <= 1e-9 * dt else h
+
+
 def run_structure(
     scenario,
     out_path: str | Path,
@@ -179,8 +186,9 @@ def run_structure(
         last_flush = _time.perf_counter()
         t = 0.0
         for k in range(1, n_steps + 1):
-            # every step is dt exactly, the last one what is left to T
-            h = dt if k < n_steps else T - (n_steps - 1) * dt
+            # every step is dt exactly, the last one what is left to T (dt itself when that is
+            # dt up to the round-off of T - (n - 1) dt, ~n eps dt: no new factorisation)
+            h = dt if k < n_steps else _last_step(T, dt, n_steps)
             part.advance(h)
             t = T if k == n_steps else k * dt
             record(k, t, k == n_steps)
@@ -232,11 +240,15 @@ def cli_main(args) -> int:
     if getattr(loaded.scenario, "structure", None) is None:
         print(f"error: {args.scenario} has no [structure] section", file=sys.stderr)
         return 2
-    if args.command == "modes":
-        print(format_modes(modal_analysis(loaded, getattr(args, "count", 6))))
-        return 0
-    out = getattr(args, "out", None) or Path.cwd() / f"{loaded.stem}.h5"
-    summary = run_structure(loaded, out, progress=not getattr(args, "no_progress", False))
+    try:
+        if args.command == "modes":
+            print(format_modes(modal_analysis(loaded, getattr(args, "count", 6))))
+            return 0
+        out = getattr(args, "out", None) or Path.cwd() / f"{loaded.stem}.h5"
+        summary = run_structure(loaded, out, progress=not getattr(args, "no_progress", False))
+    except (ValueError, FileNotFoundError) as exc:  # a model that cannot be built or solved
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     print(
         f"finished t = {summary.t:.6g} s in {summary.steps} steps, {summary.wall_time:.2f} s wall; "
         f"results {summary.results}"
