@@ -38,8 +38,8 @@ def _scenario_args(p: argparse.ArgumentParser) -> None:
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="override a scenario value by dotted path; VALUE is a TOML literal "
-        '(--set fluid.spacing=0.004 --set fluid.pressure.solver="pcg_jacobi")',
+        help="override a scenario value by dotted path; VALUE is a TOML literal or a bare "
+        "word taken as a string (--set fluid.spacing=0.004 --set fluid.pressure.solver=pcg_jacobi)",
     )
 
 

@@ -79,8 +79,24 @@ def test_fluid_outside_tank():
 
 
 def test_set_needs_toml_literal():
-    (msg,) = problems(BASE, ["fluid.pressure.solver=amg"])
+    (msg,) = problems(BASE, ["fluid.pressure.solver=pcg amg"])
     assert "not a TOML literal" in msg and "fluid.pressure.solver" in msg
+    assert "bare word" in msg
+
+
+def test_set_bare_word_is_a_string():
+    """A shell strips the quotes of --set key="name": the bare word is taken as that string,
+    while true/false/inf/nan stay TOML literals (and a bad name is still refused by the schema)."""
+    sc = load_scenario_text(
+        BASE, ["fluid.pressure.solver=pcg_jacobi", "probes.0.name=gauge-2.a", "run.progress=false"]
+    ).scenario
+    assert sc.fluid.pressure.solver == "pcg_jacobi"
+    assert sc.probes[0].name == "gauge-2.a"
+    assert sc.run.progress is False
+    sc = load_scenario_text(BASE, ['fluid.pressure.solver="direct"']).scenario
+    assert sc.fluid.pressure.solver == "direct"
+    (msg,) = problems(BASE, ["fluid.pressure.solver=amg"])
+    assert msg.startswith("fluid.pressure.solver = 'amg'") and "'pcg_amg'" in msg
 
 
 def test_set_bad_index():

@@ -6,6 +6,7 @@ allowed>``; unknown keys list the keys that are allowed at that place.
 
 from __future__ import annotations
 
+import re
 import tomllib
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -48,8 +49,18 @@ def _split_key(key: str) -> list[str | int]:
     return parts
 
 
-def parse_override(item: str) -> tuple[str, Any]:
-    """Parse ``key=value`` where value is a TOML literal (``0.004``, ``"implicit"``, ``[0, 1]``)."""
+#: an unquoted ``--set`` value taken as a string when it is no TOML literal (a shell strips the
+#: quotes of ``--set key="name"``); ``true``, ``false``, ``inf`` and ``nan`` stay TOML literals
+BARE_WORD = re.compile(r"[A-Za-z_][A-Za-z0-9_.-]*")
+
+
+def parse_override(item: str, bare_words: bool = False) -> tuple[str, Any]:
+    """Parse ``key=value`` where value is a TOML literal (``0.004``, ``"implicit"``, ``[0, 1]``).
+
+    With ``bare_words`` a value that is no TOML literal but a bare word (``pcg_jacobi``: letters,
+    digits, ``_``, ``.``, ``-``, starting with a letter or ``_``) is taken as that string, so
+    ``--set key="name"`` works after a shell has stripped its quotes.
+    """
     if "=" not in item:
         raise ScenarioError([f"--set {item!r}: expected key=value with a TOML literal value"])
     key, _, raw = item.partition("=")
@@ -58,13 +69,21 @@ def parse_override(item: str) -> tuple[str, Any]:
         _split_key(key)
     except ValueError:
         raise ScenarioError([f"--set {item!r}: key {key!r} is not a dotted path"]) from None
+    raw = raw.strip()
     try:
-        value = tomllib.loads(f"v = {raw.strip()}")["v"]
+        value = tomllib.loads(f"v = {raw}")["v"]
     except tomllib.TOMLDecodeError:
+        if bare_words and BARE_WORD.fullmatch(raw):
+            return key, raw
+        strings = (
+            f"strings as a bare word, {key}=name, or quoted, '{key}=\"a name\"'"
+            if bare_words
+            else f'strings need quotes, e.g. {key}="name"'
+        )
         raise ScenarioError(
             [
-                f"--set {key} = {raw!r}: not a TOML literal (strings need quotes, e.g. "
-                f'{key}="name"; numbers as 0.004; lists as [0.0, 1.0])'
+                f"--set {key} = {raw!r}: not a TOML literal ({strings}; numbers as 0.004; lists "
+                "as [0.0, 1.0])"
             ]
         ) from None
     return key, value
@@ -229,7 +248,7 @@ def load_scenario_text(
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError([f"not valid TOML: {exc}"], src) from None
     for item in overrides:
-        key, value = parse_override(item)
+        key, value = parse_override(item, bare_words=True)
         apply_override(data, key, value)
     scenario = validate(data, src)
     return LoadedScenario(scenario=scenario, text=text, overrides=list(overrides), path=path)
