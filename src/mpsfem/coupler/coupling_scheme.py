@@ -198,15 +198,18 @@ class CouplingScheme:
             if self.config.window is not None
             else float(self.structure.max_dt())
         )
+        self.F_f = self._read_forces()
+        self.F_s = self.mapping.to_structure(self.F_f)
+        check_finite("initial data", forces=self.F_s)
+        # the initial forces first: the structure rebuilds its start state under them (a static
+        # start solves K u0 = F_self + F_fluid), so its displacement is read only afterwards
+        self.structure.write(FORCES, self.F_s)
         self.d, self.v = read_outputs(self.structure, (DISPLACEMENT, VELOCITY))
         shape = self.structure_mesh.points.shape
         for name, a in ((DISPLACEMENT, self.d), (VELOCITY, self.v)):
             if a.shape != shape:
                 raise ValueError(f"structure {name} of shape {a.shape}, expected {shape}")
-        self.F_f = self._read_forces()
-        self.F_s = self.mapping.to_structure(self.F_f)
-        check_finite("initial data", displacement=self.d, velocity=self.v, forces=self.F_s)
-        self.structure.write(FORCES, self.F_s)
+        check_finite("initial data", displacement=self.d, velocity=self.v)
         self.d_f = self.mapping.to_fluid(self.d)  # where the fluid's interface points are
         self.fluid.write(DISPLACEMENT, self.d_f)
         self.fluid.write(VELOCITY, self.mapping.to_fluid(self.v))
