@@ -23,6 +23,7 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy is imported anywhere
 
 import argparse  # noqa: E402
+import math  # noqa: E402
 import sys  # noqa: E402
 from pathlib import Path  # noqa: E402
 
@@ -107,8 +108,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     loaded = load_scenario(args.scenario, args.overrides)
     sc = loaded.scenario
-    if args.end_time is not None and not args.end_time > 0:
-        raise ScenarioError([f"--end-time = {args.end_time}: must be > 0"])
+    if args.end_time is not None and not (math.isfinite(args.end_time) and args.end_time > 0):
+        raise ScenarioError([f"--end-time = {args.end_time}: must be a finite number > 0"])
     out = args.out or Path.cwd() / f"{loaded.stem}.h5"
     _set_threads(sc.run.threads)
     progress = False if args.no_progress else None

@@ -153,3 +153,31 @@ def test_motion_direction_dimension_checked():
         BASE, ["fluid.walls.0.motion={kind = 'harmonic', direction = [0.0, 0.0, 1.0]}"]
     )
     assert "walls[0].motion.direction" in msg and "[0.0, 0.0, 1.0]" in msg and "2 components" in msg
+
+
+@pytest.mark.parametrize(
+    ("override", "key"),
+    [
+        ("run.end_time=inf", "run.end_time = inf"),
+        ("fluid.time_step.dt_max=inf", "fluid.time_step.dt_max = inf"),
+        ("fluid.gravity=[0.0, nan]", "fluid.gravity[1] = nan"),
+        ("fluid.walls.0.upper=[0.5, inf]", "fluid.walls[0].upper[1] = inf"),
+        ("probes.0.position=[nan, 0.05]", "probes[0].position[0] = nan"),
+    ],
+)
+def test_inf_and_nan_are_refused(override, key):
+    (msg,) = problems(BASE, [override])
+    assert msg.startswith(key) and "finite number" in msg
+
+
+@pytest.mark.parametrize("end_time", ["inf", "nan", "0"])
+def test_cli_end_time_must_be_finite_and_positive(tmp_path, capsys, end_time):
+    from mpsfem.cli import main
+
+    scen = tmp_path / "s.toml"
+    scen.write_text(BASE)
+    out = tmp_path / "r.h5"
+    assert main(["run", str(scen), "--out", str(out), "--end-time", end_time]) == 2
+    err = capsys.readouterr().err
+    assert f"--end-time = {float(end_time)}: must be a finite number > 0" in err
+    assert not out.exists()

@@ -2,7 +2,8 @@
 
 Every section of a scenario file is a :class:`Section`: unknown keys are rejected, types are
 checked strictly (an integer is accepted where a float is expected, nothing else is coerced),
-and values are re-validated when assigned, so ``--set`` overrides go through the same checks.
+every float must be finite (``inf`` and ``nan``, which TOML and ``--set`` accept, are refused), and
+values are re-validated when assigned, so ``--set`` overrides go through the same checks.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ class Section(BaseModel):
     model_config = ConfigDict(
         extra="forbid",
         strict=True,
+        allow_inf_nan=False,
         validate_assignment=True,
         validate_default=True,
         use_attribute_docstrings=True,
