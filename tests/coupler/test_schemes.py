@@ -402,3 +402,40 @@ def test_window_motion_measure_scales_by_the_windows_motion():
         window.measure(x, x_t)
     with pytest.raises(ValueError, match="relative_to"):
         ResidualCriterion(1e-3, 1e-12, relative_to="velocity")
+
+
+@pytest.mark.parametrize(
+    "scheme, kw, mu",
+    [
+        ("implicit", {"convergence": {"max_displacement": 1e-3}}, 0.3),
+        ("explicit", {"convergence": {"max_displacement": 1e-3}}, 0.3),
+        ("explicit", {}, 10.0),  # the added-mass instability detector
+    ],
+)
+def test_a_rejected_window_leaves_the_scheme_at_the_last_accepted_one(scheme, kw, mu):
+    """The max_displacement check and the explicit detector judge the candidate window before
+    anything is accepted: after the CouplingDivergedError the scheme's time, index, d, v, F_s,
+    the accelerator's window counter and the detector are those of the last accepted window."""
+    fluid, st = mock.pair(mu)
+    sch = create_scheme(fluid, st, config(scheme=scheme, **kw))
+    accepted = {}
+
+    def keep(rec):
+        accepted.update(d=sch.d.copy(), v=sch.v.copy(), F_s=sch.F_s.copy())
+        accepted["detector"] = copy.deepcopy(sch.detector.__dict__)
+
+    with pytest.raises(CouplingDivergedError):
+        sch.run(0.5, on_window=keep)
+    assert len(sch.history) > 2
+    last = sch.history[-1]
+    assert sch.t == last.time and sch.index == len(sch.history) == last.index + 1
+    for k in ("d", "v", "F_s"):
+        assert np.array_equal(getattr(sch, k), accepted[k]), k
+    if "max_displacement" in kw.get("convergence", {}):
+        assert np.abs(sch.d).max() <= 1e-3
+    if scheme == "implicit":
+        assert sch.acceleration.window == sch.index
+    else:
+        det = sch.detector.__dict__
+        assert det["_log"] == accepted["detector"]["_log"]
+        assert np.array_equal(det["_prev"], accepted["detector"]["_prev"])

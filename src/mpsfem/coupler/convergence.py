@@ -128,22 +128,34 @@ class InstabilityDetector:
 
     def update(self, e: np.ndarray) -> str | None:
         """Feed one window; returns a description if divergence is detected, else None."""
-        e = np.asarray(e, dtype=np.float64).reshape(-1)
+        why, self._prev, self._log, self._neg = self._assess(e)
+        return why
+
+    def check(self, e: np.ndarray) -> str | None:
+        """What :meth:`update` would return for ``e``, without recording the window (for a
+        candidate window that is committed, with :meth:`update`, only if it passes)."""
+        return self._assess(e)[0]
+
+    def _assess(self, e: np.ndarray) -> tuple[str | None, np.ndarray, list[float], list[bool]]:
+        """(description or None, and the history with ``e`` appended)."""
+        e = np.array(e, dtype=np.float64).reshape(-1)
         n = rms(e)
         neg = self._prev is not None and float(e @ self._prev) < 0.0
-        self._prev = e.copy()
         keep = self.spans[-1]
-        self._log = (self._log + [math.log(max(n, 1e-300))])[-keep:]
-        self._neg = (self._neg + [neg])[-keep:]
+        log = (self._log + [math.log(max(n, 1e-300))])[-keep:]
+        negs = (self._neg + [neg])[-keep:]
+        return self._describe(n, log, negs), e, log, negs
+
+    def _describe(self, n: float, log: list[float], negs: list[bool]) -> str | None:
         if n <= self.floor:
             return None
         for k in self.spans:
-            if len(self._log) < k:
+            if len(log) < k:
                 break
-            y = np.array(self._log[-k:])
+            y = np.array(log[-k:])
             j = np.arange(k) - 0.5 * (k - 1)
             growth = float(j @ (y - y.mean()) / (j @ j)) * (k - 1)
-            flips = sum(self._neg[-k + 1 :]) / (k - 1)
+            flips = sum(negs[-k + 1 :]) / (k - 1)
             if growth >= math.log(self.factor) and flips >= 0.5:
                 return (
                     f"the explicit coupling error oscillates from window to window and has grown "

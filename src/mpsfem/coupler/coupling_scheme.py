@@ -337,6 +337,25 @@ class CouplingScheme:
             x, s = xn.reshape(x.shape), sec[VELOCITY].reshape(s.shape)
             timings["acceleration"] += time.perf_counter() - tic
 
+        # check the candidate window before accepting anything: after a CouplingError the
+        # scheme (t, d, v, F_s, history, acceleration, detector) is that of the last window
+        if cv.max_displacement is not None:
+            dmax = float(np.abs(x_t).max())
+            if dmax > cv.max_displacement:
+                raise CouplingDivergedError(
+                    f"coupling window {self.index} ending at t = {t1:.9g} s: interface "
+                    f"displacement {dmax:.3g} m exceeds coupling.convergence.max_displacement = "
+                    f"{cv.max_displacement:g} m"
+                )
+        if not self.implicit:
+            why = self.detector.check(x_t - x)
+            if why is not None:
+                raise CouplingDivergedError(
+                    f"explicit coupling diverges at window {self.index} (t = {t1:.9g} s): {why}. "
+                    'Use scheme = "implicit" (with iqn-ils or aitken acceleration)'
+                )
+            self.detector.update(x_t - x)
+
         # accept the window
         if self.implicit:
             self.acceleration.end_window()
@@ -352,21 +371,6 @@ class CouplingScheme:
         self.F_s, self.F_f = F_s1, F_f1
         self.t = t1
         energy = energy_of(self.structure)
-        if cv.max_displacement is not None:
-            dmax = float(np.abs(self.d).max())
-            if dmax > cv.max_displacement:
-                raise CouplingDivergedError(
-                    f"coupling window {self.index} ending at t = {t1:.9g} s: interface "
-                    f"displacement {dmax:.3g} m exceeds coupling.convergence.max_displacement = "
-                    f"{cv.max_displacement:g} m"
-                )
-        if not self.implicit:
-            why = self.detector.update(x_t - x)
-            if why is not None:
-                raise CouplingDivergedError(
-                    f"explicit coupling diverges at window {self.index} (t = {t1:.9g} s): {why}. "
-                    'Use scheme = "implicit" (with iqn-ils or aitken acceleration)'
-                )
         rec = WindowRecord(
             index=self.index,
             time=t1,
