@@ -13,7 +13,8 @@ V. For a linear fixed point of dimension n the residual vanishes after at most n
   (permanently) before each solve. "QR2": a column whose part orthogonal to the newer columns is
   below ``filter_limit`` times its norm is dropped; "QR1": a column whose |R_ii| is below
   ``filter_limit`` times the Frobenius norm of R is dropped (preCICE's QR1/QR2 filters).
-* ``max_columns`` caps the number of columns (oldest dropped first).
+* ``max_columns`` caps the number of columns (oldest dropped first), and so does the interface
+  size: V never has more columns than rows.
 * Secondary data (the velocity) follow x_{k+1} = x_tilde_k + W_s alpha with their own W_s.
 """
 
@@ -130,7 +131,10 @@ class IQNILS(Acceleration):
         Householder QR (LAPACK). With the columns in this order |R_jj| is the norm of column j
         orthogonal to the newer ones, which is what QR2 compares with the column's norm; QR1
         compares it with the Frobenius norm of R. The first failing column is removed and the
-        QR recomputed, until none fails."""
+        QR recomputed, until none fails. Columns beyond the interface size (more than V has
+        rows) are dependent by construction and their R would not be square: the oldest go."""
+        if self.V and len(self.V) > self.V[0].size:
+            self._select(list(range(self.V[0].size)))
         while self.V:
             Vm = np.stack(self.V, axis=1)
             Q, R = np.linalg.qr(Vm, mode="reduced")
