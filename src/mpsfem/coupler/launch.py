@@ -21,12 +21,55 @@ from collections.abc import Sequence
 from mpsfem.coupler.remote import RemoteParticipant, serve
 from mpsfem.coupler.transport import Transport, open_transport
 
-__all__ = ["connect_structure", "participant_role", "serve_structure", "spawn_structure"]
+__all__ = [
+    "connect_structure",
+    "mpi_job_size",
+    "participant_role",
+    "serve_structure",
+    "spawn_structure",
+]
+
+
+#: environment variables in which MPI launchers give a process the number of ranks of its job
+#: (MPICH/Hydra and Intel MPI, MPICH, Open MPI, MVAPICH)
+MPI_SIZE_VARIABLES = ("PMI_SIZE", "MPI_LOCALNRANKS", "OMPI_COMM_WORLD_SIZE", "MV2_COMM_WORLD_SIZE")
+
+
+def mpi_job_size(environ=None) -> tuple[int, str] | None:
+    """(ranks, variable) when an MPI launcher started this process in a job of several ranks,
+    from its environment (no MPI import: a job of one, or no launcher, gives None)."""
+    environ = os.environ if environ is None else environ
+    for name in MPI_SIZE_VARIABLES:
+        try:
+            n = int(environ.get(name, ""))
+        except ValueError:
+            continue
+        if n > 1:
+            return n, name
+    return None
 
 
 def participant_role(kind: str, participant: str | None) -> str | None:
     """This process's role: "fluid", "structure", or None for inproc (both) and for mpi without
-    ``--participant`` (taken from the rank when the transport opens)."""
+    ``--participant`` (taken from the rank when the transport opens).
+
+    Under ``mpirun -n 2`` a transport that runs the whole coupled simulation in this process
+    (inproc; zenoh without ``--participant``, which starts its own structure) would run it in
+    every rank, each writing the same results file: refused before any compute."""
+    job = mpi_job_size()
+    if job is not None and (kind == "inproc" or (kind == "zenoh" and participant is None)):
+        from mpsfem.coupler.transport import TRANSPORTS
+
+        n, var = job
+        how = (
+            "--transport inproc" if kind == "inproc" else "--transport zenoh without --participant"
+        )
+        raise ValueError(
+            f"this process is one of {n} MPI ranks ({var}={n}), but {how} runs the whole coupled "
+            "simulation in one process, so every rank would run it and write the same results "
+            f"file. Under mpirun use --transport mpi (allowed: {', '.join(TRANSPORTS)}); inproc "
+            "and zenoh runs are started without mpirun"
+        )
     if participant is not None:
         if participant not in ("fluid", "structure"):
             raise ValueError(f"--participant {participant!r}: allowed fluid, structure")

@@ -1,0 +1,58 @@
+"""The launch glue (``coupler.launch``): which role a process takes, and refusing a launch that
+would run the whole coupled simulation in every rank of an MPI job."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from mpsfem.coupler.launch import MPI_SIZE_VARIABLES, mpi_job_size, participant_role
+from mpsfem.scenario.loader import load_scenario
+from mpsfem.simulation import run_coupled
+
+SCENE = Path(__file__).resolve().parents[2] / "scenarios" / "hydrostatic_plate_2d.toml"
+
+
+@pytest.fixture
+def no_mpi_env(monkeypatch):
+    for name in MPI_SIZE_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+    return monkeypatch
+
+
+@pytest.mark.parametrize("var", MPI_SIZE_VARIABLES)
+def test_job_size_from_the_launchers_environment(var):
+    assert mpi_job_size({var: "2"}) == (2, var)
+    assert mpi_job_size({var: "1"}) is None and mpi_job_size({}) is None
+    assert mpi_job_size({var: "x"}) is None
+
+
+def test_inproc_under_mpirun_is_refused_before_any_compute(no_mpi_env, tmp_path):
+    """``mpirun -n 2 mpsfem run <coupled>`` without ``--transport mpi``: both ranks would run the
+    in-process simulation into the same file; the run stops before building anything."""
+    no_mpi_env.setenv("PMI_SIZE", "2")
+    loaded = load_scenario(SCENE, ["fluid.spacing=0.05", "run.threads=1"])
+    out = tmp_path / "twice.h5"
+    with pytest.raises(ValueError, match=r"2 MPI ranks \(PMI_SIZE=2\).*--transport mpi") as err:
+        run_coupled(loaded, out, 2e-4, progress=False, log=lambda m: None)
+    assert "allowed: inproc, mpi, zenoh" in str(err.value)
+    assert not out.exists()
+
+
+def test_roles_under_mpirun(no_mpi_env):
+    no_mpi_env.setenv("OMPI_COMM_WORLD_SIZE", "2")
+    with pytest.raises(ValueError, match="--transport inproc runs the whole"):
+        participant_role("inproc", None)
+    with pytest.raises(ValueError, match="--transport zenoh without --participant"):
+        participant_role("zenoh", None)
+    # one program per participant (MPMD) is fine, whatever carries the messages
+    assert participant_role("zenoh", "structure") == "structure"
+
+
+def test_roles_without_mpirun(no_mpi_env):
+    assert participant_role("inproc", None) is None
+    assert participant_role("zenoh", None) == "fluid"
+    assert participant_role("zenoh", "structure") == "structure"
+    with pytest.raises(ValueError, match="--participant needs --transport mpi or zenoh"):
+        participant_role("inproc", "fluid")
