@@ -141,7 +141,8 @@ def test_wave_gauge_half_width_only_with_top_particle():
 def test_box_wall_thinner_than_two_spacings_is_refused():
     box = '[[fluid.walls]]\nshape = "box"\nlower = [0.3, 0.2]\nupper = [0.4, 0.215]\n'
     (msg,) = problems(BASE + box)
-    assert "walls[1] is a box 0.015 m thick along axis 1" in msg and "2 spacings" in msg
+    assert msg.startswith("fluid.walls[1].upper = [0.4, 0.215]: ")
+    assert "0.015 m thick along axis 1" in msg and "2 spacings" in msg
     load_scenario_text(BASE + box.replace("0.215", "0.22"))
 
 
@@ -181,3 +182,101 @@ def test_cli_end_time_must_be_finite_and_positive(tmp_path, capsys, end_time):
     err = capsys.readouterr().err
     assert f"--end-time = {float(end_time)}: must be a finite number > 0" in err
     assert not out.exists()
+
+
+STRUCTURE_2D = """
+[run]
+end_time = 1.0
+[structure.time]
+dt = 1e-4
+[[structure.members]]
+name = "wall"
+type = "beam"
+start = [0.0, 0.0]
+end = [0.0, 0.3]
+elements = 4
+bc = "clamped"
+thickness = 0.01
+material = { youngs_modulus = 1e9, density = 1000.0 }
+[[probes]]
+name = "tip"
+kind = "displacement"
+target = "wall"
+position = [0.0, 0.3]
+"""
+
+PLATE_3D = """
+[run]
+end_time = 1.0
+[structure.time]
+dt = 1e-4
+[[structure.members]]
+name = "deck"
+type = "plate"
+element = "bfs"
+origin = [0.0, 0.0, 0.1]
+size = [0.5, 0.25]
+divisions = [4, 2]
+bc = "clamped"
+thickness = 0.01
+material = { youngs_modulus = 1e9, density = 1000.0, poisson_ratio = 0.3 }
+"""
+
+
+@pytest.mark.parametrize(
+    ("text", "overrides", "expect"),
+    [
+        (
+            BASE,
+            ["fluid.blocks.0.upper=[0.1, 0.0]"],
+            "fluid.blocks[0].upper = [0.1, 0.0]: must exceed",
+        ),
+        (
+            BASE + '[[probes]]\nname = "g"\nkind = "front"\n',
+            [],
+            "probes[1].name = 'g': probe names must be unique; probes[0] has it too",
+        ),
+        (
+            BASE + '[[probes]]\nname = "f"\nkind = "force"\ntarget = "lid"\n',
+            [],
+            "probes[1].target = 'lid': names no wall patch or structure member; have ['tank']",
+        ),
+        (
+            BASE,
+            ["fluid.surface.beta_low=0.98"],
+            "fluid.surface.beta_low = 0.98: must be below beta = 0.97",
+        ),
+        (
+            BASE,
+            ["fluid.walls.0.upper=[0.5]"],
+            "fluid.walls[0].upper = [0.5]: must have as many entries as lower = [0.0, 0.0] (2)",
+        ),
+        (
+            STRUCTURE_2D,
+            ["structure.members.0.end=[0.0, 0.0]"],
+            "structure.members[0].end = [0.0, 0.0]: `start` and `end` must be distinct points",
+        ),
+        (
+            PLATE_3D,
+            ["structure.members.0.bc=['clamped', 'free']"],
+            "structure.members[0].bc = ['clamped', 'free']: a list `bc` needs one entry per edge "
+            "(4 for this rectangle)",
+        ),
+        (
+            STRUCTURE_2D,
+            ["structure.gravity=[0.0, 0.0, -9.81]"],
+            "structure.gravity = [0.0, 0.0, -9.81]: `gravity` needs 2 components in a 2D scene",
+        ),
+    ],
+)
+def test_table_checks_name_the_key_inside_the_table(text, overrides, expect):
+    """A check across keys of a table names the offending key and its value, never a dump of
+    the whole table (or of the whole scenario)."""
+    msgs = problems(text, overrides)
+    assert any(m.startswith(expect) for m in msgs), msgs
+    assert not any("{" in m for m in msgs), msgs
+
+
+def test_whole_scenario_check_prints_no_dump():
+    (msg,) = problems("[run]\nend_time = 1.0\n")
+    assert msg == "(top level): a scenario needs a [fluid] or a [structure] section (or both)"

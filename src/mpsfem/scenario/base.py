@@ -8,6 +8,8 @@ values are re-validated when assigned, so ``--set`` overrides go through the sam
 
 from __future__ import annotations
 
+from typing import Any
+
 from pydantic import BaseModel, ConfigDict
 
 
@@ -36,3 +38,24 @@ class ScenarioError(ValueError):
         self.source = source
         head = f"invalid scenario{f' {source}' if source else ''}"
         super().__init__(head + ":\n  " + "\n  ".join(self.problems))
+
+
+_NO_VALUE: Any = object()
+
+
+class InvalidValue(ValueError):
+    """A table-level (cross-key) check failed at ``key`` inside the table being validated.
+
+    ``key`` is relative to that table (``blocks[0].upper``, ``bc``); the scenario loader prefixes
+    the table's own dotted path, so the message names the full key, the value given (left out
+    where there is none, e.g. a missing key) and what is allowed."""
+
+    def __init__(self, key: str, message: str, value: Any = _NO_VALUE) -> None:
+        self.key = key
+        self.message = message
+        self.value = value
+        super().__init__(f"{key} = {value!r}: {message}" if self.has_value else f"{key}: {message}")
+
+    @property
+    def has_value(self) -> bool:
+        return self.value is not _NO_VALUE

@@ -6,7 +6,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from mpsfem.scenario.base import Section
+from mpsfem.scenario.base import InvalidValue, Section
 
 Vector = list[float]
 
@@ -132,7 +132,7 @@ class SurfaceSection(Section):
     @model_validator(mode="after")
     def _check(self) -> SurfaceSection:
         if self.beta_low >= self.beta:
-            raise ValueError(f"beta_low = {self.beta_low} must be below beta = {self.beta}")
+            raise InvalidValue("beta_low", f"must be below beta = {self.beta}", self.beta_low)
         return self
 
 
@@ -180,6 +180,16 @@ class CollisionSection(Section):
     restitution: float = Field(0.2, ge=0.0, le=1.0, description="restitution coefficient")
 
 
+def _check_box(lower: Vector, upper: Vector) -> None:
+    """``upper`` has as many entries as ``lower`` and exceeds it in every axis."""
+    if len(lower) != len(upper):
+        raise InvalidValue(
+            "upper", f"must have as many entries as lower = {lower} ({len(lower)})", upper
+        )
+    if any(u <= lo for lo, u in zip(lower, upper, strict=True)):
+        raise InvalidValue("upper", f"must exceed lower = {lower} in every axis", upper)
+
+
 class FluidBlock(Section):
     """A region filled with fluid particles on the square lattice of spacing l0."""
 
@@ -190,10 +200,7 @@ class FluidBlock(Section):
 
     @model_validator(mode="after")
     def _check(self) -> FluidBlock:
-        if len(self.lower) != len(self.upper):
-            raise ValueError(f"lower {self.lower} and upper {self.upper} differ in length")
-        if any(u <= lo for lo, u in zip(self.lower, self.upper, strict=True)):
-            raise ValueError(f"upper {self.upper} must exceed lower {self.lower} in every axis")
+        _check_box(self.lower, self.upper)
         return self
 
 
@@ -263,31 +270,39 @@ class WallMotion(Section):
         allowed = _MOTION_KEYS[self.kind] | {"kind", "direction"}
         unused = sorted(self.model_fields_set - allowed)
         if unused:
-            raise ValueError(
+            raise InvalidValue(
+                unused[0],
                 f"motion.{unused[0]} is not used by kind = {self.kind!r}; its keys are: "
-                f"{', '.join(sorted(allowed))}"
+                f"{', '.join(sorted(allowed))}",
+                getattr(self, unused[0]),
             )
         if self.kind == "table" and not self.file:
-            raise ValueError("kind = 'table' needs motion.file (a CSV of t, x rows)")
+            raise InvalidValue("file", "kind = 'table' needs motion.file (a CSV of t, x rows)")
         if self.kind in ("solitary", "regular") and self.depth is None:
-            raise ValueError(f"kind = {self.kind!r} needs motion.depth (still-water depth, m)")
+            raise InvalidValue(
+                "depth", f"kind = {self.kind!r} needs motion.depth (still-water depth, m)"
+            )
         if self.kind == "solitary":
             ratio = self.amplitude / self.depth
             if not 0.0 < ratio < BREAKING_RATIO:
-                raise ValueError(
-                    f"motion.amplitude = {self.amplitude} on motion.depth = {self.depth} gives "
-                    f"A/d = {ratio:.4g}: must be in (0, {BREAKING_RATIO}) (a solitary wave "
-                    "breaks beyond A/d ~ 0.78)"
+                raise InvalidValue(
+                    "amplitude",
+                    f"on motion.depth = {self.depth} gives A/d = {ratio:.4g}: must be in "
+                    f"(0, {BREAKING_RATIO}) (a solitary wave breaks beyond A/d ~ 0.78)",
+                    self.amplitude,
                 )
         if self.kind == "regular":
             if self.wave_height is None:
-                raise ValueError("kind = 'regular' needs motion.wave_height (crest to trough, m)")
+                raise InvalidValue(
+                    "wave_height", "kind = 'regular' needs motion.wave_height (crest to trough, m)"
+                )
             ratio = self.wave_height / self.depth
             if not ratio < BREAKING_RATIO:
-                raise ValueError(
-                    f"motion.wave_height = {self.wave_height} on motion.depth = {self.depth} "
-                    f"gives H/d = {ratio:.4g}: must be below {BREAKING_RATIO} (depth-limited "
-                    "breaking)"
+                raise InvalidValue(
+                    "wave_height",
+                    f"on motion.depth = {self.depth} gives H/d = {ratio:.4g}: must be below "
+                    f"{BREAKING_RATIO} (depth-limited breaking)",
+                    self.wave_height,
                 )
         return self
 
@@ -306,10 +321,7 @@ class Wall(Section):
 
     @model_validator(mode="after")
     def _check(self) -> Wall:
-        if len(self.lower) != len(self.upper):
-            raise ValueError(f"lower {self.lower} and upper {self.upper} differ in length")
-        if any(u <= lo for lo, u in zip(self.lower, self.upper, strict=True)):
-            raise ValueError(f"upper {self.upper} must exceed lower {self.lower} in every axis")
+        _check_box(self.lower, self.upper)
         return self
 
 
@@ -334,9 +346,11 @@ class SpongeZone(Section):
     @model_validator(mode="after")
     def _check(self) -> SpongeZone:
         if self.end == self.start:
-            raise ValueError(
-                f"start = end = {self.start}: the zone needs a length, end != start (end is "
-                "the outer edge)"
+            raise InvalidValue(
+                "end",
+                f"equals start = {self.start}: the zone needs a length, end != start (end is "
+                "the outer edge)",
+                self.end,
             )
         return self
 
@@ -381,37 +395,50 @@ class FluidSection(Section):
     def _check(self) -> FluidSection:
         d = self.dim
         if len(self.gravity) != d:
-            raise ValueError(f"gravity {self.gravity} must have {d} components (dim = {d})")
+            raise InvalidValue("gravity", f"must have {d} components (dim = {d})", self.gravity)
         for i, b in enumerate(self.blocks):
             if len(b.lower) != d:
-                raise ValueError(f"blocks[{i}].lower {b.lower} must have {d} components")
+                raise InvalidValue(
+                    f"blocks[{i}].lower", f"must have {d} components (dim = {d})", b.lower
+                )
             if any(u - lo < self.spacing for lo, u in zip(b.lower, b.upper, strict=True)):
-                raise ValueError(f"blocks[{i}] is thinner than one spacing {self.spacing}")
+                raise InvalidValue(
+                    f"blocks[{i}].upper",
+                    f"the block from lower = {b.lower} is thinner than one spacing "
+                    f"{self.spacing} in some axis",
+                    b.upper,
+                )
         for i, w in enumerate(self.walls):
             if len(w.lower) != d:
-                raise ValueError(f"walls[{i}].lower {w.lower} must have {d} components")
+                raise InvalidValue(
+                    f"walls[{i}].lower", f"must have {d} components (dim = {d})", w.lower
+                )
             if w.motion.direction is not None and len(w.motion.direction) != d:
-                raise ValueError(
-                    f"walls[{i}].motion.direction = {w.motion.direction} must have {d} components "
-                    f"(dim = {d})"
+                raise InvalidValue(
+                    f"walls[{i}].motion.direction",
+                    f"must have {d} components (dim = {d})",
+                    w.motion.direction,
                 )
             if w.shape == "box":
                 for a, (lo, u) in enumerate(zip(w.lower, w.upper, strict=True)):
                     if round((u - lo) / self.spacing) < 2:
-                        raise ValueError(
-                            f"walls[{i}] is a box {u - lo:g} m thick along axis {a}: a solid box "
-                            f"needs at least 2 spacings (2 l0 = {2 * self.spacing:g} m), else its "
-                            "opposite faces share particles whose normals cancel (force probes "
-                            "read 0); a thinner member belongs in [structure] (both faces, "
-                            "thin-member handling)"
+                        raise InvalidValue(
+                            f"walls[{i}].upper",
+                            f"the box from lower = {w.lower} is {u - lo:g} m thick along axis "
+                            f"{a}: a solid box needs at least 2 spacings (2 l0 = "
+                            f"{2 * self.spacing:g} m), else its opposite faces share particles "
+                            "whose normals cancel (force probes read 0); a thinner member belongs "
+                            "in [structure] (both faces, thin-member handling)",
+                            w.upper,
                         )
         for i, z in enumerate(self.sponges):
             if z.axis >= d:
-                raise ValueError(f"sponges[{i}].axis = {z.axis} must be below dim = {d}")
-        tanks = [w for w in self.walls if w.shape == "tank"]
+                raise InvalidValue(f"sponges[{i}].axis", f"must be below dim = {d}", z.axis)
         eps = 1e-9
         for i, b in enumerate(self.blocks):
-            for t in tanks:
+            for j, t in enumerate(self.walls):
+                if t.shape != "tank":
+                    continue
                 inside = (
                     all(
                         t.lower[k] - eps <= b.lower[k] and b.upper[k] <= t.upper[k] + eps
@@ -420,8 +447,9 @@ class FluidSection(Section):
                     and b.lower[d - 1] >= t.lower[d - 1] - eps
                 )
                 if not inside:
-                    raise ValueError(
-                        f"blocks[{i}] ({b.lower} .. {b.upper}) lies outside the tank "
-                        f"({t.lower} .. {t.upper})"
+                    raise InvalidValue(
+                        f"blocks[{i}]",
+                        f"({b.lower} .. {b.upper}) lies outside the tank walls[{j}] "
+                        f"({t.lower} .. {t.upper})",
                     )
         return self

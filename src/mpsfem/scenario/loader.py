@@ -15,7 +15,7 @@ from typing import Any, Literal, get_args, get_origin
 
 from pydantic import BaseModel, ValidationError
 
-from mpsfem.scenario.base import ScenarioError
+from mpsfem.scenario.base import InvalidValue, ScenarioError
 from mpsfem.scenario.schema import Scenario
 
 
@@ -215,10 +215,35 @@ def format_validation_error(err: ValidationError) -> list[str]:
         if e["type"] == "missing":
             lines.append(f"{key}: required key is missing")
             continue
+        cause = (e.get("ctx") or {}).get("error")
+        if isinstance(cause, InvalidValue):  # a cross-key check naming the key inside its table
+            key = _join_key(key, cause.key)
+            if cause.has_value:
+                lines.append(f"{key} = {cause.value!r}: {cause.message}")
+            else:
+                lines.append(f"{key}: {cause.message}")
+            continue
         given = e.get("input")
         msg = msg.removeprefix("Value error, ")
-        lines.append(f"{key} = {given!r}: {msg}")
+        if _is_table(given):
+            lines.append(f"{key}: {msg}")  # a whole table's check: no dump of the table
+        else:
+            lines.append(f"{key} = {given!r}: {msg}")
     return lines
+
+
+def _is_table(value: Any) -> bool:
+    """A table or a list of tables (printed as the key only, not dumped)."""
+    return isinstance(value, dict) or (
+        isinstance(value, list) and any(isinstance(v, dict) for v in value)
+    )
+
+
+def _join_key(table: str, key: str) -> str:
+    """``fluid`` + ``blocks[0].upper`` -> ``fluid.blocks[0].upper``."""
+    if table == "(top level)":
+        return key
+    return table + key if key.startswith("[") else f"{table}.{key}"
 
 
 def validate(data: dict, source: str | None = None) -> Scenario:

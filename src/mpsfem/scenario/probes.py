@@ -10,7 +10,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from mpsfem.scenario.base import Section
+from mpsfem.scenario.base import InvalidValue, Section
 
 Vector = list[float]
 
@@ -56,9 +56,11 @@ class WaveGaugeProbe(_Probe):
     @model_validator(mode="after")
     def _half_width_needs_top_particle(self) -> WaveGaugeProbe:
         if self.half_width is not None and self.method != "top_particle":
-            raise ValueError(
-                f"half_width = {self.half_width} is used by method = 'top_particle' only; "
-                f"method = {self.method!r} takes no half_width"
+            raise InvalidValue(
+                "half_width",
+                f"used by method = 'top_particle' only; method = {self.method!r} takes no "
+                "half_width",
+                self.half_width,
             )
         return self
 

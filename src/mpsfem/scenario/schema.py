@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pydantic import Field, model_validator
 
-from mpsfem.scenario.base import Section
+from mpsfem.scenario.base import InvalidValue, Section
 from mpsfem.scenario.coupling import CouplingSection
 from mpsfem.scenario.fluid import FluidSection
 from mpsfem.scenario.output import OutputSection, RunSection
@@ -28,41 +28,54 @@ class Scenario(Section):
 
     @model_validator(mode="after")
     def _check(self) -> Scenario:
-        names = [p.name for p in self.probes]
-        dup = sorted({n for n in names if names.count(n) > 1})
-        if dup:
-            raise ValueError(f"probe names must be unique; repeated: {dup}")
+        seen: dict[str, int] = {}
+        for i, p in enumerate(self.probes):
+            if p.name in seen:
+                raise InvalidValue(
+                    f"probes[{i}].name",
+                    f"probe names must be unique; probes[{seen[p.name]}] has it too",
+                    p.name,
+                )
+            seen[p.name] = i
         if self.fluid is not None:
             d = self.fluid.dim
             for i, p in enumerate(self.probes):
                 pos = getattr(p, "position", None)
                 want = d - 1 if p.kind == "wave_gauge" else d
                 if pos is not None and len(pos) != want:
-                    raise ValueError(f"probes[{i}].position {pos} must have {want} components")
+                    raise InvalidValue(
+                        f"probes[{i}].position", f"must have {want} components (dim = {d})", pos
+                    )
                 if p.kind == "front" and p.axis >= d:
-                    raise ValueError(f"probes[{i}].axis {p.axis} must be < dim = {d}")
+                    raise InvalidValue(f"probes[{i}].axis", f"must be < dim = {d}", p.axis)
             walls = {w.name for w in self.fluid.walls if w.name}
             if self.structure is not None:
                 walls |= {m.name for m in self.structure.members}
             for i, p in enumerate(self.probes):
                 if p.kind == "force" and p.target not in walls:
-                    raise ValueError(
-                        f"probes[{i}].target '{p.target}' names no wall patch; have {sorted(walls)}"
+                    raise InvalidValue(
+                        f"probes[{i}].target",
+                        f"names no wall patch or structure member; have {sorted(walls)}",
+                        p.target,
                     )
         members = {m.name for m in self.structure.members} if self.structure else set()
         for i, p in enumerate(self.probes):
             if p.kind == "displacement" and p.target not in members:
-                raise ValueError(
-                    f"probes[{i}].target '{p.target}' names no structure member; have "
-                    f"{sorted(members)}"
+                raise InvalidValue(
+                    f"probes[{i}].target",
+                    f"names no structure member; have {sorted(members)}",
+                    p.target,
                 )
             if p.kind == "energy" and p.target != "fluid" and p.target not in members:
-                raise ValueError(
-                    f"probes[{i}].target '{p.target}' must be 'fluid' or a structure member "
-                    f"{sorted(members)}"
+                raise InvalidValue(
+                    f"probes[{i}].target",
+                    f"must be 'fluid' or a structure member {sorted(members)}",
+                    p.target,
                 )
         if self.coupling is not None and (self.fluid is None or self.structure is None):
-            raise ValueError("[coupling] needs both a [fluid] and a [structure] section")
+            raise InvalidValue(
+                "coupling", "[coupling] needs both a [fluid] and a [structure] section"
+            )
         if self.fluid is None and self.structure is None:
             raise ValueError("a scenario needs a [fluid] or a [structure] section (or both)")
         return self

@@ -21,7 +21,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from .base import Section
+from .base import InvalidValue, Section
 
 __all__ = [
     "BoundaryName",
@@ -111,13 +111,20 @@ class TableFunction(Section):
     @model_validator(mode="after")
     def _one_source(self) -> TableFunction:
         if (self.file is None) == (self.points is None):
-            raise ValueError("give exactly one of `file` (a CSV path) or `points` ([[t, f], ...])")
+            raise InvalidValue(
+                "points" if self.file is None else "file",
+                "give exactly one of `file` (a CSV path) or `points` ([[t, f], ...])",
+            )
         if self.points is not None:
             if len(self.points) < 1 or any(len(p) != 2 for p in self.points):
-                raise ValueError("`points` must be a non-empty list of [t, f] pairs")
+                raise InvalidValue(
+                    "points", "`points` must be a non-empty list of [t, f] pairs", self.points
+                )
             ts = [p[0] for p in self.points]
             if any(b <= a for a, b in zip(ts, ts[1:], strict=False)):
-                raise ValueError("`points` times must be strictly increasing")
+                raise InvalidValue(
+                    "points", "`points` times must be strictly increasing", self.points
+                )
         return self
 
 
@@ -270,9 +277,11 @@ class BeamMember(_MemberCommon):
     @model_validator(mode="after")
     def _distinct_ends(self) -> BeamMember:
         if math.dist(self.start, self.end) <= 0.0:
-            raise ValueError("`start` and `end` must be distinct points")
+            raise InvalidValue("end", "`start` and `end` must be distinct points", self.end)
         if self.plate_strip and self.material.poisson_ratio is None:
-            raise ValueError("`plate_strip = true` needs `material.poisson_ratio`")
+            raise InvalidValue(
+                "material.poisson_ratio", "`plate_strip = true` needs `material.poisson_ratio`"
+            )
         return self
 
     @property
@@ -360,39 +369,73 @@ class PlateMember(_MemberCommon):
     @model_validator(mode="after")
     def _geometry(self) -> PlateMember:
         if self.material.poisson_ratio is None:
-            raise ValueError("a plate needs `material.poisson_ratio`")
+            raise InvalidValue("material.poisson_ratio", "a plate needs `material.poisson_ratio`")
+        for key in ("axis_u", "axis_v"):
+            if not any(getattr(self, key)):
+                raise InvalidValue(
+                    key, "`axis_u` and `axis_v` must be non-zero vectors", getattr(self, key)
+                )
         nu = math.sqrt(sum(c * c for c in self.axis_u))
         nv = math.sqrt(sum(c * c for c in self.axis_v))
-        if nu == 0 or nv == 0:
-            raise ValueError("`axis_u` and `axis_v` must be non-zero vectors")
         cos = sum(a * b for a, b in zip(self.axis_u, self.axis_v, strict=True)) / (nu * nv)
         if abs(cos) > 1e-9:
-            raise ValueError("`axis_u` and `axis_v` must be perpendicular")
+            raise InvalidValue(
+                "axis_v",
+                f"`axis_u` = {self.axis_u} and `axis_v` must be perpendicular",
+                self.axis_v,
+            )
         if self.shape == "rectangle":
-            if self.size is None or self.outline is not None:
-                raise ValueError('shape = "rectangle" needs `size = [a, b]` and no `outline`')
-            if min(self.size) <= 0:
-                raise ValueError("`size` entries must be > 0")
-        else:
-            if self.outline is None or self.size is not None:
-                raise ValueError('shape = "polygon" needs `outline = [[u, v], ...]` and no `size`')
-            if len(self.outline) < 3 or any(len(p) != 2 for p in self.outline):
-                raise ValueError("`outline` needs at least 3 vertices [u, v]")
-            if _polygon_area(self.outline) <= 0:
-                raise ValueError("`outline` must be anticlockwise with positive area")
-            if self.element != "morley":
-                raise ValueError(
-                    'a polygonal plate needs element = "morley" (BFS needs rectangles)'
+            if self.outline is not None:
+                raise InvalidValue(
+                    "outline",
+                    'shape = "rectangle" needs `size = [a, b]` and no `outline`',
+                    self.outline,
                 )
-            if self.mesh_size is None or self.divisions is not None:
-                raise ValueError("a polygonal plate needs `mesh_size` (and no `divisions`)")
+            if self.size is None:
+                raise InvalidValue("size", 'shape = "rectangle" needs `size = [a, b]`')
+            if min(self.size) <= 0:
+                raise InvalidValue("size", "`size` entries must be > 0", self.size)
+        else:
+            if self.size is not None:
+                raise InvalidValue(
+                    "size",
+                    'shape = "polygon" needs `outline = [[u, v], ...]` and no `size`',
+                    self.size,
+                )
+            if self.outline is None:
+                raise InvalidValue("outline", 'shape = "polygon" needs `outline = [[u, v], ...]`')
+            if len(self.outline) < 3 or any(len(p) != 2 for p in self.outline):
+                raise InvalidValue(
+                    "outline", "`outline` needs at least 3 vertices [u, v]", self.outline
+                )
+            if _polygon_area(self.outline) <= 0:
+                raise InvalidValue(
+                    "outline", "`outline` must be anticlockwise with positive area", self.outline
+                )
+            if self.element != "morley":
+                raise InvalidValue(
+                    "element",
+                    'a polygonal plate needs element = "morley" (BFS needs rectangles)',
+                    self.element,
+                )
+            if self.divisions is not None:
+                raise InvalidValue(
+                    "divisions",
+                    "a polygonal plate needs `mesh_size` (and no `divisions`)",
+                    self.divisions,
+                )
         if (self.mesh_size is None) == (self.divisions is None):
-            raise ValueError("give exactly one of `mesh_size` or `divisions`")
+            raise InvalidValue(
+                "mesh_size" if self.mesh_size is None else "divisions",
+                "give exactly one of `mesh_size` or `divisions`",
+            )
         if self.divisions is not None and min(self.divisions) < 1:
-            raise ValueError("`divisions` entries must be >= 1")
+            raise InvalidValue("divisions", "`divisions` entries must be >= 1", self.divisions)
         if isinstance(self.bc, list) and len(self.bc) != self.n_edges:
-            raise ValueError(
-                f"a list `bc` needs one entry per edge ({self.n_edges} for this {self.shape})"
+            raise InvalidValue(
+                "bc",
+                f"a list `bc` needs one entry per edge ({self.n_edges} for this {self.shape})",
+                self.bc,
             )
         return self
 
@@ -519,23 +562,39 @@ class StructureSection(Section):
     @model_validator(mode="after")
     def _consistency(self) -> StructureSection:
         names = [m.name for m in self.members]
-        dup = sorted({n for n in names if names.count(n) > 1})
-        if dup:
-            raise ValueError(f"member names must be unique; repeated: {dup}")
-        dims = {m.dim for m in self.members}
-        if len(dims) > 1:
-            raise ValueError("members must be all beams (2D scene) or all plates (3D scene)")
-        dim = dims.pop()
+        for i, m in enumerate(self.members):
+            if m.name in names[:i]:
+                raise InvalidValue(
+                    f"members[{i}].name",
+                    f"member names must be unique; members[{names.index(m.name)}] has it too",
+                    m.name,
+                )
+        dim = self.members[0].dim
+        for i, m in enumerate(self.members):
+            if m.dim != dim:
+                raise InvalidValue(
+                    f"members[{i}].type",
+                    f"members must be all beams (2D scene) or all plates (3D scene); "
+                    f"members[0] is a {self.members[0].type!r}",
+                    m.type,
+                )
         if self.gravity is not None and len(self.gravity) != dim:
-            raise ValueError(f"`gravity` needs {dim} components in a {dim}D scene")
+            raise InvalidValue(
+                "gravity", f"`gravity` needs {dim} components in a {dim}D scene", self.gravity
+            )
         by_name = {m.name: m for m in self.members}
         for i, load in enumerate(self.loads):
             where = f"loads[{i}]"
             if load.member not in by_name:
-                raise ValueError(f"{where}.member = {load.member!r}: not one of {names}")
+                raise InvalidValue(f"{where}.member", f"not one of {names}", load.member)
             if isinstance(load, PointForceLoad):
-                if len(load.position) != dim or len(load.force) != dim:
-                    raise ValueError(f"{where}: `position` and `force` need {dim} components")
+                for key in ("position", "force"):
+                    if len(getattr(load, key)) != dim:
+                        raise InvalidValue(
+                            f"{where}.{key}",
+                            f"`position` and `force` need {dim} components ({dim}D scene)",
+                            getattr(load, key),
+                        )
                 _check_on_member(by_name[load.member], load.position, f"{where}.position")
         return self
 
@@ -588,15 +647,15 @@ def local_coordinates(
 def _check_on_member(member: BeamMember | PlateMember, point: list[float], where: str) -> None:
     loc, dist = local_coordinates(member, point)
     if dist > ON_MEMBER_TOL:
-        raise ValueError(
-            f"{where} = {point}: {dist:.3g} m off member {member.name!r} (allowed {ON_MEMBER_TOL} m)"
+        raise InvalidValue(
+            where, f"{dist:.3g} m off member {member.name!r} (allowed {ON_MEMBER_TOL} m)", point
         )
     if isinstance(member, BeamMember):
         s = loc[0]
         if s < -ON_MEMBER_TOL or s > member.length + ON_MEMBER_TOL:
-            raise ValueError(f"{where} = {point}: beyond the ends of member {member.name!r}")
+            raise InvalidValue(where, f"beyond the ends of member {member.name!r}", point)
     elif not _point_in_polygon(loc[0], loc[1], member.local_outline, ON_MEMBER_TOL):
-        raise ValueError(f"{where} = {point}: outside the planform of member {member.name!r}")
+        raise InvalidValue(where, f"outside the planform of member {member.name!r}", point)
 
 
 def _unit(a: list[float]) -> list[float]:
