@@ -280,3 +280,59 @@ def test_table_checks_name_the_key_inside_the_table(text, overrides, expect):
 def test_whole_scenario_check_prints_no_dump():
     (msg,) = problems("[run]\nend_time = 1.0\n")
     assert msg == "(top level): a scenario needs a [fluid] or a [structure] section (or both)"
+
+
+@pytest.mark.parametrize(
+    ("overrides", "expect"),
+    [
+        (
+            ["fluid.domain_lower=[0.0, 0.0, 0.0]"],
+            "fluid.domain_lower = [0.0, 0.0, 0.0]: must have 2",
+        ),
+        (["fluid.domain_upper=[1.0]"], "fluid.domain_upper = [1.0]: must have 2 components"),
+        (
+            ["fluid.domain_lower=[-0.1, 0.0]", "fluid.domain_upper=[0.6, 0.0]"],
+            "fluid.domain_upper = [0.6, 0.0]: must exceed domain_lower = [-0.1, 0.0] in every "
+            "axis (axis 1)",
+        ),
+        (["fluid.blocks.0.velocity=[1.0]"], "fluid.blocks[0].velocity = [1.0]: must have 2"),
+        (
+            ["fluid.time_step.dt_min=1e-2"],
+            "fluid.time_step.dt_min = 0.01: must be <= dt_max = 0.001",
+        ),
+        (
+            ["fluid.time_step.dt_initial=1e-2"],
+            "fluid.time_step.dt_initial = 0.01: must lie in [dt_min, dt_max] = [1e-08, 0.001]",
+        ),
+        (
+            ["fluid.time_step.dt_initial=1e-9"],
+            "fluid.time_step.dt_initial = 1e-09: must lie in [dt_min, dt_max]",
+        ),
+    ],
+)
+def test_lengths_and_orderings_are_checked(overrides, expect):
+    (msg,) = problems(BASE, overrides)
+    assert msg.startswith(expect), msg
+
+
+def test_consistent_lengths_and_orderings_pass():
+    sc = load_scenario_text(
+        BASE,
+        [
+            "fluid.domain_lower=[-0.1, -0.1]",
+            "fluid.domain_upper=[0.6, 1.5]",
+            "fluid.blocks.0.velocity=[0.5, 0.0]",
+            "fluid.time_step.dt_initial=1e-4",
+        ],
+    ).scenario
+    assert sc.fluid.time_step.dt_initial == 1e-4
+
+
+def test_structure_only_probe_positions_have_the_structure_dimension():
+    load_scenario_text(STRUCTURE_2D)
+    (msg,) = problems(STRUCTURE_2D, ["probes.0.position=[0.0, 0.3, 0.0]"])
+    assert msg.startswith("probes[0].position = [0.0, 0.3, 0.0]: must have 2 components"), msg
+    plate_probe = '[[probes]]\nname = "mid"\nkind = "displacement"\ntarget = "deck"\n'
+    load_scenario_text(PLATE_3D + plate_probe + "position = [0.25, 0.1, 0.1]\n")
+    (msg,) = problems(PLATE_3D + plate_probe + "position = [0.25, 0.1]\n")
+    assert msg.startswith("probes[0].position = [0.25, 0.1]: must have 3 components"), msg

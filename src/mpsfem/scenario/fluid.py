@@ -148,8 +148,20 @@ class TimeStepSection(Section):
         1e-8, gt=0.0, description="smallest allowed time step, s; needing less stops the run"
     )
     dt_initial: float | None = Field(
-        None, gt=0.0, description="first time step, s (default: dt_max)"
+        None, gt=0.0, description="first time step, s (default: dt_max); dt_min <= it <= dt_max"
     )
+
+    @model_validator(mode="after")
+    def _check(self) -> TimeStepSection:
+        if self.dt_min > self.dt_max:
+            raise InvalidValue("dt_min", f"must be <= dt_max = {self.dt_max}", self.dt_min)
+        if self.dt_initial is not None and not self.dt_min <= self.dt_initial <= self.dt_max:
+            raise InvalidValue(
+                "dt_initial",
+                f"must lie in [dt_min, dt_max] = [{self.dt_min}, {self.dt_max}]",
+                self.dt_initial,
+            )
+        return self
 
 
 class NeighbourSection(Section):
@@ -396,10 +408,27 @@ class FluidSection(Section):
         d = self.dim
         if len(self.gravity) != d:
             raise InvalidValue("gravity", f"must have {d} components (dim = {d})", self.gravity)
+        for key in ("domain_lower", "domain_upper"):
+            corner = getattr(self, key)
+            if corner is not None and len(corner) != d:
+                raise InvalidValue(key, f"must have {d} components (dim = {d})", corner)
+        lo, hi = self.domain_lower, self.domain_upper
+        if lo is not None and hi is not None:
+            for a in range(d):
+                if not lo[a] < hi[a]:
+                    raise InvalidValue(
+                        "domain_upper",
+                        f"must exceed domain_lower = {lo} in every axis (axis {a})",
+                        hi,
+                    )
         for i, b in enumerate(self.blocks):
             if len(b.lower) != d:
                 raise InvalidValue(
                     f"blocks[{i}].lower", f"must have {d} components (dim = {d})", b.lower
+                )
+            if b.velocity is not None and len(b.velocity) != d:
+                raise InvalidValue(
+                    f"blocks[{i}].velocity", f"must have {d} components (dim = {d})", b.velocity
                 )
             if any(u - lo < self.spacing for lo, u in zip(b.lower, b.upper, strict=True)):
                 raise InvalidValue(

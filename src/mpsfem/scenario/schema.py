@@ -37,8 +37,17 @@ class Scenario(Section):
                     p.name,
                 )
             seen[p.name] = i
-        if self.fluid is not None:
-            d = self.fluid.dim
+        if self.fluid is not None and self.structure is not None:
+            if self.structure.dim != self.fluid.dim:
+                raise InvalidValue(
+                    "structure.members[0].type",
+                    f"a {self.structure.dim}D member in a scene of fluid.dim = {self.fluid.dim} "
+                    "(beams in 2D, plates in 3D)",
+                    self.structure.members[0].type,
+                )
+        scene = self.fluid if self.fluid is not None else self.structure
+        if scene is not None:
+            d = scene.dim
             for i, p in enumerate(self.probes):
                 pos = getattr(p, "position", None)
                 want = d - 1 if p.kind == "wave_gauge" else d
@@ -48,6 +57,7 @@ class Scenario(Section):
                     )
                 if p.kind == "front" and p.axis >= d:
                     raise InvalidValue(f"probes[{i}].axis", f"must be < dim = {d}", p.axis)
+        if self.fluid is not None:
             walls = {w.name for w in self.fluid.walls if w.name}
             if self.structure is not None:
                 walls |= {m.name for m in self.structure.members}
