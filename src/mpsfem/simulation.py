@@ -31,7 +31,7 @@ from mpsfem.fluid_mps.solver import FluidSolver
 from mpsfem.progress import Progress
 from mpsfem.results.checkpoint import default_checkpoint_path, read_checkpoint, write_checkpoint
 from mpsfem.results.results_file import ResultsFile
-from mpsfem.results.xdmf import write_xdmf, xdmf_path
+from mpsfem.results.xdmf import xdmf_path
 from mpsfem.scenario.loader import LoadedScenario
 
 
@@ -101,6 +101,7 @@ def run_fluid(
     next_snap = 0.0
     next_ckpt = outs.checkpoint_interval if outs.checkpoint_interval > 0 else math.inf
     ckpt_path = default_checkpoint_path(out)
+    sidecar = xdmf_path(out) if outs.xdmf else None  # rewritten by each flush of the results
 
     if restart is not None:
         arrays, meta, _ = read_checkpoint(restart)
@@ -111,10 +112,12 @@ def run_fluid(
         next_probe.update(meta["next_probe"])
         next_snap = meta["next_snapshot"]
         next_ckpt = meta["next_checkpoint"]
-        results = ResultsFile.open_append(out, truncate_after=solver.t)
+        results = ResultsFile.open_append(out, truncate_after=solver.t, xdmf=sidecar)
         log(f"restarted from {restart} at t = {solver.t:.6g} s (step {solver.step_count})")
     else:
-        results = ResultsFile.create(out, loaded.text, loaded.overrides, sc.model_dump(mode="json"))
+        results = ResultsFile.create(
+            out, loaded.text, loaded.overrides, sc.model_dump(mode="json"), xdmf=sidecar
+        )
     for p in probes:
         unit, comps = _probe_meta(p, solver.dim)
         results.add_probe(p.name, p.kind, unit, comps, getattr(p, "position", None))
@@ -144,8 +147,6 @@ def run_fluid(
         if outs.snapshot_interval > 0 and (force or t >= next_snap - 1e-12):
             results.write_snapshot(t, solver.pos, solver.vel, solver.p, solver.kind)
             next_snap = t + outs.snapshot_interval
-            if outs.xdmf:
-                write_xdmf(results.h5, xdmf_path(out))
 
     bar = Progress(solver.t, t_end, sc.run.progress if progress is None else progress, "fluid")
     last_flush = time.perf_counter()
@@ -209,8 +210,6 @@ def run_fluid(
     ckpt = checkpoint()
     results.h5.attrs["steps"] = solver.step_count
     results.h5.attrs["stage_times"] = str(solver.times.as_dict())
-    if outs.xdmf and results.n_snapshots:
-        write_xdmf(results.h5, xdmf_path(out))
     wall = time.perf_counter() - t_wall
     results.close(status="finished")
     return RunSummary(out, ckpt, solver.t, solver.step_count, wall)
@@ -460,6 +459,7 @@ def _fluid_side(
         "work_fluid_total": 0.0,
     }
     ckpt_path = default_checkpoint_path(out)
+    sidecar = xdmf_path(out) if outs.xdmf else None  # rewritten by each flush of the results
     last_ckpt: Path | None = None
 
     if restart is not None:
@@ -474,11 +474,13 @@ def _fluid_side(
         scheme.load_state_dict(_join_state(arrays["scheme"], meta["scheme"]))
         next_probe.update(meta["next_probe"])
         sched.update(meta["schedule"])
-        results = ResultsFile.open_append(out, truncate_after=scheme.t)
+        results = ResultsFile.open_append(out, truncate_after=scheme.t, xdmf=sidecar)
         last_ckpt = Path(restart)
         log(f"restarted from {restart} at t = {scheme.t:.6g} s (window {scheme.index})")
     else:
-        results = ResultsFile.create(out, loaded.text, loaded.overrides, sc.model_dump(mode="json"))
+        results = ResultsFile.create(
+            out, loaded.text, loaded.overrides, sc.model_dump(mode="json"), xdmf=sidecar
+        )
     for p in probes:
         unit, comps = _probe_meta(p, solver.dim)
         results.add_probe(p.name, p.kind, unit, comps, getattr(p, "position", None))
@@ -538,8 +540,6 @@ def _fluid_side(
         if outs.snapshot_interval > 0 and (force or t >= sched["next_snapshot"] - 1e-12):
             results.write_snapshot(t, solver.pos, solver.vel, solver.p, solver.kind)
             sched["next_snapshot"] = t + outs.snapshot_interval
-            if outs.xdmf:
-                write_xdmf(results.h5, xdmf_path(out))
 
     def record(rec) -> None:
         sched["work_structure_total"] += rec.work_structure
@@ -630,8 +630,6 @@ def _fluid_side(
     results.h5.attrs["stage_times"] = str(solver.times.as_dict())
     results.h5.attrs["fluid_coupling_times"] = str(fluid.times)
     results.h5.attrs["particles"] = solver.n
-    if outs.xdmf and results.n_snapshots:
-        write_xdmf(results.h5, xdmf_path(out))
     results.close(status="finished")
     if remote is not None:
         _end_peer(remote, link, failed=False)

@@ -1,5 +1,11 @@
 """The results-file contract: layout, attributes, incremental writing and truncation on restart."""
 
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
 import h5py
 import numpy as np
 
@@ -79,3 +85,80 @@ def test_xdmf_lists_snapshots(tmp_path):
     text = out.read_text()
     assert text.count('<Grid Name="0000') == 3
     assert "r.h5:/particles/000002/pos" in text and 'Time Value="1.0"' in text
+
+
+def _snapshot(rf: ResultsFile, t: float) -> None:
+    rf.write_snapshot(t, np.zeros((2, 2)), np.zeros((2, 2)), np.zeros(2), np.zeros(2, np.int8))
+
+
+def _sidecar_keys(path) -> list[str]:
+    return re.findall(r'<Grid Name="(\d+)" GridType="Uniform">', path.read_text())
+
+
+def test_xdmf_sidecar_follows_the_flushed_file(tmp_path):
+    """The sidecar is rewritten when the file is flushed, never ahead of it; a restart's
+    truncation rewrites it; a new run removes a stale one."""
+    path, side = tmp_path / "r.h5", tmp_path / "r.xdmf"
+    side.write_text("stale")
+    rf = ResultsFile.create(path, "", [], xdmf=side)
+    assert not side.exists()
+    for k in range(3):
+        _snapshot(rf, 0.5 * k)
+    assert not side.exists()  # not flushed yet
+    rf.flush()
+    assert _sidecar_keys(side) == ["000000", "000001", "000002"]
+    _snapshot(rf, 1.5)
+    assert len(_sidecar_keys(side)) == 3
+    rf.close()
+    assert len(_sidecar_keys(side)) == 4
+    rf = ResultsFile.open_append(path, truncate_after=0.6, xdmf=side)
+    assert _sidecar_keys(side) == ["000000", "000001"]
+    rf.close()
+
+
+KILL_AFTER_SNAPSHOT = """
+import os, sys
+from pathlib import Path
+import mpsfem.simulation as sim
+from mpsfem.results.results_file import ResultsFile
+from mpsfem.scenario.loader import load_scenario
+
+written = []
+original = ResultsFile.write_snapshot
+
+def write_snapshot(self, *args):
+    key = original(self, *args)
+    written.append(key)
+    if len(written) == 2:
+        self.flush()  # as the wall-clock flush would
+    return key
+
+def update(self, t, dt):  # the step after the third snapshot: killed
+    if len(written) >= 3:
+        os._exit(9)
+
+ResultsFile.write_snapshot = write_snapshot
+sim.Progress.update = update
+sets = ["fluid.spacing=0.0146", "output.snapshot_interval=1e-6", "output.flush_interval=1e6",
+        "output.checkpoint_interval=0", "run.threads=1"]
+loaded = load_scenario(sys.argv[1], sets)
+sim.run_fluid(loaded, Path(sys.argv[2]), 0.05, progress=False)
+"""
+
+
+def test_killed_run_leaves_a_sidecar_listing_only_snapshots_on_disk(tmp_path):
+    out = tmp_path / "k.h5"
+    scene = Path(__file__).resolve().parents[2] / "scenarios" / "dam_break_2d.toml"
+    env = dict(os.environ, NUMBA_NUM_THREADS="1")
+    proc = subprocess.run(
+        [sys.executable, "-c", KILL_AFTER_SNAPSHOT, str(scene), str(out)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
+    assert proc.returncode == 9, proc.stderr
+    with h5py.File(out, "r") as h5:
+        on_disk = sorted(h5["particles"])
+    listed = _sidecar_keys(tmp_path / "k.xdmf")
+    assert listed and set(listed) <= set(on_disk), (listed, on_disk)

@@ -16,8 +16,10 @@ Layout (SI units; in 2D forces are per unit width):
 Time series are resizable chunked datasets. Probe and structure samples are buffered in memory
 (one HDF5 append per sample costs about a millisecond) and written in blocks by
 :meth:`ResultsFile.flush`, which the run loop calls on a wall-clock cadence, so a run killed midway
-leaves a readable file holding everything up to the last flush. Only one process
-writes the file (the fluid participant in coupled runs).
+leaves a readable file holding everything up to the last flush. The XDMF sidecar, when asked
+for, is rewritten by that flush, after the file is on disk (and after a restart's truncation), so
+it never lists a snapshot the file does not hold. Only one process writes the file (the fluid
+participant in coupled runs).
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ import h5py
 import numpy as np
 
 from mpsfem import __version__
+from mpsfem.results.xdmf import write_xdmf
 
 SNAPSHOT_DIGITS = 6
 
@@ -53,12 +56,14 @@ def _series(group: h5py.Group, name: str, tail: tuple[int, ...], dtype=np.float6
 class ResultsFile:
     """Writer of the results-file contract; create with :meth:`create` or :meth:`open_append`."""
 
-    def __init__(self, h5: h5py.File) -> None:
+    def __init__(self, h5: h5py.File, xdmf: str | Path | None = None) -> None:
         self._h5 = h5
         self._t_start = time.perf_counter()
         self._wall_offset = float(h5.attrs.get("wall_time", 0.0))
         self._n_snapshots = len(h5["particles"]) if "particles" in h5 else 0
         self._pending: dict[str, tuple[list[float], list[np.ndarray]]] = {}
+        self._xdmf = Path(xdmf) if xdmf is not None else None
+        self._xdmf_snapshots = -1  # snapshots the sidecar lists (-1: not written yet)
 
     # ------------------------------------------------------------------ creation
     @classmethod
@@ -68,8 +73,10 @@ class ResultsFile:
         scenario_text: str,
         overrides: Sequence[str] = (),
         scenario_resolved: dict | None = None,
+        xdmf: str | Path | None = None,
     ) -> ResultsFile:
-        """Create (truncate) ``path`` and write the root attributes."""
+        """Create (truncate) ``path`` and write the root attributes; ``xdmf``: path of the
+        sidecar to keep in step with the snapshots on disk (None: no sidecar)."""
         h5 = h5py.File(path, "w")
         h5.attrs["scenario"] = scenario_text
         h5.attrs["overrides"] = json.dumps(list(overrides))
@@ -79,22 +86,29 @@ class ResultsFile:
         h5.attrs["status"] = "running"
         for g in ("probes", "particles", "structure"):
             h5.require_group(g)
-        out = cls(h5)
+        out = cls(h5, xdmf)
         out.flush()
         return out
 
     @classmethod
-    def open_append(cls, path: str | Path, truncate_after: float | None = None) -> ResultsFile:
+    def open_append(
+        cls,
+        path: str | Path,
+        truncate_after: float | None = None,
+        xdmf: str | Path | None = None,
+    ) -> ResultsFile:
         """Reopen an existing file to continue a run (restart).
 
         Rows and snapshots with time > ``truncate_after`` are removed first, so a restarted run
-        continues the series exactly where its checkpoint was taken.
+        continues the series exactly where its checkpoint was taken; the sidecar ``xdmf`` is
+        rewritten to match.
         """
         h5 = h5py.File(path, "a")
         h5.attrs["status"] = "running"
-        out = cls(h5)
+        out = cls(h5, xdmf)
         if truncate_after is not None:
             out._truncate_after(truncate_after)
+        out.flush()
         return out
 
     def _truncate_after(self, t: float) -> None:
@@ -247,10 +261,22 @@ class ResultsFile:
         self._h5.attrs["status"] = status
 
     def flush(self) -> None:
-        """Write buffered samples, update the wall time and push everything to disk."""
+        """Write buffered samples, update the wall time, push everything to disk and then bring
+        the XDMF sidecar in step with the snapshots now on disk."""
         self._flush_series()
         self._h5.attrs["wall_time"] = self._wall_offset + time.perf_counter() - self._t_start
         self._h5.flush()
+        self._write_sidecar()
+
+    def _write_sidecar(self) -> None:
+        """Rewrite the sidecar when the snapshots changed; none while there are no snapshots."""
+        if self._xdmf is None or self._xdmf_snapshots == self._n_snapshots:
+            return
+        if self._n_snapshots == 0:
+            self._xdmf.unlink(missing_ok=True)  # a sidecar of an earlier run would be stale
+        else:
+            write_xdmf(self._h5, self._xdmf)
+        self._xdmf_snapshots = self._n_snapshots
 
     def close(self, status: str | None = None) -> None:
         if not self._h5.id.valid:
