@@ -31,6 +31,17 @@ from mpsfem import __version__  # noqa: E402
 from mpsfem.scenario.base import ScenarioError  # noqa: E402
 
 
+def _positive_int(text: str) -> int:
+    """argparse type: a whole number >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a whole number >= 1") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a whole number >= 1")
+    return value
+
+
 def _scenario_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("scenario", type=Path, help="scenario TOML file")
     p.add_argument(
@@ -80,7 +91,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     modes = sub.add_parser("modes", help="natural frequencies of the structure members")
     _scenario_args(modes)
-    modes.add_argument("--count", type=int, default=6, help="number of modes")
+    modes.add_argument("--count", type=_positive_int, default=6, help="number of modes (>= 1)")
 
     val = sub.add_parser("validate", help="check a scenario file and print the resolved values")
     _scenario_args(val)
@@ -111,6 +122,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.end_time is not None and not (math.isfinite(args.end_time) and args.end_time > 0):
         raise ScenarioError([f"--end-time = {args.end_time}: must be a finite number > 0"])
     out = args.out or Path.cwd() / f"{loaded.stem}.h5"
+    problem = output_problem(out, args.restart)
+    if problem:
+        print(f"error: {problem}", file=sys.stderr)
+        return 2
     _set_threads(sc.run.threads)
     progress = False if args.no_progress else None
     coupled = sc.fluid is not None and sc.structure is not None
@@ -160,6 +175,27 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def output_problem(out: Path, restart: Path | None = None) -> str | None:
+    """Why ``--out`` / ``--restart`` cannot work (checked before any compute), or None.
+
+    The results file's folder must exist; a restart needs its checkpoint file and the results
+    file of the run it continues (the restart appends to it)."""
+    if not out.parent.is_dir():
+        return f"--out {out}: the folder {out.parent} does not exist"
+    if out.is_dir():
+        return f"--out {out}: is a folder; give the results file's path"
+    if restart is not None:
+        if not restart.is_file():
+            return f"--restart {restart}: no such checkpoint file"
+        if not out.is_file():
+            return (
+                f"--restart {restart} --out {out}: the results file does not exist; a restart "
+                "continues the results file of the run that wrote the checkpoint (give its path "
+                "with --out)"
+            )
+    return None
+
+
 def _cmd_validate(args: argparse.Namespace) -> int:
     from mpsfem.scenario.loader import load_scenario
 
@@ -194,6 +230,11 @@ def main(argv: list[str] | None = None) -> int:
             return run_tool(args)
         if args.command in ("structure", "modes"):
             from mpsfem.structure_fem.standalone import cli_main
+
+            problem = output_problem(args.out) if getattr(args, "out", None) else None
+            if problem:
+                print(f"error: {problem}", file=sys.stderr)
+                return 2
 
             return cli_main(args)
     except ScenarioError as exc:

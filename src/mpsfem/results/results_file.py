@@ -103,7 +103,19 @@ class ResultsFile:
         continues the series exactly where its checkpoint was taken; the sidecar ``xdmf`` is
         rewritten to match.
         """
-        h5 = h5py.File(path, "a")
+        path = Path(path)
+        if not path.is_file():
+            raise ValueError(f"results file {str(path)!r} does not exist: nothing to continue")
+        try:
+            h5 = h5py.File(path, "r+")  # never creates: a restart continues an existing file
+        except OSError as exc:
+            raise ValueError(f"{path}: not a readable HDF5 results file ({exc})") from None
+        missing = [g for g in ("probes", "particles", "structure") if g not in h5]
+        if missing:
+            h5.close()
+            raise ValueError(
+                f"{path}: not a results file of mpsfem (no group {', '.join(missing)})"
+            )
         h5.attrs["status"] = "running"
         out = cls(h5, xdmf)
         if truncate_after is not None:
