@@ -29,9 +29,15 @@ from mpsfem.fluid_mps.participant import FluidParticipant
 from mpsfem.fluid_mps.probes import PROBE_UNITS
 from mpsfem.fluid_mps.solver import FluidSolver
 from mpsfem.progress import Progress
-from mpsfem.results.checkpoint import default_checkpoint_path, read_checkpoint, write_checkpoint
+from mpsfem.results.checkpoint import (
+    default_checkpoint_path,
+    read_checkpoint,
+    read_checkpoint_scenario,
+    write_checkpoint,
+)
 from mpsfem.results.results_file import ResultsFile
 from mpsfem.results.xdmf import xdmf_path
+from mpsfem.scenario.compare import RESTART_FREE_TEXT, restart_differences
 from mpsfem.scenario.loader import LoadedScenario
 
 
@@ -53,6 +59,35 @@ def _probe_meta(probe, dim: int) -> tuple[str, tuple[str, ...]]:
     if probe.kind in ("force", "displacement"):
         comps = comps[:dim]
     return unit, comps
+
+
+def check_restart_scenario(
+    loaded: LoadedScenario, restart: Path, log: Callable[[str], None]
+) -> None:
+    """Refuse (ValueError) to continue ``restart`` under other physics or numerics than it ran.
+
+    Only the keys of :data:`mpsfem.scenario.compare.RESTART_FREE_KEYS` (run control, output,
+    sampling, transport, convergence controls) may differ. A checkpoint from before the resolved
+    scenario was stored is compared by its TOML text (its overrides are unknown): a different
+    text is accepted with a warning."""
+    resolved, text, _ = read_checkpoint_scenario(restart)
+    if resolved is None:
+        if text != loaded.text:
+            log(
+                f"warning: {restart} predates storing the resolved scenario and its scenario "
+                "text differs from this one; continuing without checking the physics"
+            )
+        return
+    diffs = restart_differences(resolved, loaded.scenario.model_dump(mode="json"))
+    if not diffs:
+        return
+    shown = [f"{k}: checkpoint {a!r}, now {b!r}" for k, a, b in diffs[:12]]
+    if len(diffs) > 12:
+        shown.append(f"... and {len(diffs) - 12} more")
+    raise ValueError(
+        f"--restart {restart}: the scenario differs from the one the checkpoint ran (a restart "
+        f"may change only {RESTART_FREE_TEXT}):\n  " + "\n  ".join(shown)
+    )
 
 
 class _Terminated(Exception):
@@ -88,6 +123,8 @@ def run_fluid(
     if sc.fluid is None:
         raise ValueError("the scenario has no [fluid] section")
     log = log or (lambda msg: print(msg, file=sys.stderr))
+    if restart is not None:
+        check_restart_scenario(loaded, restart, log)
     t_end = end_time if end_time is not None else sc.run.end_time
     solver = FluidSolver(sc.fluid, loaded.path.parent if loaded.path else None)
     outs = sc.output
@@ -102,6 +139,7 @@ def run_fluid(
     next_ckpt = outs.checkpoint_interval if outs.checkpoint_interval > 0 else math.inf
     ckpt_path = default_checkpoint_path(out)
     sidecar = xdmf_path(out) if outs.xdmf else None  # rewritten by each flush of the results
+    resolved = sc.model_dump(mode="json")
 
     if restart is not None:
         arrays, meta, _ = read_checkpoint(restart)
@@ -113,11 +151,10 @@ def run_fluid(
         next_snap = meta["next_snapshot"]
         next_ckpt = meta["next_checkpoint"]
         results = ResultsFile.open_append(out, truncate_after=solver.t, xdmf=sidecar)
+        results.record_restart(restart, solver.t, loaded.overrides)
         log(f"restarted from {restart} at t = {solver.t:.6g} s (step {solver.step_count})")
     else:
-        results = ResultsFile.create(
-            out, loaded.text, loaded.overrides, sc.model_dump(mode="json"), xdmf=sidecar
-        )
+        results = ResultsFile.create(out, loaded.text, loaded.overrides, resolved, xdmf=sidecar)
     for p in probes:
         unit, comps = _probe_meta(p, solver.dim)
         results.add_probe(p.name, p.kind, unit, comps, getattr(p, "position", None))
@@ -135,7 +172,9 @@ def run_fluid(
         # the preconditioner travels with the state: the resumed run solves with the very same
         # one, so it is bit-identical, and writing a checkpoint changes nothing in this run
         arrays = {"fluid": solver.state(), "fluid_preconditioner": pre_arrays}
-        return write_checkpoint(ckpt_path, arrays, meta, loaded.text)
+        return write_checkpoint(
+            ckpt_path, arrays, meta, loaded.text, resolved, list(loaded.overrides)
+        )
 
     def sample(force: bool = False) -> None:
         nonlocal next_snap
@@ -375,6 +414,8 @@ def run_coupled(
         if code:
             raise RunFailed("the structure participant stopped early (see the message above)")
         return None
+    if restart is not None:
+        check_restart_scenario(loaded, restart, log)
 
     child = None
     remote = link = None
@@ -460,6 +501,7 @@ def _fluid_side(
     }
     ckpt_path = default_checkpoint_path(out)
     sidecar = xdmf_path(out) if outs.xdmf else None  # rewritten by each flush of the results
+    resolved = sc.model_dump(mode="json")
     last_ckpt: Path | None = None
 
     if restart is not None:
@@ -475,12 +517,11 @@ def _fluid_side(
         next_probe.update(meta["next_probe"])
         sched.update(meta["schedule"])
         results = ResultsFile.open_append(out, truncate_after=scheme.t, xdmf=sidecar)
+        results.record_restart(restart, scheme.t, loaded.overrides)
         last_ckpt = Path(restart)
         log(f"restarted from {restart} at t = {scheme.t:.6g} s (window {scheme.index})")
     else:
-        results = ResultsFile.create(
-            out, loaded.text, loaded.overrides, sc.model_dump(mode="json"), xdmf=sidecar
-        )
+        results = ResultsFile.create(out, loaded.text, loaded.overrides, resolved, xdmf=sidecar)
     for p in probes:
         unit, comps = _probe_meta(p, solver.dim)
         results.add_probe(p.name, p.kind, unit, comps, getattr(p, "position", None))
@@ -517,7 +558,9 @@ def _fluid_side(
         }
         results.flush()  # the file holds every sample up to the checkpoint before it exists
         # the pressure preconditioner travels with the state (see run_fluid's checkpoint)
-        return write_checkpoint(ckpt_path, arrays, meta, loaded.text)
+        return write_checkpoint(
+            ckpt_path, arrays, meta, loaded.text, resolved, list(loaded.overrides)
+        )
 
     def sample(force: bool = False) -> None:
         t = scheme.t

@@ -1,7 +1,9 @@
 """Checkpoints: the complete state needed to resume a run bit for bit.
 
 A checkpoint is a small HDF5 file with one dataset per state array and a JSON ``meta`` attribute
-(time, step, next output times, ...). It is written to a temporary name and renamed, so a run
+(time, step, next output times, ...), plus the scenario it ran: ``scenario`` (TOML text),
+``overrides`` (JSON list of ``--set``) and ``scenario_resolved`` (JSON of the validated scenario),
+which a restart compares with its own. It is written to a temporary name and renamed, so a run
 killed while writing leaves the previous checkpoint intact.
 """
 
@@ -26,9 +28,15 @@ def default_checkpoint_path(results_path: str | Path) -> Path:
 
 
 def write_checkpoint(
-    path: str | Path, arrays: dict[str, dict[str, np.ndarray]], meta: dict, scenario_text: str
+    path: str | Path,
+    arrays: dict[str, dict[str, np.ndarray]],
+    meta: dict,
+    scenario_text: str,
+    scenario_resolved: dict | None = None,
+    overrides: list[str] | None = None,
 ) -> Path:
-    """Write ``arrays`` (participant name -> array name -> array) and ``meta`` atomically."""
+    """Write ``arrays`` (participant name -> array name -> array) and ``meta`` atomically, with
+    the scenario (TOML text, and where given the validated scenario and the ``--set`` list)."""
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
     with h5py.File(tmp, "w") as h5:
@@ -36,6 +44,10 @@ def write_checkpoint(
         h5.attrs["version"] = __version__
         h5.attrs["meta"] = json.dumps(meta)
         h5.attrs["scenario"] = scenario_text
+        if scenario_resolved is not None:
+            h5.attrs["scenario_resolved"] = json.dumps(scenario_resolved)
+        if overrides is not None:
+            h5.attrs["overrides"] = json.dumps(list(overrides))
         for group, items in arrays.items():
             g = h5.create_group(group)
             for name, arr in items.items():
@@ -56,3 +68,24 @@ def read_checkpoint(path: str | Path) -> tuple[dict[str, dict[str, np.ndarray]],
         text = str(h5.attrs["scenario"])
         arrays = {g: {k: ds[()] for k, ds in h5[g].items()} for g in h5}
     return arrays, meta, text
+
+
+def read_checkpoint_scenario(path: str | Path) -> tuple[dict | None, str, list[str] | None]:
+    """The scenario a checkpoint ran: (validated scenario or None, TOML text, overrides or None).
+
+    None where the checkpoint predates storing it."""
+    try:
+        h5 = h5py.File(path, "r")
+    except OSError as exc:
+        raise ValueError(f"{path}: not a readable checkpoint ({exc})") from None
+    with h5:
+        if int(h5.attrs.get("format", -1)) != FORMAT:
+            raise ValueError(f"{path}: not a checkpoint of format {FORMAT}")
+        resolved = h5.attrs.get("scenario_resolved")
+        overrides = h5.attrs.get("overrides")
+        text = str(h5.attrs.get("scenario", ""))
+    return (
+        json.loads(resolved) if resolved is not None else None,
+        text,
+        json.loads(overrides) if overrides is not None else None,
+    )

@@ -4,7 +4,8 @@ Layout (SI units; in 2D forces are per unit width):
 
 - root attributes: ``scenario`` (TOML text as given), ``overrides`` (the ``--set`` list),
   ``scenario_resolved`` (JSON of the validated scenario), ``version``, ``wall_time`` (s, updated
-  at every flush), ``status`` ("running", "finished" or "failed: <reason>").
+  at every flush), ``status`` ("running", "finished" or "failed: <reason>"), and after a restart
+  ``restarts`` (JSON list of {checkpoint, time, overrides}, one per restart).
 - ``/probes/<name>/time`` (T,) and ``/probes/<name>/value`` (T, ...); group attributes ``kind``,
   ``unit``, ``components`` (names of the trailing axis) and ``position`` where the probe has one.
 - ``/particles/<k>`` snapshots (``k`` zero-padded) with ``pos``, ``vel`` (N x dim), ``p``,
@@ -143,6 +144,15 @@ class ResultsFile:
             if self._h5["particles"][key].attrs["time"] > t:
                 del self._h5["particles"][key]
         self._n_snapshots = len(self._h5["particles"])
+
+    def record_restart(self, checkpoint: str | Path, t: float, overrides: Sequence[str]) -> None:
+        """Append a restart (checkpoint path, time s, its ``--set`` list) to the root attribute
+        ``restarts`` (JSON list); ``overrides`` keeps the first run's list."""
+        restarts = json.loads(self._h5.attrs.get("restarts", "[]"))
+        restarts.append(
+            {"checkpoint": str(checkpoint), "time": float(t), "overrides": list(overrides)}
+        )
+        self._h5.attrs["restarts"] = json.dumps(restarts)
 
     # ------------------------------------------------------------------ probes
     def add_probe(

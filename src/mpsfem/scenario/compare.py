@@ -1,0 +1,66 @@
+"""Differences between two resolved scenarios, as a restart checks them against its checkpoint.
+
+A restart continues a run bit for bit only under the same physics and numerics. What may change
+is what a run writes and how long it lasts (``run.*``, ``output.*``, a probe's ``interval``,
+``structure.record_interval``), the title, how the participants talk (``coupling.transport.*``)
+and how hard an implicit window iterates (``coupling.convergence.*``: the remedy after a window
+that did not converge). Everything else must be equal.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+#: dotted keys (regular expressions, matched from the start) a restart may change
+RESTART_FREE_KEYS = (
+    r"title$",
+    r"run\.",
+    r"output\.",
+    r"probes\[\d+\]\.interval$",
+    r"structure\.record_interval$",
+    r"coupling\.transport\.",
+    r"coupling\.convergence\.",
+)
+#: the same, as the error message and the docs write them
+RESTART_FREE_TEXT = (
+    "title, run.*, output.*, probes[*].interval, structure.record_interval, "
+    "coupling.transport.*, coupling.convergence.*"
+)
+_FREE = re.compile("|".join(f"(?:{k})" for k in RESTART_FREE_KEYS))
+
+ABSENT = "(absent)"
+
+
+def _flatten(value: Any, key: str, out: dict[str, Any]) -> None:
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _flatten(v, f"{key}.{k}" if key else str(k), out)
+    elif isinstance(value, list) and any(isinstance(v, dict) for v in value):
+        out[f"{key} (items)"] = len(value)  # a list of tables: its length, then each table
+        for i, v in enumerate(value):
+            _flatten(v, f"{key}[{i}]", out)
+    else:
+        out[key] = value
+
+
+def flatten(scenario: dict) -> dict[str, Any]:
+    """``{"fluid": {"blocks": [{"lower": [0, 0]}]}}`` -> ``{"fluid.blocks[0].lower": [0, 0],
+    "fluid.blocks (items)": 1}``."""
+    out: dict[str, Any] = {}
+    _flatten(scenario, "", out)
+    return out
+
+
+def restart_differences(checkpoint: dict, now: dict) -> list[tuple[str, Any, Any]]:
+    """(dotted key, checkpoint's value, this run's value) for every key outside
+    :data:`RESTART_FREE_KEYS` that differs; a key only one side has shows ``(absent)``."""
+    a, b = flatten(checkpoint), flatten(now)
+    out = []
+    for key in sorted(set(a) | set(b)):
+        if _FREE.match(key):
+            continue
+        va, vb = a.get(key, ABSENT), b.get(key, ABSENT)
+        if va != vb:
+            out.append((key, va, vb))
+    return out

@@ -1,0 +1,85 @@
+"""A restart continues only the physics its checkpoint ran; output and run control may change."""
+
+import json
+from pathlib import Path
+
+import h5py
+import pytest
+
+from mpsfem.cli import main
+from mpsfem.scenario.compare import restart_differences
+from mpsfem.scenario.loader import load_scenario
+from mpsfem.simulation import run_fluid
+
+SCENE = Path(__file__).resolve().parents[2] / "scenarios" / "dam_break_2d.toml"
+COARSE = ["fluid.spacing=0.0146", "run.threads=1", "output.checkpoint_interval=0"]
+END = 0.004
+
+
+def test_differences_skip_run_output_and_sampling():
+    a = {
+        "run": {"end_time": 1.0},
+        "output": {"xdmf": True},
+        "fluid": {"spacing": 0.01, "blocks": [{"lower": [0.0, 0.0]}]},
+        "probes": [{"name": "g", "interval": 0.1, "position": [0.1, 0.1]}],
+    }
+    b = {
+        "run": {"end_time": 2.0},
+        "output": {"xdmf": False},
+        "fluid": {"spacing": 0.02, "blocks": [{"lower": [0.0, 0.0]}, {"lower": [1.0, 0.0]}]},
+        "probes": [{"name": "g", "interval": 0.2, "position": [0.1, 0.2]}],
+    }
+    assert restart_differences(a, b) == [
+        ("fluid.blocks (items)", 1, 2),
+        ("fluid.blocks[1].lower", "(absent)", [1.0, 0.0]),
+        ("fluid.spacing", 0.01, 0.02),
+        ("probes[0].position", [0.1, 0.1], [0.1, 0.2]),
+    ]
+
+
+@pytest.fixture(scope="module")
+def first_run(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("first") / "r.h5"
+    run_fluid(load_scenario(SCENE, COARSE), out, END, progress=False, log=lambda m: None)
+    return out
+
+
+def _copy(first: Path, folder: Path) -> tuple[Path, Path]:
+    out, ckpt = folder / "r.h5", folder / "r.ckpt.h5"
+    out.write_bytes(first.read_bytes())
+    ckpt.write_bytes(first.with_name("r.ckpt.h5").read_bytes())
+    return out, ckpt
+
+
+def test_restart_with_other_physics_is_refused_naming_keys_and_values(first_run, tmp_path, capsys):
+    out, ckpt = _copy(first_run, tmp_path)
+    sets = [a for s in [*COARSE, "fluid.density=998.0"] for a in ("--set", s)]
+    argv = ["run", str(SCENE), "--out", str(out), "--restart", str(ckpt), "--end-time", "0.008"]
+    assert main([*argv, *sets]) == 2
+    err = capsys.readouterr().err
+    assert "the scenario differs from the one the checkpoint ran" in err
+    assert "fluid.density: checkpoint 1000.0, now 998.0" in err
+    with h5py.File(out, "r") as h5:  # untouched
+        assert h5.attrs["status"] == "finished" and "restarts" not in h5.attrs
+
+
+def test_restart_may_change_output_and_is_recorded(first_run, tmp_path):
+    out, ckpt = _copy(first_run, tmp_path)
+    sets = [*COARSE, "output.snapshot_interval=0.001", "probes.0.interval=0.0005"]
+    run_fluid(load_scenario(SCENE, sets), out, 2 * END, ckpt, progress=False, log=lambda m: None)
+    with h5py.File(out, "r") as h5:
+        assert h5.attrs["status"] == "finished"
+        (rec,) = json.loads(h5.attrs["restarts"])
+        assert rec["overrides"] == sets and rec["checkpoint"] == str(ckpt)
+        assert rec["time"] == pytest.approx(END)
+
+
+def test_old_checkpoint_without_resolved_scenario_is_accepted_with_a_warning(first_run, tmp_path):
+    out, ckpt = _copy(first_run, tmp_path)
+    with h5py.File(ckpt, "a") as h5:
+        del h5.attrs["scenario_resolved"]
+        del h5.attrs["overrides"]
+        h5.attrs["scenario"] = "an older text"
+    logged: list[str] = []
+    run_fluid(load_scenario(SCENE, COARSE), out, 2 * END, ckpt, progress=False, log=logged.append)
+    assert any("predates storing the resolved scenario" in m for m in logged)
