@@ -26,7 +26,7 @@ from mpsfem.coupler.mapping.shape_function import project
 from mpsfem.coupler.participant import InterfaceMesh, as_interface_mesh
 from mpsfem.coupler.time_window import TIME_EPS
 from mpsfem.fluid_mps.participant import FluidParticipant
-from mpsfem.fluid_mps.probes import PROBE_UNITS
+from mpsfem.fluid_mps.probes import PROBE_UNITS, probe_unit
 from mpsfem.fluid_mps.solver import FluidSolver
 from mpsfem.progress import Progress
 from mpsfem.results.checkpoint import (
@@ -55,10 +55,11 @@ class RunSummary:
 
 
 def _probe_meta(probe, dim: int) -> tuple[str, tuple[str, ...]]:
-    unit, comps = PROBE_UNITS[probe.kind]
+    """(unit, component names) of a probe's series (N/m and J/m in 2D)."""
+    _, comps = PROBE_UNITS[probe.kind]
     if probe.kind in ("force", "displacement"):
         comps = comps[:dim]
-    return unit, comps
+    return probe_unit(probe.kind, dim), comps
 
 
 def check_restart_scenario(
@@ -526,7 +527,13 @@ def _fluid_side(
         unit, comps = _probe_meta(p, solver.dim)
         results.add_probe(p.name, p.kind, unit, comps, getattr(p, "position", None))
     for p in member_energy:
-        results.add_probe(p.name, "energy", "J", ("kinetic", "strain"), attrs={"target": p.target})
+        results.add_probe(
+            p.name,
+            "energy",
+            probe_unit("energy", solver.dim),
+            ("kinetic", "strain"),
+            attrs={"target": p.target},
+        )
     for d in disp:
         p = d.probe
         comps = ("ux", "uy", "uz")[: solver.dim]

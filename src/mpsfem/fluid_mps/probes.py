@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-# probe kind -> (unit, components)
+# probe kind -> (unit in 3D, components); in 2D forces and energies are per metre of width
 PROBE_UNITS = {
     "pressure": ("Pa", ()),
     "wave_gauge": ("m", ()),
@@ -17,6 +17,13 @@ PROBE_UNITS = {
     "energy": ("J", ("kinetic", "potential")),
     "displacement": ("m", ("ux", "uy", "uz")),
 }
+PER_WIDTH_IN_2D = ("force", "energy")
+
+
+def probe_unit(kind: str, dim: int) -> str:
+    """Unit of a probe kind's values: a 2D force is N/m and a 2D energy J/m (per unit width)."""
+    unit = PROBE_UNITS[kind][0]
+    return f"{unit}/m" if dim == 2 and kind in PER_WIDTH_IN_2D else unit
 
 
 @njit(cache=True)
