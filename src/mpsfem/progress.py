@@ -15,6 +15,7 @@ class Progress:
         self._on = enabled and sys.stderr.isatty()
         self._t = t0
         self._steps = 0
+        self._last: tuple[float, float] | None = None
         self._clock = time.perf_counter()
         self._bar = (
             tqdm(
@@ -33,13 +34,19 @@ class Progress:
         )
 
     def update(self, t: float, dt: float) -> None:
+        """Note the state after a step at simulated time ``t`` (s) with step ``dt`` (s); the bar
+        is redrawn at most every 0.2 s of wall clock."""
         self._steps += 1
+        self._last = (t, dt)
         if self._bar is None:
             return
         now = time.perf_counter()
         if now - self._clock < 0.2:
             return
-        rate = self._steps / (now - self._clock)
+        self._draw(t, dt, now)
+
+    def _draw(self, t: float, dt: float, now: float) -> None:
+        rate = self._steps / max(now - self._clock, 1e-9)
         self._bar.set_postfix_str(f"dt={dt:.2e} s, {rate:.1f} steps/s", refresh=False)
         self._bar.update(t - self._t)
         self._t = t
@@ -47,5 +54,10 @@ class Progress:
         self._clock = now
 
     def close(self) -> None:
-        if self._bar is not None:
-            self._bar.close()
+        """Draw the last state noted (updates in the final 0.2 s were not drawn) and close."""
+        if self._bar is None:
+            return
+        if self._last is not None and self._last[0] != self._t:
+            self._draw(*self._last, time.perf_counter())
+        self._bar.close()
+        self._bar = None
