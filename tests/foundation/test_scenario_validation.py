@@ -336,3 +336,51 @@ def test_structure_only_probe_positions_have_the_structure_dimension():
     load_scenario_text(PLATE_3D + plate_probe + "position = [0.25, 0.1, 0.1]\n")
     (msg,) = problems(PLATE_3D + plate_probe + "position = [0.25, 0.1]\n")
     assert msg.startswith("probes[0].position = [0.25, 0.1]: must have 3 components"), msg
+
+
+def test_fluid_probe_outside_the_domain_is_refused():
+    # default domain: blocks and walls (0..0.5, 0..1) grown by 10 l0 = 0.1 m, 1 m more upwards
+    load_scenario_text(BASE, ["probes.0.position=[0.55, 1.9]"])
+    (msg,) = problems(BASE, ["probes.0.position=[0.65, 0.05]"])
+    assert msg.startswith("probes[0].position = [0.65, 0.05]: lies outside the fluid domain")
+    assert "[-0.1, -0.1] .. [0.6, 2.1]" in msg
+    gauge = '[[probes]]\nname = "w"\nkind = "wave_gauge"\nposition = [0.7]\n'
+    (msg,) = problems(BASE + gauge)
+    assert msg.startswith("probes[1].position = [0.7]: lies outside the fluid domain"), msg
+    load_scenario_text(BASE + gauge.replace("0.7", "0.4"))
+
+
+COUPLED = BASE + STRUCTURE_2D.replace("[run]\nend_time = 1.0\n", "").replace(
+    "start = [0.0, 0.0]", "start = [0.3, 0.0]"
+).replace("end = [0.0, 0.3]", "end = [0.3, 0.3]").replace('name = "tip"', 'name = "tip_d"').replace(
+    "position = [0.0, 0.3]", "position = [0.3, 0.3]"
+)
+
+
+def test_member_outside_an_explicit_fluid_domain_is_refused():
+    load_scenario_text(COUPLED)
+    box = ["fluid.domain_lower=[-0.1, -0.1]", "fluid.domain_upper=[0.6, 0.25]"]
+    (msg,) = problems(COUPLED, box)
+    assert msg.startswith("structure.members[0]: member 'wall' reaches [0.3, 0.3], outside"), msg
+
+
+@pytest.mark.parametrize(
+    ("position", "ok"),
+    [([0.3, 0.32], True), ([0.3, 0.25], True), ([0.32, 0.1], True), ([0.3, 0.4], False)],
+)
+def test_displacement_probe_far_from_its_member_is_refused(position, ok):
+    """Allowed: within 10 % of the member's length (0.3 m: 0.03 m) of its mid-line segment."""
+    sets = [f"probes.1.position={position}"]
+    if ok:
+        load_scenario_text(COUPLED, sets)
+        return
+    (msg,) = problems(COUPLED, sets)
+    assert msg.startswith(f"probes[1].position = {position}: 0.1 m from member 'wall'"), msg
+    assert "allowed 0.03 m (0.1 x its extent 0.3 m)" in msg
+
+
+def test_plate_displacement_probe_distance():
+    probe = '[[probes]]\nname = "mid"\nkind = "displacement"\ntarget = "deck"\n'
+    load_scenario_text(PLATE_3D + probe + "position = [0.25, 0.1, 0.12]\n")
+    (msg,) = problems(PLATE_3D + probe + "position = [0.25, 0.4, 0.1]\n")
+    assert msg.startswith("probes[0].position = [0.25, 0.4, 0.1]: 0.15 m from member 'deck'")

@@ -403,6 +403,24 @@ class FluidSection(Section):
         default_factory=list, description="wave-absorbing sponge layers (thesis eq. 3-9)"
     )
 
+    def domain_box(self, extra: list[list[float]] = ()) -> tuple[list[float], list[float]]:
+        """The domain (lower, upper corner, m) a fluid particle may not leave: ``domain_lower`` /
+        ``domain_upper`` where given, else the bounding box of the blocks, the walls and the
+        ``extra`` points (structure members) grown by 10 l0 on every side and by 1 m more along
+        the gravity axis (as the solver does with its particles, which lie within l0 of it)."""
+        corners = [c for b in self.blocks for c in (b.lower, b.upper)]
+        corners += [c for w in self.walls for c in (w.lower, w.upper)]
+        corners += [list(p) for p in extra]
+        d, pad = self.dim, 10.0 * self.spacing
+        lo = [min(c[k] for c in corners) - pad for k in range(d)]
+        hi = [max(c[k] for c in corners) + pad for k in range(d)]
+        g = [abs(x) for x in self.gravity]
+        hi[g.index(max(g)) if any(g) else d - 1] += 1.0
+        return (
+            list(self.domain_lower) if self.domain_lower is not None else lo,
+            list(self.domain_upper) if self.domain_upper is not None else hi,
+        )
+
     @model_validator(mode="after")
     def _check(self) -> FluidSection:
         d = self.dim

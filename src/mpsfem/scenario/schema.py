@@ -9,7 +9,12 @@ from mpsfem.scenario.coupling import CouplingSection
 from mpsfem.scenario.fluid import FluidSection
 from mpsfem.scenario.output import OutputSection, RunSection
 from mpsfem.scenario.probes import Probe
-from mpsfem.scenario.structure import StructureSection
+from mpsfem.scenario.structure import StructureSection, distance_to_member
+
+#: a displacement probe may lie at most this fraction of its member's extent (a beam's length, a
+#: plate's longest vertex-to-vertex distance) from the member's mid-line / mid-surface
+DISPLACEMENT_PROBE_TOLERANCE = 0.1
+DOMAIN_DEFAULT = "default: the blocks', walls' and members' box grown by 10 l0, 1 m upwards"
 
 
 class Scenario(Section):
@@ -58,6 +63,10 @@ class Scenario(Section):
                 if p.kind == "front" and p.axis >= d:
                     raise InvalidValue(f"probes[{i}].axis", f"must be < dim = {d}", p.axis)
         if self.fluid is not None:
+            self._check_inside_domain()
+        if self.structure is not None:
+            self._check_displacement_probes_on_members()
+        if self.fluid is not None:
             walls = {w.name for w in self.fluid.walls if w.name}
             if self.structure is not None:
                 walls |= {m.name for m in self.structure.members}
@@ -89,3 +98,43 @@ class Scenario(Section):
         if self.fluid is None and self.structure is None:
             raise ValueError("a scenario needs a [fluid] or a [structure] section (or both)")
         return self
+
+    def _check_inside_domain(self) -> None:
+        """Fluid probes with a position and (coupled) structure members lie in the fluid domain."""
+        fluid = self.fluid
+        members = self.structure.members if self.structure is not None else []
+        lo, hi = fluid.domain_box([c for m in members for c in m.corners])
+        box = f"the fluid domain {lo} .. {hi} (fluid.domain_lower/upper, {DOMAIN_DEFAULT})"
+        g = [abs(x) for x in fluid.gravity]
+        up = g.index(max(g)) if any(g) else fluid.dim - 1
+        for i, p in enumerate(self.probes):
+            if p.kind not in ("pressure", "wave_gauge"):
+                continue
+            axes = [a for a in range(fluid.dim) if p.kind == "pressure" or a != up]
+            if any(not lo[a] <= x <= hi[a] for a, x in zip(axes, p.position, strict=True)):
+                raise InvalidValue(f"probes[{i}].position", f"lies outside {box}", p.position)
+        for i, m in enumerate(members):
+            for c in m.corners:
+                if any(not lo[a] <= x <= hi[a] for a, x in enumerate(c)):
+                    raise InvalidValue(
+                        f"structure.members[{i}]",
+                        f"member {m.name!r} reaches {c}, outside {box}",
+                    )
+
+    def _check_displacement_probes_on_members(self) -> None:
+        """A displacement probe lies within DISPLACEMENT_PROBE_TOLERANCE x the member's extent of
+        its member (the value is the member's displacement at the nearest point of it)."""
+        by_name = {m.name: m for m in self.structure.members}
+        for i, p in enumerate(self.probes):
+            if p.kind != "displacement" or p.target not in by_name:
+                continue
+            m = by_name[p.target]
+            gap = distance_to_member(m, p.position)
+            allowed = DISPLACEMENT_PROBE_TOLERANCE * m.extent
+            if gap > allowed:
+                raise InvalidValue(
+                    f"probes[{i}].position",
+                    f"{gap:.4g} m from member {m.name!r}; allowed {allowed:.4g} m "
+                    f"({DISPLACEMENT_PROBE_TOLERANCE:g} x its extent {m.extent:.4g} m)",
+                    p.position,
+                )

@@ -297,6 +297,16 @@ class BeamMember(_MemberCommon):
     def length(self) -> float:
         return math.dist(self.start, self.end)
 
+    @property
+    def corners(self) -> list[list[float]]:
+        """Scene coordinates (m) of the member's ends."""
+        return [list(self.start), list(self.end)]
+
+    @property
+    def extent(self) -> float:
+        """Largest extent of the member, m (its length)."""
+        return self.length
+
 
 class PlateMember(_MemberCommon):
     """Kirchhoff plate in a 3D scene: ElementQuadBFS (rectangles) or ElementTriMorley (any outline)."""
@@ -459,6 +469,21 @@ class PlateMember(_MemberCommon):
             a, b = self.size  # type: ignore[misc]
             return [[0.0, 0.0], [a, 0.0], [a, b], [0.0, b]]
         return [list(p) for p in self.outline]  # type: ignore[union-attr]
+
+    @property
+    def corners(self) -> list[list[float]]:
+        """Scene coordinates (m) of the planform's vertices."""
+        eu, ev = _unit(self.axis_u), _unit(self.axis_v)
+        return [
+            [o + u * a + v * b for o, a, b in zip(self.origin, eu, ev, strict=True)]
+            for u, v in self.local_outline
+        ]
+
+    @property
+    def extent(self) -> float:
+        """Largest extent of the planform, m (its longest vertex-to-vertex distance)."""
+        pts = self.local_outline
+        return max(math.dist(p, q) for p in pts for q in pts)
 
 
 Member = Annotated[BeamMember | PlateMember, Field(discriminator="type")]
@@ -642,6 +667,29 @@ def local_coordinates(
     n = _unit(_cross(eu, ev))
     d = [p - o for p, o in zip(point, member.origin, strict=True)]
     return [_dot(d, eu), _dot(d, ev)], abs(_dot(d, n))
+
+
+def distance_to_member(member: BeamMember | PlateMember, point: list[float]) -> float:
+    """Distance (m) from a scene point to the member's mid-line segment / mid-surface planform."""
+    loc, off = local_coordinates(member, point)
+    if isinstance(member, BeamMember):
+        s = loc[0]
+        along = max(0.0, -s, s - member.length)
+        return math.hypot(along, off)
+    u, v = loc
+    if _point_in_polygon(u, v, member.local_outline, 0.0):
+        return off
+    poly = member.local_outline
+    edge = min(
+        _segment_distance(u, v, p0, p1) for p0, p1 in zip(poly, poly[1:] + poly[:1], strict=True)
+    )
+    return math.hypot(edge, off)
+
+
+def _segment_distance(u: float, v: float, p0: list[float], p1: list[float]) -> float:
+    dx, dy = p1[0] - p0[0], p1[1] - p0[1]
+    t = min(1.0, max(0.0, ((u - p0[0]) * dx + (v - p0[1]) * dy) / (dx * dx + dy * dy)))
+    return math.hypot(u - p0[0] - t * dx, v - p0[1] - t * dy)
 
 
 def _check_on_member(member: BeamMember | PlateMember, point: list[float], where: str) -> None:
