@@ -33,9 +33,12 @@ def _type_name(ann: Any) -> str:
     if origin is Literal:
         return " \\| ".join(repr(a).replace("'", '"') for a in get_args(ann))
     if origin in (Union, types.UnionType):
-        parts = [_type_name(a) for a in get_args(ann) if a is not type(None)]
-        opt = type(None) in get_args(ann)
-        return " \\| ".join(parts) + (" (optional)" if opt else "")
+        members = [a for a in get_args(ann) if a is not type(None)]
+        opt = " (optional)" if type(None) in get_args(ann) else ""
+        tagged = _tagged_tables(members)
+        if tagged:
+            return tagged + opt
+        return " \\| ".join(_type_name(a) for a in members) + opt
     if origin is typing.Annotated:
         return _type_name(get_args(ann)[0])
     if origin is list:
@@ -46,6 +49,24 @@ def _type_name(ann: Any) -> str:
     if isinstance(ann, type) and issubclass(ann, BaseModel):
         return "table"
     return getattr(ann, "__name__", str(ann))
+
+
+def _tagged_tables(members: list[Any]) -> str | None:
+    """``table by kind: "step" \\| "ramp"`` for a union of tables told apart by a tag key."""
+    if len(members) < 2 or not all(
+        isinstance(m, type) and issubclass(m, BaseModel) for m in members
+    ):
+        return None
+    for tag in ("kind", "type"):
+        values = []
+        for m in members:
+            ann = getattr(m.model_fields.get(tag), "annotation", None)
+            if get_origin(ann) is not Literal:
+                break
+            values += [f'"{v}"' for v in get_args(ann)]
+        else:
+            return f"table by `{tag}`: " + " \\| ".join(values)
+    return None
 
 
 def _constraints(field) -> str:

@@ -1,7 +1,7 @@
 """Schema of ``[[probes]]``: what a run measures and records in ``/probes/<name>``.
 
-The exact definition of each kind (radius, connectivity, offsets) is in docs/probes.md and in the
-docstrings of ``mpsfem.fluid_mps.probes``.
+The exact definition of each kind (radius, connectivity, offsets) is in docs/results.md ("Probe
+definitions") and in the docstrings of ``mpsfem.fluid_mps.probes``.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ class PressureProbe(_Probe):
     """Pressure at a point: mean over fluid and pressure-wall particles within a radius."""
 
     kind: Literal["pressure"]
-    position: Vector = Field(description="gauge point, m")
+    position: Vector = Field(description="gauge point, m; inside the fluid domain")
     radius: float | None = Field(None, gt=0.0, description="averaging radius, m (default 1.0 l0)")
 
 
@@ -36,7 +36,9 @@ class WaveGaugeProbe(_Probe):
     """Free-surface elevation above ``reference_level`` at horizontal position ``position``."""
 
     kind: Literal["wave_gauge"]
-    position: Vector = Field(description="x (2D) or (x, y) (3D) of the gauge, m")
+    position: Vector = Field(
+        description="x (2D) or (x, y) (3D) of the gauge, m; inside the fluid domain"
+    )
     reference_level: float = Field(0.0, description="elevation is measured from this height, m")
     method: Literal["kernel", "top_particle"] = Field(
         "kernel",
@@ -89,11 +91,17 @@ class ForceProbe(_Probe):
 
 
 class DisplacementProbe(_Probe):
-    """Displacement of the structure point nearest ``position``, m."""
+    """Displacement of member ``target`` at ``position``, m: in coupled runs the member's linear
+    interpolation of its nodal displacements at the projection of ``position`` on its reference
+    mid-line / mid-surface; in standalone structure runs the node nearest ``position``."""
 
     kind: Literal["displacement"]
     target: str = Field(description="structure member name")
-    position: Vector = Field(description="reference position on the member, m")
+    position: Vector = Field(
+        description="reference position on the member, m; at most 10 % of the member's extent "
+        "(a beam's length, a plate's longest vertex-to-vertex distance) from its mid-line / "
+        "mid-surface"
+    )
 
 
 class EnergyProbe(_Probe):
