@@ -172,3 +172,44 @@ def test_iqn_ils_never_keeps_more_columns_than_interface_entries(filt):
             assert len(acc.V) <= n
         acc.end_window()
         assert np.linalg.norm(x - x_star) <= 1e-8 * np.linalg.norm(x_star)
+
+
+def test_iqn_ils_keeps_the_converged_iterations_column():
+    """preCICE's iterationsConverged: the accepted iterate's differences to the previous one go
+    into V and W too. A window of an n = 6 linear problem accepted at its (n + 1)-th evaluation
+    has n - 1 columns from compute() plus that last one: a full secant Jacobian, so the next
+    window (same A, new b) lands on its fixed point with its first quasi-Newton step; without
+    the last column it needs more."""
+    n = 6
+    A, b, _ = problem(n=n, lam_max=5.0)
+    evals = {}
+    for hook in (False, True):
+        acc = make("iqn-ils", reuse_windows=4, filter="QR2", filter_limit=1e-8)
+        acc.start_window()
+        x = np.zeros(n)
+        for _ in range(n):
+            x, _ = acc.compute(x, A @ x + b)
+        xt = A @ x + b  # the accepted iterate's answer
+        assert len(acc.V) == n - 1
+        if hook:
+            r_prev = acc._prev[0].copy()
+            acc.iterations_converged(x, xt)
+            assert len(acc.V) == n and acc.tags[0] == acc.window
+            assert np.array_equal(acc.V[0], (xt - x) - r_prev)
+        acc.end_window()
+        b2 = b + 0.1
+        evals[hook], x2, _, _ = iterate(acc, A, b2, np.zeros(n))
+        np.testing.assert_allclose(x2, np.linalg.solve(np.eye(n) - A, b2), rtol=1e-8)
+    assert evals[True] == 2 < evals[False], evals
+
+
+@pytest.mark.parametrize("kind", ["constant", "aitken"])
+def test_iterations_converged_is_a_no_op_for_relaxation(kind):
+    A, b, _ = problem(n=6, lam_max=3.0)
+    kw = {"relaxation": 0.3} if kind == "constant" else {}
+    acc = make(kind, **kw)
+    iterate(acc, A, b, np.zeros(6), max_it=5)
+    state = acc.state_dict()
+    x = np.ones(6)
+    acc.iterations_converged(x, A @ x + b)
+    assert acc.state_dict() == state

@@ -358,7 +358,12 @@ class CouplingScheme:
 
         # accept the window
         if self.implicit:
+            tic = time.perf_counter()
+            self.acceleration.iterations_converged(
+                x.reshape(-1), x_t.reshape(-1), {VELOCITY: (s.reshape(-1), s_t.reshape(-1))}
+            )
             self.acceleration.end_window()
+            timings["acceleration"] += time.perf_counter() - tic
         work_s = 0.5 * float(np.vdot(self.F_s + F_s1, x_t - self.d))
         # the fluid's points moved from where the last window left them (the accepted iterate
         # H x_n, d_f_start), not from H d_n: the residual jump is part of their motion

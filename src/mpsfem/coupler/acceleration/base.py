@@ -25,8 +25,8 @@ Secondary = Mapping[str, tuple[np.ndarray, np.ndarray]]
 
 
 class Acceleration(ABC):
-    """Base class: :meth:`compute` once per iteration, :meth:`start_window` /
-    :meth:`end_window` around every window."""
+    """Base class: :meth:`compute` once per iteration but the last, :meth:`start_window` /
+    :meth:`iterations_converged`, :meth:`end_window` around every window."""
 
     kind: ClassVar[str]
     Params: ClassVar[type[Section]]
@@ -56,6 +56,13 @@ class Acceleration(ABC):
     def _compute(
         self, x: np.ndarray, x_tilde: np.ndarray, secondary: dict
     ) -> tuple[np.ndarray, dict[str, np.ndarray]]: ...
+
+    def iterations_converged(  # noqa: B027 - optional hook
+        self, x: np.ndarray, x_tilde: np.ndarray, secondary: Secondary | None = None
+    ) -> None:
+        """The window's iterations end with (``x``, ``x_tilde``), the accepted iterate and its
+        answer (converged or continued), which :meth:`compute` never saw; called before
+        :meth:`end_window` (preCICE's ``iterationsConverged``). Default: nothing to learn."""
 
     def end_window(self) -> None:  # noqa: B027 - optional hook
         """The window was accepted (converged or continued)."""

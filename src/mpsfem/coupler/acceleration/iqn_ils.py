@@ -2,7 +2,8 @@
 2009), in preCICE's form.
 
 With r = x_tilde - x, every iteration after the first of a window adds the columns
-v = r_k - r_{k-1} to V and w = x_tilde_k - x_tilde_{k-1} to W (newest first). The next iterate is
+v = r_k - r_{k-1} to V and w = x_tilde_k - x_tilde_{k-1} to W (newest first), the accepted last
+one too (:meth:`IQNILS.iterations_converged`, as preCICE's ``iterationsConverged``). The next iterate is
 x_{k+1} = x_tilde_k + W alpha with alpha = argmin |V alpha + r_k|, solved by a QR decomposition of
 V. For a linear fixed point of dimension n the residual vanishes after at most n + 1 iterations.
 
@@ -89,6 +90,17 @@ class IQNILS(Acceleration):
         keep = [k for k, t in enumerate(self.tags) if t >= self.window - self.params.reuse_windows]
         self._select(keep)
 
+    def iterations_converged(self, x, x_tilde, secondary=None) -> None:
+        """Add the last iteration's differences to V and W, as preCICE does when a window's
+        iterations converge (the accepted iterate's residual is secant information like any
+        other; the filter and the reuse window act on it as on the others)."""
+        if self._prev is not None:
+            x = np.asarray(x, dtype=np.float64)
+            x_tilde = np.asarray(x_tilde, dtype=np.float64)
+            st = {k: np.asarray(v[1], dtype=np.float64) for k, v in dict(secondary or {}).items()}
+            self._add_column(x_tilde - x, x_tilde, st)
+        self._prev = None
+
     def end_window(self) -> None:
         self.window += 1
 
@@ -103,16 +115,7 @@ class IQNILS(Acceleration):
         r = x_tilde - x
         st = {k: np.asarray(v[1], dtype=np.float64) for k, v in secondary.items()}
         if self._prev is not None:
-            r0, xt0, st0 = self._prev
-            self.V.insert(0, r - r0)
-            self.W.insert(0, x_tilde - xt0)
-            for k in st:
-                self.Ws.setdefault(k, [np.zeros_like(st[k]) for _ in self.tags]).insert(
-                    0, st[k] - st0[k]
-                )
-            self.tags.insert(0, self.window)
-            if len(self.V) > self.params.max_columns:
-                self._select(list(range(self.params.max_columns)))
+            self._add_column(r, x_tilde, st)
         self._prev = (r, x_tilde.copy(), {k: v.copy() for k, v in st.items()})
         Q, R = self._qr()
         if Q is None:
@@ -124,6 +127,20 @@ class IQNILS(Acceleration):
             cols = self.Ws.get(k)
             sec[k] = np.asarray(s_t, dtype=np.float64) + np.stack(cols, axis=1) @ alpha
         return x_next, sec
+
+    def _add_column(self, r: np.ndarray, x_tilde: np.ndarray, st: dict[str, np.ndarray]) -> None:
+        """Insert the differences to the previous iteration (newest first), capped at
+        ``max_columns``."""
+        r0, xt0, st0 = self._prev
+        self.V.insert(0, r - r0)
+        self.W.insert(0, x_tilde - xt0)
+        for k in st:
+            self.Ws.setdefault(k, [np.zeros_like(st[k]) for _ in self.tags]).insert(
+                0, st[k] - st0[k]
+            )
+        self.tags.insert(0, self.window)
+        if len(self.V) > self.params.max_columns:
+            self._select(list(range(self.params.max_columns)))
 
     def _qr(self) -> tuple[np.ndarray | None, np.ndarray]:
         """QR of V (newest column first) after filtering; drops filtered columns for good.
