@@ -4,6 +4,7 @@ structure process that dies stops the fluid's run with a message and a readable 
 
 from __future__ import annotations
 
+import signal
 import time
 from pathlib import Path
 
@@ -65,6 +66,8 @@ def test_mpi_needs_two_ranks():
 # ---------------------------------------------------------------- the real solvers, mpsfem run
 import h5py  # noqa: E402
 from conftest import reap, spawn  # noqa: E402
+
+from mpsfem.results.checkpoint import read_checkpoint  # noqa: E402
 
 SCENE = str(Path(__file__).resolve().parents[2] / "scenarios" / "hydrostatic_plate_2d.toml")
 SETS = [
@@ -174,3 +177,29 @@ def test_lost_structure_stops_the_fluid_within_10_s(tmp_path):
     with h5py.File(out, "r") as h5:
         assert h5.attrs["status"].startswith("failed: PeerLostError")
         assert h5["coupling/time"].shape[0] > 0
+
+
+@needs_mpi
+def test_sigterm_to_mpirun_stops_both_ranks_cleanly(tmp_path):
+    """What a batch scheduler sends at the wall-time limit: mpirun forwards SIGTERM to both
+    ranks. The structure rank serves on (it used to die at once, and mpirun then killed the
+    fluid: no message, results left "running", no final checkpoint); the fluid stops at its
+    window end, restores both, checkpoints there and finalises the structure."""
+    out = tmp_path / "term.h5"
+    cmd = mpi_cmd(*RUN, "--end-time", "5.0", "--out", str(out), "--transport", "mpi")
+    p = spawn(cmd)
+    t0 = time.monotonic()
+    while not _windows_recorded(out) and time.monotonic() - t0 < 120 and p.poll() is None:
+        time.sleep(0.2)
+    assert p.poll() is None, reap(p)[2]
+    p.send_signal(signal.SIGTERM)
+    rc, _, err = reap(p, timeout=60)
+    assert rc != 0 and "BAD TERMINATION" not in err, err
+    assert "structure participant: SIGTERM received" in err
+    assert "structure participant finished at t =" in err
+    assert "a checkpoint of the last good window" in err
+    with h5py.File(out, "r") as h5:
+        assert h5.attrs["status"] == "failed: _Terminated: received signal SIGTERM"
+        t_last = h5["coupling/time"][-1]
+    _, meta, _ = read_checkpoint(out.with_name("term.ckpt.h5"))
+    assert meta["scheme"]["t"] <= t_last

@@ -1,13 +1,27 @@
-"""The launch glue (``coupler.launch``): which role a process takes, and refusing a launch that
-would run the whole coupled simulation in every rank of an MPI job."""
+"""The launch glue (``coupler.launch``): which role a process takes, refusing a launch that
+would run the whole coupled simulation in every rank of an MPI job, and the structure's serve
+loop riding out SIGTERM/SIGINT until the fluid finalises it."""
 
 from __future__ import annotations
 
+import os
+import signal
+import threading
+import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from mpsfem.coupler.launch import MPI_SIZE_VARIABLES, mpi_job_size, participant_role
+from mpsfem.coupler import mock
+from mpsfem.coupler.launch import (
+    MPI_SIZE_VARIABLES,
+    deferred_signals,
+    mpi_job_size,
+    participant_role,
+)
+from mpsfem.coupler.remote import RemoteParticipant, serve
+from mpsfem.coupler.transport.inproc import InprocTransport
 from mpsfem.scenario.loader import load_scenario
 from mpsfem.simulation import run_coupled
 
@@ -56,3 +70,46 @@ def test_roles_without_mpirun(no_mpi_env):
     assert participant_role("zenoh", "structure") == "structure"
     with pytest.raises(ValueError, match="--participant needs --transport mpi or zenoh"):
         participant_role("inproc", "fluid")
+
+
+def test_structure_serves_on_through_sigterm_and_restores_the_handlers():
+    """The serve loop under deferred_signals: a SIGTERM in the middle of the fluid's requests is
+    noted and logged, the loop answers on until the fluid finalises (under mpirun the fluid got
+    the same signal and stops cleanly at its window end), then the handlers are back."""
+    fluid, structure = mock.pair(1.0)
+    a, b = InprocTransport.pair(timeout_s=5.0)
+    answers, logged = [], []
+
+    def client():
+        a.connect()
+        remote = RemoteParticipant(a)
+        answers.append(remote.read("displacement"))
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(0.05)
+        remote.write("forces", np.zeros_like(answers[0]))
+        remote.advance(1e-3)
+        answers.append(remote.read("displacement"))
+        remote.finalize()
+
+    before = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGINT)}
+    th = threading.Thread(target=client, daemon=True)
+    th.start()
+    b.connect()
+    with deferred_signals(logged.append) as received:
+        n = serve(structure, b)
+    th.join(5.0)
+    assert received == ["SIGTERM"] and n == 5 and len(answers) == 2
+    assert "SIGTERM received; serving on until the fluid participant" in logged[0]
+    assert {s: signal.getsignal(s) for s in before} == before
+
+
+def test_a_second_signal_is_delivered():
+    """Sent again, the signal takes its normal course (a stuck structure can still be ended)."""
+    logged = []
+    with pytest.raises(KeyboardInterrupt):
+        with deferred_signals(logged.append) as received:
+            signal.raise_signal(signal.SIGINT)
+            assert received == ["SIGINT"]
+            signal.raise_signal(signal.SIGINT)
+    assert len(logged) == 1
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

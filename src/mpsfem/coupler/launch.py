@@ -13,16 +13,20 @@ On :class:`~mpsfem.coupler.errors.PeerLostError` the caller flushes its results 
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import subprocess
 import sys
-from collections.abc import Sequence
+import threading
+from collections.abc import Callable, Iterator, Sequence
 
 from mpsfem.coupler.remote import RemoteParticipant, serve
 from mpsfem.coupler.transport import Transport, open_transport
 
 __all__ = [
     "connect_structure",
+    "deferred_signals",
     "mpi_job_size",
     "participant_role",
     "serve_structure",
@@ -91,11 +95,59 @@ def connect_structure(config) -> tuple[RemoteParticipant, Transport]:
     return RemoteParticipant(t), t
 
 
-def serve_structure(structure, config) -> int:
-    """Structure side: open the transport, answer the fluid's requests until it finalises."""
+def serve_structure(structure, config, log: Callable[[str], None] | None = None) -> int:
+    """Structure side: open the transport, answer the fluid's requests until it finalises.
+
+    SIGTERM and SIGINT are deferred while serving (:func:`deferred_signals`): the fluid side
+    receives them too (``mpirun`` forwards them to every rank; Ctrl-C reaches the whole process
+    group of a spawned structure) and stops at its window end, restores both participants,
+    checkpoints and finalises this loop, which needs the structure alive. Dying at once, as
+    the default action does, took the job down (``mpirun`` kills the other ranks) with no final
+    checkpoint and the results left "running"."""
     t = open_transport(config.transport, "structure")
-    with t:
+    with t, deferred_signals(log):
         return serve(structure, t)
+
+
+@contextlib.contextmanager
+def deferred_signals(
+    log: Callable[[str], None] | None = None,
+    signums: tuple[int, ...] = (signal.SIGTERM, signal.SIGINT),
+) -> Iterator[list[str]]:
+    """Within the block, the first of ``signums`` is only noted (in the yielded list, and by
+    ``log``, default stderr) and the block goes on; a second one restores the previous handlers
+    and is delivered again, so a repeated Ctrl-C or kill still ends a stuck process. Outside
+    the main thread (where signals cannot be handled) nothing changes."""
+    log = log or (lambda msg: print(msg, file=sys.stderr, flush=True))
+    received: list[str] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield received
+        return
+    old = {s: signal.getsignal(s) for s in signums}
+
+    def restore() -> None:
+        for s, h in old.items():
+            signal.signal(s, h)
+
+    def on_signal(signum, frame) -> None:  # noqa: ARG001
+        name = signal.Signals(signum).name
+        received.append(name)
+        if len(received) == 1:
+            log(
+                f"structure participant: {name} received; serving on until the fluid "
+                "participant, which stops at the end of its window, finalises (send it again "
+                "to stop at once)"
+            )
+            return
+        restore()
+        signal.raise_signal(signum)
+
+    for s in signums:
+        signal.signal(s, on_signal)
+    try:
+        yield received
+    finally:
+        restore()
 
 
 def spawn_structure(argv: Sequence[str], module: str | None = None) -> subprocess.Popen:
