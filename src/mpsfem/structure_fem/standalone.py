@@ -249,6 +249,12 @@ def cli_main(args) -> int:
     except (ValueError, FileNotFoundError) as exc:  # a model that cannot be built or solved
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except FloatingPointError as exc:  # the run diverged; run_structure closed the results
+        print(
+            f"error: structure run stopped: {exc}; results (readable, up to the failure): {out}",
+            file=sys.stderr,
+        )
+        return 1
     print(
         f"finished t = {summary.t:.6g} s in {summary.steps} steps, {summary.wall_time:.2f} s wall; "
         f"results {summary.results}"
