@@ -148,7 +148,7 @@ def test_schema_thesis_tank_sponge():
 @pytest.mark.parametrize(
     ("zone", "expect"),
     [
-        ("start = 2.0\nend = 2.0\n", "fluid.sponges[0] = "),
+        ("start = 2.0\nend = 2.0\n", "fluid.sponges[0].end = 2.0"),
         ("start = 2.0\nend = 2.5\ncoefficient = -5.0\n", "fluid.sponges[0].coefficient = -5.0"),
         ("start = 2.0\nend = 2.5\naxis = 3\n", "fluid.sponges[0].axis = 3"),
         ("end = 2.5\n", "fluid.sponges[0].start: required key is missing"),
@@ -162,4 +162,4 @@ def test_schema_errors(zone, expect):
 
 def test_schema_axis_against_dimension():
     (msg,) = _problems("start = 2.0\nend = 2.5\naxis = 2\n")
-    assert "sponges[0].axis = 2 must be below dim = 2" in msg
+    assert "fluid.sponges[0].axis = 2: must be below dim = 2" in msg

@@ -42,6 +42,7 @@ def test_cantilever_run_writes_readable_results(tmp_path):
         assert np.allclose(pv[k], d[-1, -1])
         e = h5["probes/energy"]
         assert list(e.attrs["components"]) == ["kinetic", "strain"]
+        assert e.attrs["unit"] == "J/m"  # 2D: per metre of width
     # damped oscillation about the static deflection P L^3 / (3 E I), peak near 2 x static
     static = -100.0 / (3 * 2.1e11 * 0.01**3 / 12)
     assert 1.85 < pv[:, 1].min() / static < 2.0

@@ -216,6 +216,12 @@ def test_failing_case_is_reported_and_the_others_finish(tmp_path):
     assert rc == 1 and "1 to run, 1 complete" in out and "[1/2] rerun   force=[0.0, 1e+308]" in out
 
 
+@pytest.mark.parametrize("end", [0.0, -1.0, float("inf"), float("nan")])
+def test_end_time_must_be_finite_and_positive(end):
+    with pytest.raises(ScenarioError, match="--end-time = .*must be finite and > 0"):
+        plan_sweep(CANTILEVER, [THICKNESS], end_time=end)
+
+
 def test_plan_validates_every_case():
     with pytest.raises(ScenarioError, match="given more than once"):
         plan_sweep(CANTILEVER, [THICKNESS, THICKNESS])

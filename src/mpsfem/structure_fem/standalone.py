@@ -9,9 +9,9 @@ use, and writes the results-file contract:
   (default ``output.probe_interval``; 0 = every step);
 * ``/probes/<name>/{time,value}`` for every ``[[probes]]`` of kind "displacement" whose target is
   a member (attrs kind "displacement", unit "m", components ux, uy[, uz], position; value at the
-  member point nearest `position`) and of kind "energy" targeting a member (unit "J", components
-  kinetic, strain; J/m in 2D), every ``interval`` (default ``output.probe_interval``; 0 = every
-  step).
+  member point nearest `position`) and of kind "energy" targeting a member (unit "J/m" in 2D,
+  "J" in 3D; components kinetic, strain), every ``interval`` (default ``output.probe_interval``;
+  0 = every step).
 
 Records are taken every ``max(1, round(interval / dt))`` steps, at t = 0 and at the end.
 """
@@ -157,7 +157,8 @@ def run_structure(
         for p in probes:
             rf.add_probe(p.name, "displacement", "m", comps, p.position, attrs={"target": p.target})
         for p in energy_probes:
-            rf.add_probe(p.name, "energy", "J", ("kinetic", "strain"), attrs={"target": p.target})
+            unit = "J/m" if dim == 2 else "J"  # 2D: per metre of width, like every 2D energy
+            rf.add_probe(p.name, "energy", unit, ("kinetic", "strain"), attrs={"target": p.target})
 
         buffer = _ProbeBuffer(rf)
 

@@ -17,6 +17,7 @@ reported and the others go on; the sweep's exit status is 1 if any case failed.
 from __future__ import annotations
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -109,8 +110,8 @@ def plan_sweep(
     for item in base:
         parse_override(item)  # the --set syntax errors first
     if end_time is not None:
-        if not end_time > 0:
-            raise ScenarioError([f"--end-time = {end_time}: must be > 0"])
+        if not (math.isfinite(end_time) and end_time > 0):
+            raise ScenarioError([f"--end-time = {end_time}: must be finite and > 0"])
         if "run.end_time" in {_key_of(o) for o in base}:
             raise ScenarioError(["--end-time and --set run.end_time: give the end time once"])
         base.append(f"run.end_time={end_time!r}")
