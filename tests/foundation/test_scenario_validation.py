@@ -384,3 +384,13 @@ def test_plate_displacement_probe_distance():
     load_scenario_text(PLATE_3D + probe + "position = [0.25, 0.1, 0.12]\n")
     (msg,) = problems(PLATE_3D + probe + "position = [0.25, 0.4, 0.1]\n")
     assert msg.startswith("probes[0].position = [0.25, 0.4, 0.1]: 0.15 m from member 'deck'")
+
+
+def test_gravity_defaults_along_the_last_axis():
+    """Gravity left out points down the last axis: [0, -9.81] in 2D, [0, 0, -9.81] in 3D (a 3D
+    scene without it was refused over a value the user never wrote)."""
+    text = (SCENARIOS / "hydrostatic_3d.toml").read_text()
+    assert "gravity = [0.0, 0.0, -9.81]" in text
+    sc = load_scenario_text(text.replace("gravity = [0.0, 0.0, -9.81]", "")).scenario
+    assert sc.fluid.gravity == [0.0, 0.0, -9.81]
+    assert load_scenario_text(BASE).scenario.fluid.gravity == [0.0, -9.81]

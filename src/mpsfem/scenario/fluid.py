@@ -374,7 +374,12 @@ class FluidSection(Section):
     spacing: Annotated[float, Field(gt=0.0)] = Field(description="initial particle spacing l0, m")
     density: float = Field(1000.0, gt=0.0, description="density rho, kg/m^3")
     viscosity: float = Field(1e-6, ge=0.0, description="kinematic viscosity nu, m^2/s (0 = off)")
-    gravity: Vector = Field([0.0, -9.81], description="gravitational acceleration, m/s^2")
+    gravity: Vector = Field(
+        [0.0, -9.81],
+        description=(
+            "gravitational acceleration, m/s^2 (default [0, -9.81] in 2D, [0, 0, -9.81] in 3D)"
+        ),
+    )
     hydrostatic_start: bool = Field(True, description="start still water from hydrostatic pressure")
     dummy_layers: int | None = Field(
         None,
@@ -420,6 +425,14 @@ class FluidSection(Section):
             list(self.domain_lower) if self.domain_lower is not None else lo,
             list(self.domain_upper) if self.domain_upper is not None else hi,
         )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _gravity_along_the_last_axis(cls, data):
+        """Gravity left out: -9.81 m/s^2 along the last axis (y in 2D, z in 3D)."""
+        if isinstance(data, dict) and "gravity" not in data and data.get("dim") == 3:
+            data = {**data, "gravity": [0.0, 0.0, -9.81]}
+        return data
 
     @model_validator(mode="after")
     def _check(self) -> FluidSection:
