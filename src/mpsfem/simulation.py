@@ -190,7 +190,7 @@ def run_fluid(
 
     bar = Progress(solver.t, t_end, sc.run.progress if progress is None else progress, "fluid")
     last_flush = time.perf_counter()
-    good = {k: np.empty_like(v) for k, v in solver.state().items()}
+    good = {k: v.copy() for k, v in solver.state().items()}  # valid even if sample() fails first
     good_meta = solver.meta()
     good_pre = solver.preconditioner_state()
     good_probe = dict(next_probe)  # output schedule of the last good state (updated in place)

@@ -142,3 +142,25 @@ def test_sigterm_stops_between_steps_with_a_clear_status(tmp_path):
         assert h5.attrs["status"] == "failed: received signal SIGTERM"
     with h5py.File(tmp_path / "term.ckpt.h5", "r") as h5:
         assert len(h5.keys()) > 0
+
+
+def test_failure_in_the_first_sample_checkpoints_the_initial_state(tmp_path, monkeypatch):
+    """A run failing before its first step (here: the first probe sample) still checkpoints a
+    valid state, the initial one, not uninitialised memory."""
+    from mpsfem.fluid_mps.solver import FluidSolver
+    from mpsfem.results.checkpoint import read_checkpoint
+    from mpsfem.scenario.loader import load_scenario
+    from mpsfem.simulation import RunFailed, run_fluid
+
+    loaded = load_scenario(SCENE, ["fluid.spacing=0.0146", "run.end_time=0.01"])
+
+    def broken(self, probe):
+        raise RuntimeError("probe failed")
+
+    monkeypatch.setattr(FluidSolver, "probe_value", broken)
+    with pytest.raises((RunFailed, RuntimeError)):
+        run_fluid(loaded, tmp_path / "r.h5", progress=False, log=lambda msg: None)
+    arrays, meta, _ = read_checkpoint(tmp_path / "r.ckpt.h5")
+    fresh = FluidSolver(loaded.scenario.fluid).state()
+    for key in ("pos", "vel", "p"):
+        assert np.array_equal(arrays["fluid"][key], fresh[key]), key
