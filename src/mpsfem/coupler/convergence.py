@@ -128,13 +128,19 @@ class InstabilityDetector:
 
     def update(self, e: np.ndarray) -> str | None:
         """Feed one window; returns a description if divergence is detected, else None."""
-        why, self._prev, self._log, self._neg = self._assess(e)
+        why = self.check(e)
+        self.commit()
         return why
 
     def check(self, e: np.ndarray) -> str | None:
-        """What :meth:`update` would return for ``e``, without recording the window (for a
-        candidate window that is committed, with :meth:`update`, only if it passes)."""
-        return self._assess(e)[0]
+        """What :meth:`update` would return for ``e``, without recording the window yet: a
+        candidate window is recorded by :meth:`commit` only once it is accepted."""
+        why, *self._pending = self._assess(e)
+        return why
+
+    def commit(self) -> None:
+        """Record the window last passed to :meth:`check`."""
+        self._prev, self._log, self._neg = self._pending
 
     def _assess(self, e: np.ndarray) -> tuple[str | None, np.ndarray, list[float], list[bool]]:
         """(description or None, and the history with ``e`` appended)."""

@@ -354,7 +354,7 @@ class CouplingScheme:
                     f"explicit coupling diverges at window {self.index} (t = {t1:.9g} s): {why}. "
                     'Use scheme = "implicit" (with iqn-ils or aitken acceleration)'
                 )
-            self.detector.update(x_t - x)
+            self.detector.commit()
 
         # accept the window
         if self.implicit:

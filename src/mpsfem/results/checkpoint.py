@@ -56,14 +56,24 @@ def write_checkpoint(
     return path
 
 
-def read_checkpoint(path: str | Path) -> tuple[dict[str, dict[str, np.ndarray]], dict, str]:
-    """Read a checkpoint: (arrays, meta, scenario text)."""
+def _open(path: str | Path) -> h5py.File:
+    """Open a checkpoint for reading; a missing, unreadable or foreign file is refused."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"checkpoint {str(path)!r} does not exist")
-    with h5py.File(path, "r") as h5:
-        if int(h5.attrs.get("format", -1)) != FORMAT:
-            raise ValueError(f"{path}: not a checkpoint of format {FORMAT}")
+    try:
+        h5 = h5py.File(path, "r")
+    except OSError as exc:
+        raise ValueError(f"{path}: not a readable checkpoint ({exc})") from None
+    if int(h5.attrs.get("format", -1)) != FORMAT:
+        h5.close()
+        raise ValueError(f"{path}: not a checkpoint of format {FORMAT}")
+    return h5
+
+
+def read_checkpoint(path: str | Path) -> tuple[dict[str, dict[str, np.ndarray]], dict, str]:
+    """Read a checkpoint: (arrays, meta, scenario text)."""
+    with _open(path) as h5:
         meta = json.loads(h5.attrs["meta"])
         text = str(h5.attrs["scenario"])
         arrays = {g: {k: ds[()] for k, ds in h5[g].items()} for g in h5}
@@ -74,13 +84,7 @@ def read_checkpoint_scenario(path: str | Path) -> tuple[dict | None, str, list[s
     """The scenario a checkpoint ran: (validated scenario or None, TOML text, overrides or None).
 
     None where the checkpoint predates storing it."""
-    try:
-        h5 = h5py.File(path, "r")
-    except OSError as exc:
-        raise ValueError(f"{path}: not a readable checkpoint ({exc})") from None
-    with h5:
-        if int(h5.attrs.get("format", -1)) != FORMAT:
-            raise ValueError(f"{path}: not a checkpoint of format {FORMAT}")
+    with _open(path) as h5:
         resolved = h5.attrs.get("scenario_resolved")
         overrides = h5.attrs.get("overrides")
         text = str(h5.attrs.get("scenario", ""))

@@ -408,6 +408,12 @@ class FluidSection(Section):
         default_factory=list, description="wave-absorbing sponge layers (thesis eq. 3-9)"
     )
 
+    @property
+    def vertical_axis(self) -> int:
+        """The axis gravity acts along most (the last axis without gravity)."""
+        g = [abs(x) for x in self.gravity]
+        return g.index(max(g)) if any(g) else self.dim - 1
+
     def domain_box(self, extra: list[list[float]] = ()) -> tuple[list[float], list[float]]:
         """The domain (lower, upper corner, m) a fluid particle may not leave: ``domain_lower`` /
         ``domain_upper`` where given, else the bounding box of the blocks, the walls and the
@@ -419,8 +425,7 @@ class FluidSection(Section):
         d, pad = self.dim, 10.0 * self.spacing
         lo = [min(c[k] for c in corners) - pad for k in range(d)]
         hi = [max(c[k] for c in corners) + pad for k in range(d)]
-        g = [abs(x) for x in self.gravity]
-        hi[g.index(max(g)) if any(g) else d - 1] += 1.0
+        hi[self.vertical_axis] += 1.0
         return (
             list(self.domain_lower) if self.domain_lower is not None else lo,
             list(self.domain_upper) if self.domain_upper is not None else hi,

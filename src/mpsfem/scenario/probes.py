@@ -91,9 +91,10 @@ class ForceProbe(_Probe):
 
 
 class DisplacementProbe(_Probe):
-    """Displacement of member ``target`` at ``position``, m: in coupled runs the member's linear
-    interpolation of its nodal displacements at the projection of ``position`` on its reference
-    mid-line / mid-surface; in standalone structure runs the node nearest ``position``."""
+    """Displacement of member ``target`` at ``position``, m, taken at the projection of
+    ``position`` on the member's reference mid-line / mid-surface: in coupled runs the linear
+    interpolation of the nodal displacements there, in standalone structure runs the member's
+    finite-element interpolation."""
 
     kind: Literal["displacement"]
     target: str = Field(description="structure member name")

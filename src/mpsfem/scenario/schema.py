@@ -105,8 +105,7 @@ class Scenario(Section):
         members = self.structure.members if self.structure is not None else []
         lo, hi = fluid.domain_box([c for m in members for c in m.corners])
         box = f"the fluid domain {lo} .. {hi} (fluid.domain_lower/upper, {DOMAIN_DEFAULT})"
-        g = [abs(x) for x in fluid.gravity]
-        up = g.index(max(g)) if any(g) else fluid.dim - 1
+        up = fluid.vertical_axis
         for i, p in enumerate(self.probes):
             if p.kind not in ("pressure", "wave_gauge"):
                 continue
