@@ -143,6 +143,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
+    if not coupled:
+        problem = single_process_problem(f"{args.scenario} is a fluid-only scenario")
+        if problem:
+            print(f"error: {problem}", file=sys.stderr)
+            return 2
     try:
         if coupled:
             child = ["run", str(args.scenario), "--transport", "zenoh", "--no-progress"]
@@ -173,6 +178,25 @@ def _cmd_run(args: argparse.Namespace) -> int:
         f"results {summary.results}, checkpoint {summary.checkpoint}"
     )
     return 0
+
+
+def single_process_problem(what: str) -> str | None:
+    """Why this process must not run ``what`` (a one-process run), or None.
+
+    Under ``mpirun -n N`` (N > 1) every rank would run the whole of it and write the same
+    results file; only a coupled run splits into ranks (``--transport mpi``)."""
+    from mpsfem.coupler.launch import mpi_job_size
+
+    job = mpi_job_size()
+    if job is None:
+        return None
+    n, var = job
+    return (
+        f"this process is one of {n} MPI ranks ({var}={n}), but {what}: it runs in one process, "
+        "so every rank would run it and write the same results file. Start it without mpirun "
+        "(run.threads sets its numba threads); only a coupled scenario runs under mpirun, with "
+        "--transport mpi"
+    )
 
 
 def output_problem(out: Path, restart: Path | None = None) -> str | None:
@@ -232,6 +256,9 @@ def main(argv: list[str] | None = None) -> int:
             from mpsfem.structure_fem.standalone import cli_main
 
             problem = output_problem(args.out) if getattr(args, "out", None) else None
+            problem = problem or single_process_problem(
+                f"'mpsfem {args.command}' runs the structure alone"
+            )
             if problem:
                 print(f"error: {problem}", file=sys.stderr)
                 return 2

@@ -5,7 +5,7 @@ from pathlib import Path
 import h5py
 import pytest
 
-from mpsfem.cli import main
+from mpsfem.cli import main, single_process_problem
 from mpsfem.results.checkpoint import write_checkpoint
 from mpsfem.results.results_file import ResultsFile
 
@@ -66,3 +66,23 @@ def test_modes_count_must_be_positive(capsys, count):
         main(["modes", str(STRUCTURE), "--count", count])
     assert info.value.code == 2
     assert f"argument --count: '{count}': must be a whole number >= 1" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command, scenario", [("run", FLUID), ("structure", STRUCTURE)])
+def test_one_process_runs_are_refused_under_mpirun(
+    tmp_path, capsys, monkeypatch, command, scenario
+):
+    """``mpirun -n 2 mpsfem run <fluid-only>`` (or ``mpsfem structure``): every rank would run the
+    whole simulation into the same file; refused before any compute, naming the rank count."""
+    from mpsfem.coupler.launch import MPI_SIZE_VARIABLES
+
+    for name in MPI_SIZE_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv("OMPI_COMM_WORLD_SIZE", "2")
+    out = tmp_path / "twice.h5"
+    err = error_of(capsys, [command, str(scenario), "--out", str(out)])
+    assert "one of 2 MPI ranks (OMPI_COMM_WORLD_SIZE=2)" in err
+    assert "Start it without mpirun" in err
+    assert not out.exists()
+    monkeypatch.setenv("OMPI_COMM_WORLD_SIZE", "1")  # a job of one rank runs as usual
+    assert single_process_problem("a run") is None
