@@ -84,6 +84,11 @@ def test_cases_are_named_deterministically():
     # 1e-2 and 0.01 are one value, hence one case name
     assert make_cases([parse_grid_arg("a.b=1e-2")])[0].name == "b=0.01"
     assert make_cases([parse_grid_arg('coupling.scheme="implicit"')])[0].name == "scheme=implicit"
+    # bare words as for --set (a shell strips the quotes); they hold no comma, so split cleanly
+    bare = parse_grid_arg("coupling.scheme=implicit,explicit")
+    assert bare.values == ("implicit", "explicit") and not bare.numeric
+    assert bare.literals == ('"implicit"', '"explicit"')
+    assert parse_grid_arg("a.b=true,inf").values == (True, math.inf)  # TOML literals stay so
     assert short_keys(["a.x.k", "b.x.k", "c.m"]) == {"a.x.k": "a.x.k", "b.x.k": "b.x.k", "c.m": "m"}
 
 
@@ -120,8 +125,8 @@ def test_bad_grid_rejected_before_any_case(tmp_path):
     rc, _, err = _sweep("--grid", "structure.members.0.thickness=0.01,-0.02", "--out", str(folder))
     assert rc == 2 and "structure.members[0].thickness = -0.02" in err
     assert "[case thickness=-0.02]" in err and not folder.exists()
-    rc, _, err = _sweep("--grid", "coupling.scheme=implicit", "--out", str(folder))
-    assert rc == 2 and "--grid coupling.scheme = 'implicit': not a TOML literal" in err
+    rc, _, err = _sweep("--grid", "coupling.scheme=implicit,1/2", "--out", str(folder))
+    assert rc == 2 and "--grid coupling.scheme = '1/2': not a TOML literal" in err
     rc, _, err = _sweep("--grid", THICKNESS, "--set", "structure.members.0.thickness=0.03")
     assert rc == 2 and "also given by --set" in err
     rc, _, err = _sweep("--grid", THICKNESS, "--end-time", "1", "--set", "run.end_time=2")

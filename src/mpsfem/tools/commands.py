@@ -77,7 +77,7 @@ def add_sweep_parser(sub) -> argparse.ArgumentParser:
         default=[],
         required=True,
         metavar="KEY=V1,V2,...",
-        help="a scenario key and its values, TOML literals as for --set "
+        help="a scenario key and its values, TOML literals or bare words as for --set "
         "(--grid structure.members.0.thickness=0.01,0.02 --grid "
         "'structure.loads.0.force=[0.0,-100.0],[0.0,-200.0]'); repeat for more keys",
     )
@@ -106,7 +106,8 @@ def add_sweep_parser(sub) -> argparse.ArgumentParser:
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="override a scenario value in every case (TOML literal, as for mpsfem run)",
+        help="override a scenario value in every case (TOML literal or bare word, as for "
+        "mpsfem run)",
     )
     return p
 

@@ -1,8 +1,9 @@
 """Parameter grids of ``mpsfem sweep``: ``--grid key=v1,v2,...`` axes, their Cartesian product
 and a deterministic name per case.
 
-Values are TOML literals, as for ``--set`` (``0.004``, ``"implicit"``, ``[0.0, -100.0]``); commas
-inside brackets, braces or quotes do not separate values. Each value is written back as a
+Values are TOML literals or bare words, as for ``--set`` (``0.004``, ``implicit`` or
+``"implicit"``, ``[0.0, -100.0]``); commas inside brackets, braces or quotes do not separate
+values (a bare word has no comma, so it cannot be split). Each value is written back as a
 canonical TOML literal (``1e-2`` and ``0.01`` are the same case), which is what the case name and
 the child's ``--set`` use.
 """
@@ -97,7 +98,7 @@ def parse_grid_arg(arg: str) -> GridAxis:
     values, literals = [], []
     for piece in pieces:
         try:
-            _, value = parse_override(f"{key}={piece}")
+            _, value = parse_override(f"{key}={piece}", bare_words=True)
         except ScenarioError as exc:
             raise ScenarioError(
                 [p.replace("--set", "--grid", 1) for p in exc.problems], exc.source
