@@ -227,6 +227,11 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     import json
 
     print(json.dumps(loaded.scenario.model_dump(mode="json"), indent=2))
+    if loaded.scenario.fluid is not None:
+        from mpsfem.fluid_mps.geometry import lattice_notes
+
+        for note in lattice_notes(loaded.scenario.fluid):
+            print(f"note: {note}", file=sys.stderr)
     return 0
 
 

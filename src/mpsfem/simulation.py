@@ -25,6 +25,7 @@ from mpsfem.coupler.launch import connect_structure, participant_role, spawn_str
 from mpsfem.coupler.mapping.shape_function import project
 from mpsfem.coupler.participant import InterfaceMesh, as_interface_mesh
 from mpsfem.coupler.time_window import TIME_EPS
+from mpsfem.fluid_mps.geometry import lattice_notes
 from mpsfem.fluid_mps.participant import FluidParticipant
 from mpsfem.fluid_mps.probes import PROBE_UNITS, probe_unit
 from mpsfem.fluid_mps.solver import FluidSolver
@@ -111,6 +112,12 @@ def _check_stop() -> None:
         raise _Terminated(msg)
 
 
+def log_lattice_notes(fluid, log: Callable[[str], None]) -> None:
+    """Say which block and wall faces the particle lattice moves (geometry.lattice_notes)."""
+    for note in lattice_notes(fluid):
+        log(f"note: {note}")
+
+
 def run_fluid(
     loaded: LoadedScenario,
     out: Path,
@@ -127,6 +134,8 @@ def run_fluid(
     if restart is not None:
         check_restart_scenario(loaded, restart, log)
     t_end = end_time if end_time is not None else sc.run.end_time
+    if restart is None:
+        log_lattice_notes(sc.fluid, log)
     solver = FluidSolver(sc.fluid, loaded.path.parent if loaded.path else None)
     outs = sc.output
     probes = [
@@ -224,7 +233,9 @@ def run_fluid(
         bar.close()
         failed_at = solver.t
         try:
-            results.write_snapshot(solver.t, solver.pos, solver.vel, solver.p, solver.kind)
+            results.write_snapshot(
+                solver.t, solver.pos, solver.vel, solver.p, solver.kind, failure=str(exc)
+            )
         except Exception:  # noqa: BLE001 - the state may be unwritable; the checkpoint matters more
             pass
         for k, v in good.items():
@@ -459,6 +470,8 @@ def _fluid_side(
                 f"the structure interface has {n_nodes} points, the scenario's members "
                 f"{[m for m, _ in members]} give {expected.stop}"
             )
+        if restart is None:
+            log_lattice_notes(sc.fluid, log)
         fluid = FluidParticipant(
             sc.fluid, mesh, base_dir=loaded.path.parent, member_names=[m for m, _ in members]
         )
@@ -644,7 +657,9 @@ def _fluid_side(
         failed_at = fluid.time
         peer_alive = remote is None or not isinstance(exc, PeerLostError | PeerError)
         try:
-            results.write_snapshot(failed_at, solver.pos, solver.vel, solver.p, solver.kind)
+            results.write_snapshot(
+                failed_at, solver.pos, solver.vel, solver.p, solver.kind, failure=str(exc)
+            )
         except Exception:  # noqa: BLE001 - the state may be unwritable; the checkpoint matters more
             pass
         where = "the last checkpoint"

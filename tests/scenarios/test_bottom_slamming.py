@@ -161,9 +161,14 @@ def test_elastic_plate_couples_and_rises(elastic_run):
     assert res.status == "finished"
     with h5py.File(elastic_run, "r") as h5:
         td, u = h5["probes"]["plate_mid"]["time"][:], h5["probes"]["plate_mid"]["value"][:]
+        tf, f = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:]
         iterations = h5["coupling"]["iterations"][:]
-    before = td < res.contact_time_s - 0.01
-    assert np.all(np.abs(u[before]) < 1e-9)
+    # at rest until the first touch of water (any force; the contact time of the analysis is
+    # when the uplift first exceeds 2 % of its peak, and a touch just below that moves it)
+    first_touch = tf[np.flatnonzero(np.abs(f).max(axis=1) > 0.0)[0]]
+    assert first_touch <= res.contact_time_s
+    before = td < first_touch
+    assert before.sum() > 100 and np.all(np.abs(u[before]) < 1e-9)
     e, t = 1e6, 0.015
     q = res.peak_uplift_smooth / bs.PLATE_LENGTH
     static = 5.0 * q * bs.PLATE_LENGTH**4 / (384.0 * e * t**3 / 12.0)

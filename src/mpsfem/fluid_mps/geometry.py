@@ -1,11 +1,20 @@
 """Particle generation from the geometry primitives of a scenario (boxes, tanks).
 
 Conventions (every dimension):
-- fluid particles sit at the cell centres of the square (cubic) lattice of spacing l0 that starts
-  at a block's lower corner: ``lower + (i + 1/2) l0``; a block of size L holds ``round(L / l0)``
-  particles per axis, so its faces are the physical fluid boundaries;
+- fluid particles sit at the cell centres ``origin + (i + 1/2) l0`` of one square (cubic)
+  lattice of spacing l0 whose origin is the first fluid block's lower corner
+  (:func:`lattice_origin`); every block's corners are moved to the nearest lattice line, so a
+  block of size L holds ``round(L / l0)`` particles per axis and overlapping blocks share sites;
+- a wall box (tank or solid) also holds a whole number ``round(L / l0)`` of cells per axis. Per
+  axis it keeps, as given, the face nearer a lattice line (the lower face on a tie, and always
+  the floor of a tank) and the other face follows (:func:`wall_corners`). A box whose fluid-side
+  face is on the lattice, whatever its thickness (a paddle at x = 0 in front of water starting at
+  x = 0), thus has its pressure layer a whole spacing from the first fluid particle, while a face
+  off the lattice (a deck above the water) stays where the scenario puts it.
+  :func:`lattice_notes` lists every face the particles move (``mpsfem run`` and ``validate``
+  print them);
 - a wall's physical surface is the face of its box; the pressure layer sits half a spacing
-  behind it and dummy layers follow at l0 intervals, so fluid and wall lattices line up;
+  behind it and dummy layers follow at l0 intervals;
 - a wall particle's layer is its lattice distance behind the face (the largest over the axes),
   layer 0 is the pressure layer (kind WALL) and deeper layers are DUMMY;
 - wall normals are unit vectors from the particle towards the fluid side (for force probes).
@@ -66,6 +75,87 @@ def default_dummy_layers(max_re: float) -> int:
     return int(math.ceil(max_re - 0.5)) + 1
 
 
+#: a corner closer than this (in spacings) to a lattice line is on the lattice and kept as given
+ON_LATTICE = 1e-6
+
+
+def lattice_origin(fluid: FluidSection) -> tuple[np.ndarray, str]:
+    """Origin of the scene's particle lattice (m) and the key it comes from: the first fluid
+    block's lower corner (the fluid is what the lattice is for; the walls follow it)."""
+    return np.asarray(fluid.blocks[0].lower, dtype=np.float64), "fluid.blocks[0].lower"
+
+
+def snap_to_lattice(x, origin: np.ndarray, l0: float) -> np.ndarray:
+    """``x`` (m) moved to the nearest lattice line ``origin + k l0`` per axis; coordinates within
+    ``ON_LATTICE`` l0 of a line are kept bit for bit."""
+    x = np.asarray(x, dtype=np.float64)
+    snapped = origin + np.rint((x - origin) / l0) * l0
+    return np.where(np.abs(x - snapped) <= ON_LATTICE * l0, x, snapped)
+
+
+def wall_corners(
+    lower, upper, l0: float, origin: np.ndarray, floor_axis: int | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """The corners (m) a wall box's particles fill: ``round(L / l0)`` cells per axis, keeping the
+    face nearer a lattice line of ``origin`` as given (the lower face on a tie, and always along
+    ``floor_axis``, a tank's floor)."""
+    lo = np.asarray(lower, dtype=np.float64)
+    hi = np.asarray(upper, dtype=np.float64)
+    cells = np.rint((hi - lo) / l0)
+    off_lo = np.abs(lo - snap_to_lattice(lo, origin, l0))
+    off_hi = np.abs(hi - snap_to_lattice(hi, origin, l0))
+    keep_upper = off_hi < off_lo - ON_LATTICE * l0
+    if floor_axis is not None:
+        keep_upper[floor_axis] = False
+    new_lo = np.where(keep_upper, hi - cells * l0, lo)
+    new_hi = np.where(keep_upper, hi, lo + cells * l0)
+    return new_lo, new_hi
+
+
+def scene_corners(fluid: FluidSection) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """(key, lower, upper) of the boxes the particles fill (m), blocks then walls in scenario
+    order: blocks snapped to the lattice, walls by :func:`wall_corners`."""
+    l0 = fluid.spacing
+    origin, _ = lattice_origin(fluid)
+    out = [
+        (
+            f"fluid.blocks[{i}]",
+            snap_to_lattice(b.lower, origin, l0),
+            snap_to_lattice(b.upper, origin, l0),
+        )
+        for i, b in enumerate(fluid.blocks)
+    ]
+    for i, w in enumerate(fluid.walls):
+        floor = fluid.vertical_axis if w.shape == "tank" else None
+        out.append((f"fluid.walls[{i}]", *wall_corners(w.lower, w.upper, l0, origin, floor)))
+    return out
+
+
+def _short(v) -> list[float]:
+    return [float(f"{x:.6g}") for x in v]
+
+
+def lattice_notes(fluid: FluidSection) -> list[str]:
+    """One line per block or wall whose particles put a face elsewhere than the scenario does
+    (by more than ``ON_LATTICE`` l0): the key, the corners given and the corners filled."""
+    l0 = fluid.spacing
+    given = [*fluid.blocks, *fluid.walls]
+    notes = []
+    for item, (key, lo, hi) in zip(given, scene_corners(fluid), strict=True):
+        moved = max(
+            float(np.max(np.abs(np.asarray(item.lower) - lo))),
+            float(np.max(np.abs(np.asarray(item.upper) - hi))),
+        )
+        if moved > ON_LATTICE * l0:
+            name = f" ({item.name})" if getattr(item, "name", None) else ""
+            notes.append(
+                f"{key}{name}: lower = {list(item.lower)}, upper = {list(item.upper)} filled as "
+                f"{_short(lo)} .. {_short(hi)} (whole spacings of {l0:.6g} m; faces moved by up "
+                f"to {moved / l0:.3g} l0)"
+            )
+    return notes
+
+
 def _lattice(lower: np.ndarray, counts: np.ndarray, l0: float, start: np.ndarray) -> np.ndarray:
     """Cell centres ``lower + (start + i + 1/2) l0`` for i in range(counts) per axis."""
     axes = [lower[k] + (start[k] + np.arange(counts[k]) + 0.5) * l0 for k in range(len(lower))]
@@ -73,16 +163,15 @@ def _lattice(lower: np.ndarray, counts: np.ndarray, l0: float, start: np.ndarray
     return np.stack([g.ravel() for g in grid], axis=1)
 
 
-def fluid_block(lower: list[float], upper: list[float], l0: float) -> np.ndarray:
-    """Fluid particle positions (n x dim, m) filling the box ``lower..upper``."""
+def fluid_block(lower, upper, l0: float) -> np.ndarray:
+    """Fluid particle positions (n x dim, m) filling the box ``lower..upper`` (lattice corners:
+    :func:`snap_to_lattice`)."""
     lo = np.asarray(lower, dtype=np.float64)
     counts = np.rint((np.asarray(upper) - lo) / l0).astype(np.int64)
     return _lattice(lo, counts, l0, np.zeros_like(counts))
 
 
-def tank_walls(
-    lower: list[float], upper: list[float], l0: float, layers: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def tank_walls(lower, upper, l0: float, layers: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Floor and side walls around the box ``lower..upper`` (top open).
 
     Returns positions (n x dim), layer index (n,) and normals towards the fluid (n x dim).
@@ -108,9 +197,7 @@ def tank_walls(
     return pts, layer, normal
 
 
-def solid_box(
-    lower: list[float], upper: list[float], l0: float, layers: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def solid_box(lower, upper, l0: float, layers: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Wall particles of a solid obstacle filling ``lower..upper`` to ``layers`` deep."""
     lo = np.asarray(lower, dtype=np.float64)
     hi = np.asarray(upper, dtype=np.float64)
@@ -140,6 +227,33 @@ def _inside_any(pts: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray]]) -> 
     return mask
 
 
+def _refuse_overlapping_walls(
+    wall_pos: np.ndarray, patches: list[WallPatch], n_wall: int, l0: float
+) -> None:
+    """Raise when two wall particles share a site (walls overlapping each other: the kernel of
+    the pair is singular or huge), naming both walls."""
+    if n_wall == 0:
+        return
+    site = np.rint(wall_pos / l0 * 1e3).astype(np.int64)  # 1e-3 l0 apart is the same site
+    _, first, counts = np.unique(site, axis=0, return_index=True, return_counts=True)
+    if np.all(counts == 1):
+        return
+    dup = int(np.flatnonzero(counts > 1)[0])
+    same = np.flatnonzero(np.all(site == site[first[dup]], axis=1))
+    offset = patches[0].start if patches else 0
+    owners = []
+    for i in same[:2]:
+        k = next(j for j, pt in enumerate(patches) if pt.start <= i + offset < pt.stop)
+        owners.append(f"fluid.walls[{k}] ({patches[k].name})")
+    where = [float(f"{x:.6g}") for x in wall_pos[same[0]]]
+    raise ValueError(
+        f"{' and '.join(owners) if owners[0] != owners[-1] else owners[0]} put two wall "
+        f"particles at {where}: the walls overlap ({int(counts[dup])} particles at one site, "
+        f"{int((counts > 1).sum())} such sites); walls must not overlap, shorten or move one "
+        "(a box resting on a tank's floor starts at the floor's face)"
+    )
+
+
 def build_particles(fluid: FluidSection, external: Sequence[ExternalPatch] = ()) -> ParticleSet:
     """All particles of a scene: fluid first, then each wall's particles in scenario order, then
     the external patches."""
@@ -148,14 +262,13 @@ def build_particles(fluid: FluidSection, external: Sequence[ExternalPatch] = ())
     max_re = max(k.re_density, k.re_gradient, k.re_laplacian, k.re_pressure)
     layers = fluid.dummy_layers + 1 if fluid.dummy_layers else default_dummy_layers(max_re)
 
-    solids = [
-        (np.asarray(w.lower, dtype=np.float64), np.asarray(w.upper, dtype=np.float64))
-        for w in fluid.walls
-        if w.shape == "box"
-    ]
+    corners = [(lo, hi) for _, lo, hi in scene_corners(fluid)]
+    block_corners = corners[: len(fluid.blocks)]
+    wall_corners = corners[len(fluid.blocks) :]
+    solids = [c for c, w in zip(wall_corners, fluid.walls, strict=True) if w.shape == "box"]
     fluid_pts, fluid_vel = [], []
-    for b in fluid.blocks:
-        pts = fluid_block(b.lower, b.upper, l0)
+    for b, (lo, hi) in zip(fluid.blocks, block_corners, strict=True):
+        pts = fluid_block(lo, hi, l0)
         pts = pts[~_inside_any(pts, solids)]
         for ext in external:
             if ext.inside is not None:
@@ -180,11 +293,11 @@ def build_particles(fluid: FluidSection, external: Sequence[ExternalPatch] = ())
     normal = [np.zeros_like(fpos)]
     patches: list[WallPatch] = []
     n = len(fpos)
-    for i, w in enumerate(fluid.walls):
+    for i, (w, (lo, hi)) in enumerate(zip(fluid.walls, wall_corners, strict=True)):
         if w.shape == "tank":
-            pts, layer, nrm = tank_walls(w.lower, w.upper, l0, layers)
+            pts, layer, nrm = tank_walls(lo, hi, l0, layers)
         else:
-            pts, layer, nrm = solid_box(w.lower, w.upper, l0, layers)
+            pts, layer, nrm = solid_box(lo, hi, l0, layers)
         kinds = np.where(layer == 0, WALL, DUMMY).astype(np.int8)
         pos.append(pts)
         vel.append(np.zeros_like(pts))
@@ -192,6 +305,9 @@ def build_particles(fluid: FluidSection, external: Sequence[ExternalPatch] = ())
         normal.append(np.where((layer == 0)[:, None], nrm, 0.0))
         patches.append(WallPatch(w.name or f"wall{i}", n, n + len(pts), w))
         n += len(pts)
+    _refuse_overlapping_walls(
+        np.concatenate(pos[1:]) if len(pos) > 1 else fpos, patches, n - len(fpos), l0
+    )
     for ext in external:
         pos.append(np.asarray(ext.pos, dtype=np.float64))
         vel.append(np.zeros_like(pos[-1]))
