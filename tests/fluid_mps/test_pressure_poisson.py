@@ -62,6 +62,23 @@ def column():
     return Column()
 
 
+def test_matrix_too_large_for_int32_indices_is_refused(column, monkeypatch):
+    """The int32 row pointer would wrap past 2^31 - 1 nonzeros (3D at 4.01 l0: 8.4 M rows) and
+    the fill would write past its buffers; the assembly refuses it first (limit lowered here)."""
+    import mpsfem.fluid_mps.pressure_poisson as ppe
+
+    s = column.solver()
+    A, _, m = s.assemble(column.pos, column.vel, column.kind, column.n, column.fs, column.nb, DT)
+    monkeypatch.setattr(ppe, "INT32_MAX", A.nnz - 1)
+    with pytest.raises(ValueError, match=rf"would hold {A.nnz} nonzeros \({m} rows\)"):
+        s.assemble(column.pos, column.vel, column.kind, column.n, column.fs, column.nb, DT)
+    monkeypatch.setattr(ppe, "INT32_MAX", A.nnz)
+    assert (
+        s.assemble(column.pos, column.vel, column.kind, column.n, column.fs, column.nb, DT)[0].nnz
+        == A.nnz
+    )
+
+
 def test_matrix_is_symmetric_with_positive_diagonal(column):
     s = column.solver()
     A, b, m = s.assemble(column.pos, column.vel, column.kind, column.n, column.fs, column.nb, DT)
@@ -98,6 +115,22 @@ def test_hydrostatic_column_one_projection(column):
     assert np.all(p[column.kind == DUMMY] == 0.0)
     floor = (column.kind == WALL) & (y < 0)
     assert np.all(p[floor] > 0.85 * RHO * G * H)
+
+
+def test_direct_solver_checks_its_residual(column, monkeypatch):
+    """An LU result that does not solve the system (here: a perturbed one, as a near-singular
+    matrix gives) stops the step, as a CG that misses its tolerance does."""
+    import scipy.sparse.linalg as sla
+
+    from mpsfem.fluid_mps.pressure_poisson import PressureSolveError
+
+    exact = sla.spsolve
+    monkeypatch.setattr(sla, "spsolve", lambda A, b: exact(A, b) * (1.0 + 1e-3))
+    with pytest.raises(PressureSolveError, match="direct.*relative residual 1.0..e-03 > tol"):
+        column.solve(column.solver("direct"))
+    monkeypatch.setattr(sla, "spsolve", exact)
+    _, info = column.solve(column.solver("direct"))
+    assert info.residual < 1e-10
 
 
 @pytest.mark.parametrize("name", sorted(SOLVERS))

@@ -75,6 +75,10 @@ WATER_COMPRESSIBILITY = 4.5e-10  # 1/Pa, 1 / (rho c^2) for water
 WALL_MODELS = ("pressure_layer", "neumann")
 
 
+#: largest nonzero count the int32 CSR arrays of the pressure matrix address
+INT32_MAX = 2**31 - 1
+
+
 class PressureSolveError(RuntimeError):
     """The pressure Poisson equation did not reach its tolerance."""
 
@@ -695,8 +699,15 @@ class PressureSolver:
             mats[1].counts,
         )
         for mat in mats:
+            nnz = int(mat.counts[:m].sum())  # int64: the int32 row pointer would wrap past 2^31
+            if nnz > INT32_MAX:
+                raise ValueError(
+                    f"the pressure matrix would hold {nnz} nonzeros ({m} rows), more than its "
+                    f"32-bit CSR indices address ({INT32_MAX}): use fewer particles or a smaller "
+                    "fluid.kernel.re_pressure"
+                )
             _prefix(mat.counts, m, mat.a_ptr[: m + 1])  # (unused for the second if not two)
-            mat.ensure_nnz(int(mat.a_ptr[m]))
+            mat.ensure_nnz(nnz)
         main, pre = mats
         _fill(
             pos,
@@ -978,6 +989,12 @@ class DirectSolver(PressureSolver):
         bnorm = np.sqrt(_dot(b, b, self.part))
         info.iterations = 1
         info.residual = float(np.sqrt(rr) / bnorm) if bnorm > 0 else 0.0
+        if not info.residual <= self.tol:  # a singular or ill-conditioned LU (NaN fails too)
+            raise PressureSolveError(
+                f"pressure Poisson equation (direct, {b.shape[0]} rows) solved to a relative "
+                f"residual {info.residual:.3e} > tol {self.tol:.1e}: the matrix is singular or "
+                "ill-conditioned (check the particle configuration, or use pcg_amg)"
+            )
 
 
 class AMGPCG(PressureSolver):
