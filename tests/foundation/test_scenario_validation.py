@@ -308,6 +308,22 @@ def test_whole_scenario_check_prints_no_dump():
             ["fluid.time_step.dt_initial=1e-9"],
             "fluid.time_step.dt_initial = 1e-09: must lie in [dt_min, dt_max]",
         ),
+        (
+            ["fluid.domain_lower=[-0.1, -0.1]", "fluid.domain_upper=[0.15, 1.5]"],
+            "fluid.domain_upper = [0.15, 1.5]: leaves fluid.blocks[0] ([0.0, 0.0] .. [0.2, 0.4]) "
+            "partly outside the domain",
+        ),
+        (
+            ["fluid.domain_lower=[0.05, -0.1]"],
+            "fluid.domain_lower = [0.05, -0.1]: leaves fluid.blocks[0]",
+        ),
+        (
+            [
+                "fluid.sponges=[{start = 0.3, end = 0.5, coefficient = 600.0}, "
+                "{start = 0.2, end = 0.0, coefficient = 600.0}]"
+            ],
+            "fluid.time_step.dt_max = 0.001: times the summed sponge coefficients 1200 1/s is 1.2",
+        ),
     ],
 )
 def test_lengths_and_orderings_are_checked(overrides, expect):

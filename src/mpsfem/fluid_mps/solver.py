@@ -38,7 +38,7 @@ from mpsfem.fluid_mps.dummy_pressure import dummy_sources, extrapolate_dummy_pre
 from mpsfem.fluid_mps.geometry import ExternalPatch, build_particles, hydrostatic_pressure
 from mpsfem.fluid_mps.kernels import weight_code
 from mpsfem.fluid_mps.lattice import lattice_constants
-from mpsfem.fluid_mps.neighbours import NeighbourSearch
+from mpsfem.fluid_mps.neighbours import NeighbourSearch, build_neighbours
 from mpsfem.fluid_mps.particle_kinds import dummy_mask
 from mpsfem.fluid_mps.pressure_poisson import make_pressure_solver
 from mpsfem.fluid_mps.sponge import SpongeLayer
@@ -148,6 +148,7 @@ class FluidSolver:
         #: short_margin / 2, or a neighbour filter that dropped pairs)
         self.short_refilters = 0
         self.lower, self.upper = self._domain(spec)
+        self._check_grid_size(spec)
         self.search = NeighbourSearch(
             self.dim,
             self.search_radius,
@@ -206,8 +207,15 @@ class FluidSolver:
             self.pos, self.kind, [(pt.start, pt.stop) for pt in self.patches]
         )
         g_abs = float(np.linalg.norm(self.gravity))
+        wall_index = {id(w): i for i, w in enumerate(spec.walls)}
         self.motions = [
-            MotionLaw(pt.spec.motion, base_dir, gravity=g_abs, dim=self.dim)
+            MotionLaw(
+                pt.spec.motion,
+                base_dir,
+                gravity=g_abs,
+                dim=self.dim,
+                key=f"fluid.walls[{wall_index[id(pt.spec)]}].motion",
+            )
             for pt in self.patches
             if pt.spec is not None
         ]
@@ -219,7 +227,6 @@ class FluidSolver:
         self.t = 0.0
         self.step_count = 0
         ts = spec.time_step
-        self.dt_next = ts.dt_initial or ts.dt_max
         self.times = StageTimes()
         self.last_iterations = 0
         self._last_neighbours = None
@@ -227,8 +234,37 @@ class FluidSolver:
         self._uf_parent: np.ndarray | None = None
         self._gauge_work: np.ndarray | None = None
         self._uf_size: np.ndarray | None = None
+        # the first step obeys the Courant and viscous limits too (a block that starts moving)
+        self.dt_next = min(ts.dt_initial or ts.dt_max, self.stable_dt())
 
     # ------------------------------------------------------------------ set-up helpers
+    #: neighbour-grid cells allowed per particle (8 B each in the cell index), plus a base
+    MAX_CELLS_PER_PARTICLE = 64
+    MAX_CELLS_BASE = 2**20
+
+    def _check_grid_size(self, spec: FluidSection) -> None:
+        """Refuse a domain whose neighbour grid would dwarf the particles (a 100 m box at 1 mm:
+        2.5e9 cells, 20 GB) before anything is allocated for it."""
+        cells = np.maximum(1.0, np.ceil((self.upper - self.lower) / self.search_radius))
+        ncell = float(np.prod(cells))
+        limit = self.MAX_CELLS_PER_PARTICLE * self.n + self.MAX_CELLS_BASE
+        if ncell > limit:
+            given = spec.domain_lower is not None or spec.domain_upper is not None
+            where = (
+                f"fluid.domain_lower .. fluid.domain_upper = {self.lower.tolist()} .. "
+                f"{self.upper.tolist()}"
+                if given
+                else f"the default domain {self.lower.tolist()} .. {self.upper.tolist()} (the "
+                "scene's bounding box grown by 10 l0, and 1 m upwards)"
+            )
+            raise ValueError(
+                f"{where}: its neighbour grid of cells {self.search_radius:.3g} m wide would hold "
+                f"{ncell:.3g} cells for {self.n} particles; allowed at most "
+                f"{self.MAX_CELLS_PER_PARTICLE} per particle + {self.MAX_CELLS_BASE} ({limit}): "
+                "give a domain closer to where the fluid can go (fluid.domain_lower, "
+                "fluid.domain_upper)"
+            )
+
     def _domain(self, spec: FluidSection) -> tuple[np.ndarray, np.ndarray]:
         if spec.domain_lower is not None and spec.domain_upper is not None:
             return (np.asarray(spec.domain_lower, float), np.asarray(spec.domain_upper, float))
@@ -309,7 +345,7 @@ class FluidSolver:
         return self.search.within(self.pos, self.short_radius, nb)
 
     def _viscous_laplacian(self, nb) -> None:
-        """lap_u = Laplacian of the velocity (thesis eq. 2-13, re_lap) at the current positions.
+        """lap_u = Laplacian of the velocity (thesis eq. 2-16, re_lap) at the current positions.
 
         The pair list may be the one built at this step's r* (the end-of-step call): the
         distances are recomputed from the current positions, and a pair missing from it is one
@@ -625,9 +661,12 @@ class FluidSolver:
                 )
             return h - probe.reference_level
         if probe.kind == "front":
+            link = probe.link_distance * l0
             nb = self._last_neighbours
             if nb is None:
                 nb = self._last_neighbours = self._neighbours()
+            if link > self.search_radius:  # longer than the step's list holds: a list of its own
+                nb = build_neighbours(self.pos, link, domain=(self.lower, self.upper))
             if self._uf_parent is None:
                 self._uf_parent = np.empty(self.n, np.int64)
                 self._uf_size = np.empty(self.n, np.int64)
@@ -636,7 +675,7 @@ class FluidSolver:
                 self.kind,
                 nb.indptr,
                 nb.indices,
-                probe.link_distance * l0,
+                link,
                 probe.axis,
                 probe.min_cluster_fraction,
                 l0,

@@ -16,7 +16,7 @@ class KernelSection(Section):
 
     weight: Literal["improved", "original"] = Field(
         "improved",
-        description="weight function: 'improved' w = re/(0.85 r + 0.15 re) - 1 (thesis eq. 2-2) "
+        description="weight function: 'improved' w = re/(0.85 r + 0.15 re) - 1 (thesis eq. 2-4) "
         "or 'original' w = re/r - 1 (Koshizuka & Oka 1996)",
     )
     re_density: float = Field(
@@ -148,7 +148,10 @@ class TimeStepSection(Section):
         1e-8, gt=0.0, description="smallest allowed time step, s; needing less stops the run"
     )
     dt_initial: float | None = Field(
-        None, gt=0.0, description="first time step, s (default: dt_max); dt_min <= it <= dt_max"
+        None,
+        gt=0.0,
+        description="first time step, s (default: dt_max), lowered to the Courant and "
+        "viscous limits of the initial velocities; dt_min <= it <= dt_max",
     )
 
     @model_validator(mode="after")
@@ -499,6 +502,31 @@ class FluidSection(Section):
         for i, z in enumerate(self.sponges):
             if z.axis >= d:
                 raise InvalidValue(f"sponges[{i}].axis", f"must be below dim = {d}", z.axis)
+        rate = sum(z.coefficient for z in self.sponges)
+        if rate * self.time_step.dt_max > 1.0:
+            raise InvalidValue(
+                "time_step.dt_max",
+                f"times the summed sponge coefficients {rate:g} 1/s is "
+                f"{rate * self.time_step.dt_max:.3g}: the explicit sponge factor 1 - dt alpha_s r "
+                f"(thesis eq. 3-9) needs dt_max <= {1.0 / rate:.3g} s (or smaller "
+                "fluid.sponges[*].coefficient)",
+                self.time_step.dt_max,
+            )
+        for key, corner, outside in (
+            ("domain_lower", self.domain_lower, lambda b, a, c: b.lower[a] < c[a]),
+            ("domain_upper", self.domain_upper, lambda b, a, c: b.upper[a] > c[a]),
+        ):
+            if corner is None:
+                continue
+            for i, b in enumerate(self.blocks):
+                if any(outside(b, a, corner) for a in range(d)):
+                    raise InvalidValue(
+                        key,
+                        f"leaves fluid.blocks[{i}] ({b.lower} .. {b.upper}) partly outside the "
+                        "domain; a fluid particle outside it stops the run: the domain must "
+                        "contain every block",
+                        corner,
+                    )
         eps = 1e-9
         for i, b in enumerate(self.blocks):
             for j, t in enumerate(self.walls):
