@@ -164,3 +164,62 @@ def test_failure_in_the_first_sample_checkpoints_the_initial_state(tmp_path, mon
     fresh = FluidSolver(loaded.scenario.fluid).state()
     for key in ("pos", "vel", "p"):
         assert np.array_equal(arrays["fluid"][key], fresh[key]), key
+
+
+FAIL_SCENE = """
+[run]
+end_time = 0.012
+[output]
+probe_interval = 0.001
+snapshot_interval = 0.004
+checkpoint_interval = 0
+[fluid]
+spacing = 0.01
+[fluid.time_step]
+dt_max = 1e-3
+[[fluid.blocks]]
+lower = [0.0, 0.0]
+upper = [0.1, 0.1]
+[[fluid.walls]]
+shape = "tank"
+lower = [0.0, 0.0]
+upper = [0.3, 0.2]
+"""
+
+
+def test_a_failed_steps_state_is_flagged_and_a_restart_drops_it(tmp_path, monkeypatch):
+    """A pressure solve failing in step 5 (t = 0.004 -> 0.005): the partly updated state is the
+    last snapshot, flagged ``failure`` and left out of the sidecar; the restart from the last
+    good state deletes it (before: it stayed, a second snapshot at t = 0.004 holding r*, u*)."""
+    from mpsfem.fluid_mps import pressure_poisson
+    from mpsfem.results.xdmf import xdmf_path
+    from mpsfem.scenario.loader import load_scenario_text
+    from mpsfem.simulation import RunFailed, run_fluid
+
+    loaded = load_scenario_text(FAIL_SCENE)
+    out = tmp_path / "r.h5"
+    original = pressure_poisson.PressureSolver.solve
+    calls = []
+
+    def failing(self, *args, **kwargs):
+        calls.append(1)
+        if len(calls) == 5:
+            raise pressure_poisson.PressureSolveError("injected: did not converge")
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(pressure_poisson.PressureSolver, "solve", failing)
+    with pytest.raises(RunFailed, match="injected"):
+        run_fluid(loaded, out, progress=False, log=lambda msg: None)
+    monkeypatch.setattr(pressure_poisson.PressureSolver, "solve", original)
+    with h5py.File(out, "r") as h5:
+        snaps = [h5["particles"][k].attrs for k in sorted(h5["particles"])]
+        assert [float(a["time"]) for a in snaps] == pytest.approx([0.0, 0.004, 0.004])
+        assert ["failure" in a for a in snaps] == [False, False, True]
+        assert "injected" in snaps[-1]["failure"]
+    assert xdmf_path(out).read_text().count('GridType="Uniform"') == 2
+    run_fluid(loaded, out, restart=tmp_path / "r.ckpt.h5", progress=False, log=lambda m: None)
+    with h5py.File(out, "r") as h5:
+        snaps = [h5["particles"][k].attrs for k in sorted(h5["particles"])]
+        assert [float(a["time"]) for a in snaps] == pytest.approx([0.0, 0.004, 0.008, 0.012])
+        assert not any("failure" in a for a in snaps)
+        assert h5.attrs["status"] == "finished"

@@ -141,7 +141,8 @@ class ResultsFile:
             for ds in g.values():
                 ds.resize(keep, axis=0)
         for key in list(self._h5["particles"].keys()):
-            if self._h5["particles"][key].attrs["time"] > t:
+            attrs = self._h5["particles"][key].attrs
+            if attrs["time"] > t or "failure" in attrs:  # a failed step's state goes too
                 del self._h5["particles"][key]
         self._n_snapshots = len(self._h5["particles"])
 
@@ -216,12 +217,24 @@ class ResultsFile:
 
     # ------------------------------------------------------------------ particles
     def write_snapshot(
-        self, t: float, pos: np.ndarray, vel: np.ndarray, p: np.ndarray, kind: np.ndarray
+        self,
+        t: float,
+        pos: np.ndarray,
+        vel: np.ndarray,
+        p: np.ndarray,
+        kind: np.ndarray,
+        failure: str | None = None,
     ) -> str:
-        """Write particle snapshot ``/particles/<k>``; returns its key."""
+        """Write particle snapshot ``/particles/<k>`` at time ``t`` (s); returns its key.
+
+        ``failure``: the state a failed step left (partly updated, so ``t`` is only the time the
+        step started from or reached), with the reason as attribute ``failure``. It is for
+        diagnosis: the XDMF sidecar leaves it out and a restart deletes it."""
         key = f"{self._n_snapshots:0{SNAPSHOT_DIGITS}d}"
         g = self._h5["particles"].create_group(key)
         g.attrs["time"] = float(t)
+        if failure is not None:
+            g.attrs["failure"] = str(failure)
         g.create_dataset("pos", data=pos)
         g.create_dataset("vel", data=vel)
         g.create_dataset("p", data=p)

@@ -14,12 +14,15 @@ def xdmf_path(results_path: str | Path) -> Path:
 
 
 def write_xdmf(h5: h5py.File, out: str | Path) -> Path:
-    """Write ``out`` describing every ``/particles/<k>`` snapshot of the open file ``h5``."""
+    """Write ``out`` describing every ``/particles/<k>`` snapshot of the open file ``h5`` but a
+    failed step's state (attribute ``failure``: not a time of the series)."""
     out = Path(out)
     href = Path(h5.filename).name
     grids = []
     for key in sorted(h5["particles"]):
         g = h5["particles"][key]
+        if "failure" in g.attrs:
+            continue
         n, dim = g["pos"].shape
         geom = "XY" if dim == 2 else "XYZ"
         path = f"{href}:/particles/{key}"
