@@ -186,15 +186,15 @@ def test_table_interpolates_and_uses_the_segment_slope(tmp_path):
     f = tmp_path / "paddle.csv"
     f.write_text("# t, x\n0.0, 0.0\n0.5, 0.1\n1.0, 0.1\n2.0, -0.1\n")
     law = MotionLaw(WallMotion(kind="table", file="paddle.csv"), base_dir=tmp_path)
-    cases = {
+    cases = {  # at a knot: the slope of the segment ending there
         -1.0: (0.0, 0.0),
-        0.0: (0.0, 0.2),
+        0.0: (0.0, 0.0),
         0.25: (0.05, 0.2),
-        0.5: (0.1, 0.0),
+        0.5: (0.1, 0.2),
         0.75: (0.1, 0.0),
         1.5: (0.0, -0.2),
         1.999: (-0.0998, -0.2),
-        2.0: (-0.1, 0.0),
+        2.0: (-0.1, -0.2),
         5.0: (-0.1, 0.0),
     }
     for t, (s, v) in cases.items():
@@ -207,13 +207,41 @@ def test_table_interpolates_and_uses_the_segment_slope(tmp_path):
     assert np.max(np.abs(integral - pos)) < 2e-4  # trapezoid across the 3 slope jumps
 
 
+def test_table_velocity_agrees_with_the_step_that_ends_at_a_knot(tmp_path):
+    """A table sampled at the solver's step (1 ms) and times accumulated step by step, as the
+    solver does (t += dt, so t lands a rounding error either side of a knot): at the end of
+    each step the velocity is the slope of the segment the step moved along (before: the next
+    segment's slope in 1002 of 1500 steps, by rounding alone)."""
+    t_knots = np.arange(1501) * 1e-3
+    x = 0.05 * np.sin(2 * np.pi * t_knots / 0.7) ** 3  # slopes change at every knot
+    f = tmp_path / "signal.csv"
+    np.savetxt(f, np.column_stack([t_knots, x]), delimiter=",")
+    law = MotionLaw(WallMotion(kind="table", file=str(f)))
+    t, wrong = 0.0, 0
+    for _ in range(1, 1501):
+        s0 = law(t)[0]
+        t += 1e-3
+        s1, v = law(t)
+        wrong += abs(v - (s1 - s0) / 1e-3) > 1e-6
+    assert wrong == 0
+
+
 def test_table_file_errors(tmp_path):
     f = tmp_path / "bad.csv"
     f.write_text("0.0, 0.0\n0.0, 0.1\n")
-    with pytest.raises(ValueError, match="increasing t"):
+    with pytest.raises(ValueError, match="motion.file = .*t must increase.*data row 2"):
         MotionLaw(WallMotion(kind="table", file=str(f)))
     with pytest.raises(ValueError, match="no such file"):
         MotionLaw(WallMotion(kind="table", file=str(tmp_path / "missing.csv")))
+    f.write_text("0.0, 0.0\n0.5, nan\n1.0, 0.1\n")
+    with pytest.raises(ValueError, match=r"data row 2 \[0.5, nan\] is not finite"):
+        MotionLaw(WallMotion(kind="table", file=str(f)), key="fluid.walls[1].motion")
+    f.write_text("0.0, 0.0\nnan, 0.1\n1.0, 0.1\n")
+    with pytest.raises(ValueError, match=r"^fluid.walls\[1\].motion.file = .* row 2"):
+        MotionLaw(WallMotion(kind="table", file=str(f)), key="fluid.walls[1].motion")
+    f.write_text("0.0, 0.0\n0.5, abc\n")
+    with pytest.raises(ValueError, match="not a table of numbers"):
+        MotionLaw(WallMotion(kind="table", file=str(f)))
 
 
 # ---------------------------------------------------------------------------- schema

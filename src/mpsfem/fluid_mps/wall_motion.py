@@ -4,8 +4,9 @@ Kinds (schema: ``mpsfem.scenario.fluid.WallMotion``; formulas: docs/wave_tank.md
 
 - ``harmonic``: s = amplitude sin(2 pi t / period + phase);
 - ``table``: s from a CSV of (t, s) rows, linear interpolation; the velocity is the slope of the
-  segment containing t (at a knot, the segment that starts there), 0 before the first and from
-  the last row on, where the position is held;
+  segment containing t (at a knot, within 1e-9 of the shortest row interval, the segment that
+  ends there: the one a time step ending at the knot moved along, however t was rounded), 0 up
+  to the first row and after the last, where the position is held;
 - ``solitary``: Goring (1978) piston paddle (:class:`~mpsfem.fluid_mps.wavemaker.SolitaryPaddle`);
 - ``regular``: linear piston paddle (:class:`~mpsfem.fluid_mps.wavemaker.RegularPaddle`).
 
@@ -32,10 +33,12 @@ class MotionLaw:
         base_dir: Path | None = None,
         gravity: float | None = None,
         dim: int = 2,
+        key: str = "motion",
     ) -> None:
         """``base_dir``: where a relative ``motion.file`` is looked up; ``gravity``: |g| (m/s^2)
         of the fluid section, needed by the wavemakers ('solitary', 'regular'); ``dim``: the
-        scene's dimension (the default direction is +x)."""
+        scene's dimension (the default direction is +x); ``key``: the motion's dotted key in the
+        scenario, for error messages (``fluid.walls[1].motion``)."""
         self.kind = spec.kind
         if spec.direction is None:
             d = np.zeros(dim)
@@ -44,7 +47,7 @@ class MotionLaw:
             d = np.asarray(spec.direction, dtype=np.float64)
         norm = float(np.linalg.norm(d))
         if norm == 0.0:
-            raise ValueError("motion.direction = [0, ...]: must be a non-zero vector")
+            raise ValueError(f"{key}.direction = [0, ...]: must be a non-zero vector")
         self.direction = d / norm
         self.spec = spec
         self.paddle: SolitaryPaddle | RegularPaddle | None = None
@@ -53,19 +56,38 @@ class MotionLaw:
             if base_dir is not None and not path.is_absolute():
                 path = base_dir / path
             if not path.is_file():
-                raise ValueError(f"motion.file = {spec.file!r}: no such file")
-            data = np.loadtxt(path, delimiter=",", comments="#", ndmin=2)
-            if data.shape[0] < 2 or data.shape[1] < 2 or np.any(np.diff(data[:, 0]) <= 0):
+                raise ValueError(f"{key}.file = {spec.file!r}: no such file")
+            try:
+                data = np.loadtxt(path, delimiter=",", comments="#", ndmin=2)
+            except ValueError as exc:
                 raise ValueError(
-                    f"motion.file = {spec.file!r}: needs two columns (t s, x m), at least two "
-                    "rows, with increasing t"
+                    f"{key}.file = {spec.file!r}: not a table of numbers ({exc})"
+                ) from None
+            if data.shape[0] < 2 or data.shape[1] < 2:
+                raise ValueError(
+                    f"{key}.file = {spec.file!r}: needs two columns (t s, x m) and at least two "
+                    f"rows; it has {data.shape[0]} rows of {data.shape[1]} columns"
+                )
+            bad = np.flatnonzero(~np.isfinite(data[:, :2]).all(axis=1))
+            if bad.size:
+                raise ValueError(
+                    f"{key}.file = {spec.file!r}: data row {bad[0] + 1} {data[bad[0], :2].tolist()} "
+                    "is not finite (nan or inf); every t and x must be a finite number"
+                )
+            step = np.diff(data[:, 0])
+            if np.any(step <= 0):
+                r = int(np.flatnonzero(step <= 0)[0]) + 2
+                raise ValueError(
+                    f"{key}.file = {spec.file!r}: t must increase from row to row (data row {r}: "
+                    f"t = {data[r - 1, 0]} after {data[r - 2, 0]})"
                 )
             self.t_table, self.s_table = data[:, 0].copy(), data[:, 1].copy()
-            self.v_table = np.diff(self.s_table) / np.diff(self.t_table)
+            self.v_table = np.diff(self.s_table) / step
+            self._knot_eps = 1e-9 * float(step.min())
         elif spec.kind in ("solitary", "regular"):
             if gravity is None or not gravity > 0.0:
                 raise ValueError(
-                    f"motion.kind = {spec.kind!r} needs gravity: the magnitude of fluid.gravity "
+                    f"{key}.kind = {spec.kind!r} needs gravity: the magnitude of fluid.gravity "
                     f"(got {gravity}); it must be > 0"
                 )
             if spec.kind == "solitary":
@@ -102,7 +124,8 @@ class MotionLaw:
             )
         if self.kind == "table":
             x = float(np.interp(t, self.t_table, self.s_table))
-            k = int(np.searchsorted(self.t_table, t, side="right")) - 1
+            # the segment holding t - eps: at a knot, the one ending there
+            k = int(np.searchsorted(self.t_table, t - self._knot_eps, side="right")) - 1
             v = float(self.v_table[k]) if 0 <= k < self.v_table.size else 0.0
             return x - self._s0, v
         return 0.0, 0.0
