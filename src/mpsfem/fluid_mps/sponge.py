@@ -13,7 +13,7 @@ with x_s the inner edge (``start``), L_s the zone length and alpha_s (1/s) the c
 - u is the whole velocity vector (every component is damped);
 - outside [start, end] (including past the outer edge) the source is 0; overlapping zones add;
 - it enters the explicit prediction stage like gravity and viscosity (explicit Euler, thesis
-  eq. 2-9): u <- u (1 - dt sum_zones alpha_s r), evaluated at the positions of time n.
+  eq. 2-24): u <- u (1 - dt sum_zones alpha_s r), evaluated at the positions of time n.
 """
 
 from __future__ import annotations

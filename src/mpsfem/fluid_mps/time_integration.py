@@ -13,7 +13,7 @@ from numba import njit, prange
 
 @njit(cache=True, parallel=True)
 def predict(pos, vel, kind, lap_u, nu, gravity, dt):
-    """u* = u + dt (nu lap(u) + g), r* = r + dt u* for fluid particles (thesis eq. 2-9)."""
+    """u* = u + dt (nu lap(u) + g), r* = r + dt u* for fluid particles (thesis eqs. 2-24, 2-25)."""
     dim = pos.shape[1]
     for i in prange(pos.shape[0]):
         if kind[i] != 0:
@@ -37,7 +37,7 @@ def predict_inviscid(pos, vel, kind, gravity, dt):
 
 @njit(cache=True, parallel=True)
 def correct(pos, vel, kind, grad_p, rho, dt):
-    """u^{n+1} = u* - dt grad(p) / rho, r^{n+1} = r* + dt (u^{n+1} - u*) (thesis eqs. 2-26, 2-27)."""
+    """u^{n+1} = u* - dt grad(p) / rho, r^{n+1} = r* + dt (u^{n+1} - u*) (thesis eqs. 2-27, 2-28)."""
     dim = pos.shape[1]
     c = dt / rho
     for i in prange(pos.shape[0]):

@@ -18,12 +18,10 @@ condition dp/dn = (rho / dt) (u* - u_w) . n written in two parts:
   or leaving the wall relative to it feels the compression or expansion, as in the thesis's
   model.
 
-For still water the discrete pressure equation, the gradient and the wall pressure then all
-reproduce p = rho g (H - y) exactly on the lattice. Walls are not unknowns of the pressure
-equation; their pressure (for probes and coupling forces) is rebuilt from the fluid by
-:func:`wall_pressure`. Dry boundary particles (a pressure-layer particle the free-surface detector
+Dry boundary particles (a pressure-layer particle the free-surface detector
 flags, or one with no fluid within the density radius, and the dummies behind it) are no ghosts:
-a dry wall particle is a free-surface (p = 0) neighbour, a dry dummy is left out, so the hydrostatic continuation never reaches above the water line. For still water D_ij is exactly the hydrostatic
+a dry wall particle is a free-surface (p = 0) neighbour, a dry dummy is left out, so the
+hydrostatic continuation never reaches above the water line. For still water D_ij is exactly the hydrostatic
 difference, so the discrete pressure equation, the gradient and the wall pressure all reproduce
 p = rho g (H - y). A fluid particle moving away from a wall sees no normal ghost jump (separation
 is free). Walls are then not unknowns of the pressure equation; their pressure (for probes and
