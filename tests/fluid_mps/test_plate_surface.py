@@ -128,6 +128,26 @@ def test_face_and_cap_areas_with_unequal_spacings():
     np.testing.assert_allclose(total, 0.0, atol=1e-15)
 
 
+def test_a_thick_plates_edge_caps_cover_the_whole_edge_face():
+    """T = 12 l0 against 5 layers per side: the edge-cap columns reach the mid-plane, so each
+    free edge is covered across its thickness, l0 apart (before: a 2 l0 hole in the middle), and
+    the edge-face areas of both sides sum to T x edge length."""
+    fluid = fluid_section([([0, 0, 0], [0.25, 0.06, 0.05])], [0.25, 0.06, 0.4])
+    T = 12 * L0
+    mesh = plate_mesh([0.0, 0.0, 0.2], [1, 0, 0], [0, 1, 0], (0.18, 0.06), (6, 2), T)
+    surf = PlateSurface(mesh, fluid, ["p"], free_edges=[(True,) * 4])
+    (f,) = surf.frames
+    etas, edge_area = [], 0.0
+    for sl in surf.sides:
+        on_edge = (sl.area @ f.t1) > 0  # the free edge at x = 0.18
+        etas.append((sl.pos[on_edge] - f.origin) @ f.normal)
+        edge_area += (sl.area[on_edge] @ f.t1).sum()
+    eta = np.unique(np.round(np.concatenate(etas), 12))
+    assert eta[0] == pytest.approx(-0.055) and eta[-1] == pytest.approx(0.055)
+    assert np.max(np.diff(eta)) == pytest.approx(L0)
+    assert edge_area == pytest.approx(T * 0.06)
+
+
 def test_mid_surface_height_field_is_exact_for_bilinear_deflection():
     """Plate particles moved by w = a + b s1 + c s2 + d s1 s2 along n: the column mid-points'
     height field (bilinear between them, edges extrapolated) gives w back everywhere on the

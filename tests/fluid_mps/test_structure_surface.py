@@ -89,6 +89,29 @@ def test_layout_faces_layers_caps_and_free_ends():
         assert np.all(sl.normal[~press] == 0.0)
 
 
+def test_a_thick_members_end_cap_covers_the_whole_end_face():
+    """T = 0.14 m = 14 l0 against 5 layers per side (10 l0): the cap columns reach the mid-plane,
+    so the end face's pressure particles are l0 apart across the whole thickness (before: none
+    between eta = -2 and +2 l0, a hole the fluid could enter) and their areas sum to T; columns
+    away from the end keep 5 layers."""
+    fluid = tank_fluid([([0, 0], [0.1, 0.2])], width=0.61)
+    T = 0.14
+    surf = StructureSurface(partition(T, xc=0.4), fluid, ["wall"])
+    (frame,) = surf.frames
+    etas, cap_area = [], 0.0
+    for sl in surf.sides:
+        s, eta = frame.local(sl.pos)
+        cap = (sl.kind == STRUCTURE) & np.isclose(s, 0.295)
+        etas.append(eta[cap])
+        cap_area += (sl.area[cap] @ frame.tangent).sum()
+        inner = s < 0.25  # more than 5 columns from the free end
+        assert np.all(sl.row[inner] < 5) and (sl.row[inner] == 4).any()
+    eta = np.sort(np.concatenate(etas))
+    assert eta[0] == pytest.approx(-0.065) and eta[-1] == pytest.approx(0.065)
+    assert np.max(np.diff(eta)) == pytest.approx(L0)
+    assert cap_area == pytest.approx(T)
+
+
 def test_fluid_is_not_generated_inside_the_member():
     fluid = tank_fluid([([0, 0], [0.41, 0.2])])
     surf = StructureSurface(partition(L0), fluid, ["wall"])

@@ -47,6 +47,7 @@ from mpsfem.fluid_mps.particle_kinds import STRUCTURE, STRUCTURE_DUMMY
 from mpsfem.fluid_mps.structure_surface import (
     SideLayout,
     StructureSurface,
+    cap_rows,
     wall_clearance,
 )
 from mpsfem.scenario.fluid import FluidSection
@@ -213,8 +214,9 @@ def lay_plate_side(frame: PlateFrame, member: int, side: int, l0: float, layers:
     row-major order (column index a1 n2 + a2), ``layers`` rows per column."""
     T = frame.thickness
     n1, n2, h1, h2 = column_grid(frame, l0)
-    col = np.repeat(np.arange(n1 * n2), layers)
-    k = np.tile(np.arange(layers), n1 * n2)
+    rows = cap_rows(T, l0, layers)
+    col = np.repeat(np.arange(n1 * n2), rows)
+    k = np.tile(np.arange(rows), n1 * n2)
     a1, a2 = col // n2, col % n2
     never = np.full_like(col, 1 << 30)
     dist = [
@@ -223,6 +225,9 @@ def lay_plate_side(frame: PlateFrame, member: int, side: int, l0: float, layers:
         a2 if frame.free[2] else never,
         (n2 - 1 - a2) if frame.free[3] else never,
     ]
+    keep = (k < layers) | (np.minimum.reduce(dist) < layers)  # deeper rows fill the edge caps
+    col, k, a1, a2 = col[keep], k[keep], a1[keep], a2[keep]
+    dist = [d[keep] for d in dist]
     d_edge = np.minimum.reduce(dist)
     depth = (k + 0.5) * l0
     eta = side * (0.5 * T - depth)

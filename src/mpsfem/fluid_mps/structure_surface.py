@@ -18,7 +18,9 @@ along the normal n = (-t_y, t_x) of the structure; the faces are at eta = +-T/2)
   sees a complete wall and never the fluid or the layers of the other face;
 - a free end (one not touching a rigid wall of the fluid scene) closes each virtual solid with an
   end cap: the columns within ``layers`` of the end take the layer index of their distance from
-  the end (as in :func:`~mpsfem.fluid_mps.geometry.solid_box`). Cap particles of the pressure
+  the end (as in :func:`~mpsfem.fluid_mps.geometry.solid_box`), and in a member thicker than
+  2 ``layers`` l0 they reach down to the mid-plane (:func:`cap_rows`), so the cap covers the
+  whole end face. Cap particles of the pressure
   layer carry pressure where they lie on the side's own half of the end face (depth <= T/2);
   the rest of the cap are dummies;
 - each side of each member is one external patch (``"<member>+"`` / ``"<member>-"``), so a
@@ -202,19 +204,29 @@ class SideLayout:
     eta: np.ndarray
 
 
+def cap_rows(thickness: float, l0: float, layers: int) -> int:
+    """Rows of a side's virtual solid in the columns of an end cap: ``layers``, or as many as
+    reach the member's mid-plane (a thick member: T > 2 layers l0), so the cap closes the whole
+    end face (no hole between the two sides' solids wider than a spacing)."""
+    return max(layers, int(np.floor(thickness / (2.0 * l0) - 0.5 + 1e-9)) + 1)
+
+
 def lay_side(frame: MemberFrame, member: int, side: int, l0: float, layers: int) -> SideLayout:
     """Particles of the virtual solid behind face ``side`` (+1 or -1) of a member."""
     L, T = frame.length, frame.thickness
     ncol = max(1, int(round(L / l0)))
     h = L / ncol
-    a = np.repeat(np.arange(ncol), layers)
-    k = np.tile(np.arange(layers), ncol)
-    s = (a + 0.5) * h
-    depth = (k + 0.5) * l0
-    eta = side * (0.5 * T - depth)
+    rows = cap_rows(T, l0, layers)
+    a = np.repeat(np.arange(ncol), rows)
+    k = np.tile(np.arange(rows), ncol)
     from_start = a if frame.free_start else np.full_like(a, 1 << 30)
     from_end = (ncol - 1 - a) if frame.free_end else np.full_like(a, 1 << 30)
     d_end = np.minimum(from_start, from_end)
+    keep = (k < layers) | (d_end < layers)  # rows past `layers` only fill the end caps
+    a, k, from_start, from_end, d_end = (x[keep] for x in (a, k, from_start, from_end, d_end))
+    s = (a + 0.5) * h
+    depth = (k + 0.5) * l0
+    eta = side * (0.5 * T - depth)
     layer = np.minimum(k, d_end)
     on_face = k == 0
     on_cap = (d_end == 0) & (depth <= 0.5 * T + 1e-12 * max(T, l0))
