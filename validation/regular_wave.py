@@ -1077,6 +1077,12 @@ docs/wave_tank.md) and the sponge (thesis eq. 3-9) in a 2D tank of the thesis's 
 along the tank against linear piston theory, its decay, and the sponge's reflection, at
 {len(summaries)} spacings. Scenario `scenarios/regular_wave_2d.toml`, tests `tests/scenarios/test_regular_wave.py`.
 
+The runs below were made before the fluid's wall boxes lined up with the fluid lattice at their
+wetted face (commit 801485d; docs/fluid.md, "Particles from the scenario's boxes"): the 0.06 m
+paddle's pressure layer sat 0.737 l0 from the first fluid particle at t = 0 (at l0 = H/28),
+inside the collision distance (now a whole spacing: the paddle's face moved 0.26 l0); the rest of
+the tank is where it was. Not re-run (hours of runs); the CI tests run the new layout.
+
 ## Set-up
 
 {setup_section(tank)}
