@@ -375,9 +375,9 @@ COUPLED = BASE + STRUCTURE_2D.replace("[run]\nend_time = 1.0\n", "").replace(
 
 def test_member_outside_an_explicit_fluid_domain_is_refused():
     load_scenario_text(COUPLED)
-    box = ["fluid.domain_lower=[-0.1, -0.1]", "fluid.domain_upper=[0.6, 0.25]"]
+    box = ["fluid.domain_lower=[-0.1, -0.1]", "fluid.domain_upper=[0.25, 1.5]"]  # holds the block
     (msg,) = problems(COUPLED, box)
-    assert msg.startswith("structure.members[0]: member 'wall' reaches [0.3, 0.3], outside"), msg
+    assert msg.startswith("structure.members[0]: member 'wall' reaches [0.3, "), msg
 
 
 @pytest.mark.parametrize(
