@@ -79,10 +79,10 @@ def default_dummy_layers(max_re: float) -> int:
 ON_LATTICE = 1e-6
 
 
-def lattice_origin(fluid: FluidSection) -> tuple[np.ndarray, str]:
-    """Origin of the scene's particle lattice (m) and the key it comes from: the first fluid
-    block's lower corner (the fluid is what the lattice is for; the walls follow it)."""
-    return np.asarray(fluid.blocks[0].lower, dtype=np.float64), "fluid.blocks[0].lower"
+def lattice_origin(fluid: FluidSection) -> np.ndarray:
+    """Origin of the scene's particle lattice (m): the first fluid block's lower corner (the
+    fluid is what the lattice is for; the walls follow it)."""
+    return np.asarray(fluid.blocks[0].lower, dtype=np.float64)
 
 
 def snap_to_lattice(x, origin: np.ndarray, l0: float) -> np.ndarray:
@@ -116,7 +116,7 @@ def scene_corners(fluid: FluidSection) -> list[tuple[str, np.ndarray, np.ndarray
     """(key, lower, upper) of the boxes the particles fill (m), blocks then walls in scenario
     order: blocks snapped to the lattice, walls by :func:`wall_corners`."""
     l0 = fluid.spacing
-    origin, _ = lattice_origin(fluid)
+    origin = lattice_origin(fluid)
     out = [
         (
             f"fluid.blocks[{i}]",
@@ -227,29 +227,27 @@ def _inside_any(pts: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray]]) -> 
     return mask
 
 
-def _refuse_overlapping_walls(
-    wall_pos: np.ndarray, patches: list[WallPatch], n_wall: int, l0: float
-) -> None:
-    """Raise when two wall particles share a site (walls overlapping each other: the kernel of
-    the pair is singular or huge), naming both walls."""
-    if n_wall == 0:
+def _refuse_overlapping_walls(wall_pos: list[np.ndarray], patches: list[WallPatch], l0: float):
+    """Raise when particles of the walls (``wall_pos[k]``: wall k's, m) share a site (walls
+    overlapping: the kernel of the pair is singular or huge), naming the walls involved."""
+    if not wall_pos:
         return
-    site = np.rint(wall_pos / l0 * 1e3).astype(np.int64)  # 1e-3 l0 apart is the same site
-    _, first, counts = np.unique(site, axis=0, return_index=True, return_counts=True)
-    if np.all(counts == 1):
+    owner = np.repeat(np.arange(len(wall_pos)), [len(p) for p in wall_pos])
+    pos = np.concatenate(wall_pos)
+    site = np.rint(pos / l0 * 1e3).astype(np.int64)  # 1e-3 l0 apart is the same site
+    _, inverse, counts = np.unique(site, axis=0, return_inverse=True, return_counts=True)
+    inverse = inverse.ravel()
+    shared = counts[inverse] > 1
+    if not shared.any():
         return
-    dup = int(np.flatnonzero(counts > 1)[0])
-    same = np.flatnonzero(np.all(site == site[first[dup]], axis=1))
-    offset = patches[0].start if patches else 0
-    owners = []
-    for i in same[:2]:
-        k = next(j for j, pt in enumerate(patches) if pt.start <= i + offset < pt.stop)
-        owners.append(f"fluid.walls[{k}] ({patches[k].name})")
-    where = [float(f"{x:.6g}") for x in wall_pos[same[0]]]
+    same = np.flatnonzero(inverse == inverse[np.argmax(shared)])
+    walls = " and ".join(
+        f"fluid.walls[{k}] ({patches[k].name})" for k in np.unique(owner[same]).tolist()
+    )
+    where = [float(f"{x:.6g}") for x in pos[same[0]]]
     raise ValueError(
-        f"{' and '.join(owners) if owners[0] != owners[-1] else owners[0]} put two wall "
-        f"particles at {where}: the walls overlap ({int(counts[dup])} particles at one site, "
-        f"{int((counts > 1).sum())} such sites); walls must not overlap, shorten or move one "
+        f"{walls} put {len(same)} wall particles at {where}: the walls overlap "
+        f"({int((counts > 1).sum())} shared sites); walls must not overlap, shorten or move one "
         "(a box resting on a tank's floor starts at the floor's face)"
     )
 
@@ -264,8 +262,8 @@ def build_particles(fluid: FluidSection, external: Sequence[ExternalPatch] = ())
 
     corners = [(lo, hi) for _, lo, hi in scene_corners(fluid)]
     block_corners = corners[: len(fluid.blocks)]
-    wall_corners = corners[len(fluid.blocks) :]
-    solids = [c for c, w in zip(wall_corners, fluid.walls, strict=True) if w.shape == "box"]
+    wall_boxes = corners[len(fluid.blocks) :]
+    solids = [c for c, w in zip(wall_boxes, fluid.walls, strict=True) if w.shape == "box"]
     fluid_pts, fluid_vel = [], []
     for b, (lo, hi) in zip(fluid.blocks, block_corners, strict=True):
         pts = fluid_block(lo, hi, l0)
@@ -293,7 +291,7 @@ def build_particles(fluid: FluidSection, external: Sequence[ExternalPatch] = ())
     normal = [np.zeros_like(fpos)]
     patches: list[WallPatch] = []
     n = len(fpos)
-    for i, (w, (lo, hi)) in enumerate(zip(fluid.walls, wall_corners, strict=True)):
+    for i, (w, (lo, hi)) in enumerate(zip(fluid.walls, wall_boxes, strict=True)):
         if w.shape == "tank":
             pts, layer, nrm = tank_walls(lo, hi, l0, layers)
         else:
@@ -305,9 +303,7 @@ def build_particles(fluid: FluidSection, external: Sequence[ExternalPatch] = ())
         normal.append(np.where((layer == 0)[:, None], nrm, 0.0))
         patches.append(WallPatch(w.name or f"wall{i}", n, n + len(pts), w))
         n += len(pts)
-    _refuse_overlapping_walls(
-        np.concatenate(pos[1:]) if len(pos) > 1 else fpos, patches, n - len(fpos), l0
-    )
+    _refuse_overlapping_walls(pos[1:], patches, l0)
     for ext in external:
         pos.append(np.asarray(ext.pos, dtype=np.float64))
         vel.append(np.zeros_like(pos[-1]))

@@ -202,9 +202,14 @@ def _count(pos, unknown, row_of, indptr, indices, re2, re2_pre, counts, counts_p
 
 @njit(cache=True)
 def _prefix(counts, m, out):
+    """Row pointer ``out`` (int32) from the row counts; returns the total in int64, which the
+    caller checks against INT32_MAX (past it ``out`` has wrapped)."""
     out[0] = 0
+    total = np.int64(0)
     for r in range(m):
-        out[r + 1] = out[r] + counts[r]
+        total += counts[r]
+        out[r + 1] = total
+    return total
 
 
 @njit(cache=True, inline="always")
@@ -698,15 +703,14 @@ class PressureSolver:
             mats[0].counts,
             mats[1].counts,
         )
-        for mat in mats:
-            nnz = int(mat.counts[:m].sum())  # int64: the int32 row pointer would wrap past 2^31
-            if nnz > INT32_MAX:
+        for mat in mats:  # (the second is unused without a separate preconditioner matrix)
+            nnz = int(_prefix(mat.counts, m, mat.a_ptr[: m + 1]))
+            if nnz > INT32_MAX:  # the int32 row pointer has wrapped: refuse before the fill
                 raise ValueError(
                     f"the pressure matrix would hold {nnz} nonzeros ({m} rows), more than its "
                     f"32-bit CSR indices address ({INT32_MAX}): use fewer particles or a smaller "
                     "fluid.kernel.re_pressure"
                 )
-            _prefix(mat.counts, m, mat.a_ptr[: m + 1])  # (unused for the second if not two)
             mat.ensure_nnz(nnz)
         main, pre = mats
         _fill(

@@ -207,17 +207,12 @@ class FluidSolver:
             self.pos, self.kind, [(pt.start, pt.stop) for pt in self.patches]
         )
         g_abs = float(np.linalg.norm(self.gravity))
-        wall_index = {id(w): i for i, w in enumerate(spec.walls)}
+        # the patches with a spec are the scenario's walls, in scenario order (build_particles)
         self.motions = [
             MotionLaw(
-                pt.spec.motion,
-                base_dir,
-                gravity=g_abs,
-                dim=self.dim,
-                key=f"fluid.walls[{wall_index[id(pt.spec)]}].motion",
+                w.motion, base_dir, gravity=g_abs, dim=self.dim, key=f"fluid.walls[{i}].motion"
             )
-            for pt in self.patches
-            if pt.spec is not None
+            for i, w in enumerate(pt.spec for pt in self.patches if pt.spec is not None)
         ]
         self.sponge = SpongeLayer(spec.sponges, self.dim)
         rigid = [pt for pt in self.patches if pt.spec is not None]

@@ -512,21 +512,18 @@ class FluidSection(Section):
                 "fluid.sponges[*].coefficient)",
                 self.time_step.dt_max,
             )
-        for key, corner, outside in (
-            ("domain_lower", self.domain_lower, lambda b, a, c: b.lower[a] < c[a]),
-            ("domain_upper", self.domain_upper, lambda b, a, c: b.upper[a] > c[a]),
-        ):
-            if corner is None:
-                continue
-            for i, b in enumerate(self.blocks):
-                if any(outside(b, a, corner) for a in range(d)):
-                    raise InvalidValue(
-                        key,
-                        f"leaves fluid.blocks[{i}] ({b.lower} .. {b.upper}) partly outside the "
-                        "domain; a fluid particle outside it stops the run: the domain must "
-                        "contain every block",
-                        corner,
-                    )
+        dom_lo, dom_hi = self.domain_lower, self.domain_upper
+        for i, b in enumerate(self.blocks):
+            below = dom_lo is not None and any(b.lower[a] < dom_lo[a] for a in range(d))
+            above = dom_hi is not None and any(b.upper[a] > dom_hi[a] for a in range(d))
+            if below or above:
+                raise InvalidValue(
+                    "domain_lower" if below else "domain_upper",
+                    f"leaves fluid.blocks[{i}] ({b.lower} .. {b.upper}) partly outside the "
+                    "domain; a fluid particle outside it stops the run: the domain must contain "
+                    "every block",
+                    dom_lo if below else dom_hi,
+                )
         eps = 1e-9
         for i, b in enumerate(self.blocks):
             for j, t in enumerate(self.walls):
