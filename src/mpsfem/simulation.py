@@ -38,6 +38,7 @@ from mpsfem.results.checkpoint import (
 )
 from mpsfem.results.results_file import ResultsFile
 from mpsfem.results.xdmf import xdmf_path
+from mpsfem.sampling import is_due, next_due
 from mpsfem.scenario.compare import RESTART_FREE_TEXT, restart_differences
 from mpsfem.scenario.loader import LoadedScenario
 
@@ -146,11 +147,14 @@ def run_fluid(
     }
     next_probe = {p.name: 0.0 for p in probes}
     next_snap = 0.0
+    last_probe_t: dict[str, float] = {}  # when each probe was last sampled in this process
+    last_snap_t = -math.inf
     next_ckpt = outs.checkpoint_interval if outs.checkpoint_interval > 0 else math.inf
     ckpt_path = default_checkpoint_path(out)
     sidecar = xdmf_path(out) if outs.xdmf else None  # rewritten by each flush of the results
     resolved = sc.model_dump(mode="json")
 
+    restart_t = -math.inf
     if restart is not None:
         arrays, meta, _ = read_checkpoint(restart)
         solver.restore(arrays["fluid"], meta["fluid"])
@@ -163,11 +167,13 @@ def run_fluid(
         results = ResultsFile.open_append(out, truncate_after=solver.t, xdmf=sidecar)
         results.record_restart(restart, solver.t, loaded.overrides)
         log(f"restarted from {restart} at t = {solver.t:.6g} s (step {solver.step_count})")
+        restart_t = solver.t
     else:
         results = ResultsFile.create(out, loaded.text, loaded.overrides, resolved, xdmf=sidecar)
     for p in probes:
         unit, comps = _probe_meta(p, solver.dim)
         results.add_probe(p.name, p.kind, unit, comps, getattr(p, "position", None))
+    _declare_budget(results, solver)
 
     def checkpoint() -> Path:
         pre_arrays, pre_meta = solver.preconditioner_arrays()
@@ -186,16 +192,33 @@ def run_fluid(
             ckpt_path, arrays, meta, loaded.text, resolved, list(loaded.overrides)
         )
 
-    def sample(force: bool = False) -> None:
-        nonlocal next_snap
+    def sample(force: bool = False) -> list[str]:
+        """Take the samples due at the solver's time; with ``force`` all of them (the final
+        state), none twice at one time. Returns the results-file paths sampled only because
+        of ``force`` (``ResultsFile.mark_end_samples``)."""
+        nonlocal next_snap, last_snap_t
         t = solver.t
+        extra = []
         for p in probes:
-            if force or t >= next_probe[p.name] - 1e-12:
+            if last_probe_t.get(p.name) == t:  # never twice at one time
+                continue
+            due = is_due(t, next_probe[p.name], interval[p.name])
+            if due or force:
                 results.append_probe(p.name, t, solver.probe_value(p))
-                next_probe[p.name] = t + interval[p.name] if interval[p.name] > 0 else t
-        if outs.snapshot_interval > 0 and (force or t >= next_snap - 1e-12):
-            results.write_snapshot(t, solver.pos, solver.vel, solver.p, solver.kind)
-            next_snap = t + outs.snapshot_interval
+                last_probe_t[p.name] = t
+                next_probe[p.name] = next_due(t, interval[p.name])
+                if not due:
+                    extra.append(f"probes/{p.name}")
+        snap = outs.snapshot_interval
+        if snap > 0 and last_snap_t != t:
+            due = is_due(t, next_snap, snap)
+            if due or force:
+                key = results.write_snapshot(t, solver.pos, solver.vel, solver.p, solver.kind)
+                last_snap_t = t
+                next_snap = next_due(t, snap)
+                if not due:
+                    extra.append(f"particles/{key}")
+        return extra
 
     bar = Progress(solver.t, t_end, sc.run.progress if progress is None else progress, "fluid")
     last_flush = time.perf_counter()
@@ -219,6 +242,10 @@ def run_fluid(
             good_snap, good_ckpt = next_snap, next_ckpt
             dt = solver.dt_towards(t_end)
             solver.step(dt)
+            if solver.budget.full:
+                results.append_momentum_budget(
+                    solver.t, dt, solver.budget.take(solver.vel, solver.kind)
+                )
             sample()
             _check_stop()
             if solver.t >= next_ckpt - 1e-12:
@@ -257,13 +284,23 @@ def run_fluid(
     bar.close()
     for s, h in old_handlers.items():
         signal.signal(s, h)
-    sample(force=False)
+    if solver.t > restart_t:  # the final state at end_time, whatever the grid
+        results.mark_end_samples(solver.t, sample(force=True))
     ckpt = checkpoint()
     results.h5.attrs["steps"] = solver.step_count
     results.h5.attrs["stage_times"] = str(solver.times.as_dict())
     wall = time.perf_counter() - t_wall
     results.close(status="finished")
     return RunSummary(out, ckpt, solver.t, solver.step_count, wall)
+
+
+def _declare_budget(results: ResultsFile, solver: FluidSolver) -> None:
+    """``/momentum_budget`` of the results file, when the fluid keeps one."""
+    if solver.budget.full:
+        unit = "N s/m" if solver.dim == 2 else "N s"
+        results.add_momentum_budget(
+            solver.budget.names, solver.dim, unit, solver.spec.boundary_force
+        )
 
 
 def _main_thread() -> bool:
@@ -501,6 +538,7 @@ def _fluid_side(
         p.name: (p.interval if p.interval is not None else outs.probe_interval) for p in every
     }
     next_probe = {p.name: 0.0 for p in every}
+    last_t: dict[str, float] = {}  # when each series was last sampled in this process
     rec_interval = (
         sc.structure.record_interval
         if sc.structure.record_interval is not None
@@ -553,6 +591,7 @@ def _fluid_side(
         results.add_probe(p.name, "displacement", "m", comps, p.position, {"target": p.target})
     for name, xyz in nodes.items():
         results.add_structure(name, xyz)
+    _declare_budget(results, solver)
     results.h5.attrs["transport"] = config.transport.kind
     results.h5.attrs["coupling_scheme"] = config.scheme
 
@@ -582,11 +621,19 @@ def _fluid_side(
             ckpt_path, arrays, meta, loaded.text, resolved, list(loaded.overrides)
         )
 
-    def sample(force: bool = False) -> None:
+    def sample(force: bool = False) -> list[str]:
+        """As run_fluid's sample: the samples due at the scheme's time, all with ``force``
+        (none twice at one time); returns the paths sampled only because of ``force``."""
         t = scheme.t
+        extra = []
         for p in every:
-            if not (force or t >= next_probe[p.name] - 1e-12):
+            if last_t.get(p.name) == t:  # never twice at one time
                 continue
+            due = is_due(t, next_probe[p.name], interval[p.name])
+            if not (due or force):
+                continue
+            if not due:
+                extra.append(f"probes/{p.name}")
             if p.kind == "displacement":
                 d = next(x for x in disp if x.probe is p)
                 val = d.value(scheme.d)
@@ -595,14 +642,25 @@ def _fluid_side(
             else:
                 val = fluid.probe_value(p)
             results.append_probe(p.name, t, val)
-            next_probe[p.name] = t + interval[p.name] if interval[p.name] > 0 else t
-        if force or t >= sched["next_record"] - 1e-12:
+            last_t[p.name] = t
+            next_probe[p.name] = next_due(t, interval[p.name])
+        due = is_due(t, sched["next_record"], rec_interval)
+        if last_t.get("/structure") != t and (due or force):
             for name, sl in slices.items():
                 results.append_structure(name, t, scheme.d[sl])
-            sched["next_record"] = t + rec_interval if rec_interval > 0 else t
-        if outs.snapshot_interval > 0 and (force or t >= sched["next_snapshot"] - 1e-12):
-            results.write_snapshot(t, solver.pos, solver.vel, solver.p, solver.kind)
-            sched["next_snapshot"] = t + outs.snapshot_interval
+                if not due:
+                    extra.append(f"structure/{name}")
+            last_t["/structure"] = t
+            sched["next_record"] = next_due(t, rec_interval)
+        snap = outs.snapshot_interval
+        due = snap > 0 and is_due(t, sched["next_snapshot"], snap)
+        if snap > 0 and last_t.get("/particles") != t and (due or force):
+            key = results.write_snapshot(t, solver.pos, solver.vel, solver.p, solver.kind)
+            last_t["/particles"] = t
+            sched["next_snapshot"] = next_due(t, snap)
+            if not due:
+                extra.append(f"particles/{key}")
+        return extra
 
     def record(rec) -> None:
         sched["work_structure_total"] += rec.work_structure
@@ -624,6 +682,7 @@ def _fluid_side(
     window = scheme.window
     good = scheme.state_dict()
     good_probe, good_sched = dict(next_probe), dict(sched)  # updated in place per window
+    t_start = scheme.t
     try:
         if restart is None:
             sample(force=True)
@@ -640,6 +699,10 @@ def _fluid_side(
                 structure.checkpoint()
             rec = scheme.advance_window(t_next)
             record(rec)
+            if solver.budget.full:
+                results.append_momentum_budget(
+                    scheme.t, rec.window, solver.budget.take(solver.vel, solver.kind)
+                )
             sample()
             _check_stop()
             if scheme.t >= sched["next_checkpoint"] - 1e-12:
@@ -689,6 +752,8 @@ def _fluid_side(
     bar.close()
     for s, h in old_handlers.items():
         signal.signal(s, h)
+    if scheme.t > t_start:  # the final state at end_time, whatever the grid
+        results.mark_end_samples(scheme.t, sample(force=True))
     ckpt = write_ckpt()
     results.h5.attrs["steps"] = solver.step_count
     results.h5.attrs["windows"] = scheme.index

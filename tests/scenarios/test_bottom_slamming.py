@@ -32,6 +32,12 @@ H = bs.DEPTH
 L0_COARSE = H / 12
 CASE = bs.Case(0.3, 0.1)
 END_TIME = CASE.crest_time + 0.05  # the design crest reaches the front edge at 1.953 s
+#: the force on the dry plate before the wave, N/m: at D = 1.2 l0 above still water the plate's
+#: particles are inside the fluid surface's viscous Laplacian (radius 4.01 l0), and the
+#: default force model (fluid.boundary_force = "pressure_and_contact") reports that viscous
+#: exchange: at most rho nu U L / l0 with U = 0.1 m/s, far above the still water's speeds
+#: (measured up to 7e-5 N/m), and 1e-4 of the uplift's lower bound (35 N/m)
+DRY_FORCE = bs.DENSITY * 1e-6 * 0.1 * bs.PLATE_LENGTH / L0_COARSE
 
 
 def _coarse(kind: str):
@@ -141,7 +147,7 @@ def test_rigid_uplift_peak_between_physical_bounds(rigid_run):
     with h5py.File(rigid_run, "r") as h5:
         t, f = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:]
     dry = t < CASE.crest_time - 0.5  # the wave's foot (1 % of A) is 0.72 m ahead of the crest
-    assert np.all(np.abs(f[dry]) < 1e-9)
+    assert np.all(np.abs(f[dry]) < DRY_FORCE)
     lo, hi = bs.uplift_bounds(CASE)
     print(
         f"l0 = H/12: uplift peak {res.peak_uplift:.1f} N/m at t_c {res.peak_time_s - CASE.crest_time:+.3f} s, "
@@ -163,13 +169,15 @@ def test_elastic_plate_couples_and_rises(elastic_run):
         td, u = h5["probes"]["plate_mid"]["time"][:], h5["probes"]["plate_mid"]["value"][:]
         tf, f = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:]
         iterations = h5["coupling"]["iterations"][:]
-    # at rest until the first touch of water (any force; the contact time of the analysis is
-    # when the uplift first exceeds 2 % of its peak, and a touch just below that moves it)
-    first_touch = tf[np.flatnonzero(np.abs(f).max(axis=1) > 0.0)[0]]
+    # at rest until the first touch of water (a force above the dry plate's viscous one; the
+    # contact time of the analysis is when the uplift first exceeds 2 % of its peak, and a
+    # touch just below that moves it): no more than the static deflection under DRY_FORCE
+    first_touch = tf[np.flatnonzero(np.abs(f).max(axis=1) > DRY_FORCE)[0]]
     assert first_touch <= res.contact_time_s
     before = td < first_touch
-    assert before.sum() > 100 and np.all(np.abs(u[before]) < 1e-9)
     e, t = 1e6, 0.015
+    rest = 5.0 * DRY_FORCE * bs.PLATE_LENGTH**3 / (384.0 * e * t**3 / 12.0)
+    assert before.sum() > 100 and np.all(np.abs(u[before]) < rest)
     q = res.peak_uplift_smooth / bs.PLATE_LENGTH
     static = 5.0 * q * bs.PLATE_LENGTH**4 / (384.0 * e * t**3 / 12.0)
     print(

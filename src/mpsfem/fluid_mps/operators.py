@@ -43,12 +43,16 @@ TANAKA = 0
 PMIN = 1
 CORRECTED = 2
 CORRECTED_PMIN = 3
+CMPS = 4
 GRADIENTS: dict[str, int] = {
     "tanaka": TANAKA,
     "pmin": PMIN,
     "corrected": CORRECTED,
     "corrected_pmin": CORRECTED_PMIN,
+    "cmps": CMPS,
 }
+#: gradient forms whose fluid-fluid pair terms are antisymmetric (momentum conserving)
+CONSERVATIVE = (TANAKA, CMPS)
 
 
 def gradient_code(name) -> int:
@@ -171,9 +175,12 @@ def corrected_vector(m00, m01, m02, m11, m12, m22, v0, v1, v2, dim, fallback):
 
 
 _NO_GRAVITY = np.zeros(3)
+_NO_REFERENCE = np.zeros(0)
 
 
-def pressure_gradient(pos, p, kind, indptr, indices, re, wcode, n0, form, skip_dummy, out):
+def pressure_gradient(
+    pos, p, kind, indptr, indices, re, wcode, n0, form, skip_dummy, out, pref_all=None
+):
     """Pressure gradient (N, dim) on FLUID particles, 0 elsewhere; every neighbour carries its
     own ``p`` (the ``pressure_layer`` wall model).
 
@@ -182,16 +189,102 @@ def pressure_gradient(pos, p, kind, indptr, indices, re, wcode, n0, form, skip_d
     / r^2); C_i = sum w r r^T / r^2 (see :func:`gradient_kernel`). See the module docstring for
     dummy neighbours (``skip_dummy``).
     """
+    pref_all = fill_reference_pressures(
+        pos, p, kind, indptr, indices, re, form, skip_dummy, False, pref_all
+    )
     return gradient_kernel(
         pos, p, kind, indptr, indices, re, wcode, n0, form, skip_dummy, False, kind, 0.0,
-        _NO_GRAVITY, out,
+        _NO_GRAVITY, pref_all, out,
     )  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def row_reference_pressure(i, pos, p, kind, indptr, indices, re2, form, skip_dummy, ghost):
+    """The reference pressure of fluid particle i's gradient row (Pa): p_i for the ``tanaka`` and
+    ``corrected`` forms, the minimum over i and its neighbours within re for the p_min forms
+    (fluid neighbours only with ``ghost``; dummies left out with ``skip_dummy``)."""
+    dim = pos.shape[1]
+    pref = p[i]
+    if form == 1 or form == 3 or form == 4:
+        for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
+            j = np.uint32(indices[k])
+            kj = kind[j]
+            if ghost and kj != 0:
+                continue
+            if skip_dummy and (kj == 2 or kj == 4):
+                continue
+            if p[j] < pref:
+                r2 = 0.0
+                for d in range(dim):
+                    dx = pos[j, d] - pos[i, d]
+                    r2 += dx * dx
+                if r2 < re2:
+                    pref = p[j]
+    return pref
+
+
+@njit(cache=True, inline="always")
+def pair_pressure(form, pj, pi, pref_i, pref_j):
+    """The scalar of a gradient pair term (Pa): p_j + p_i (``tanaka``, thesis eq. 2-12),
+    p_j + p_i - p_min,i - p_min,j (``cmps``, Khayyer & Gotoh 2008 eq. 9: antisymmetric and
+    stabilised), p_j - p_ref,i (the p_min and corrected forms, eq. 2-11)."""
+    if form == 0:
+        return pj + pi
+    if form == 4:
+        return pj + pi - pref_i - pref_j
+    return pj - pref_i
+
+
+@njit(cache=True, parallel=True)
+def reference_pressures(pos, p, kind, indptr, indices, re, form, skip_dummy, ghost, out):
+    """out[i] = the reference pressure of FLUID particle i's gradient row
+    (:func:`row_reference_pressure`), 0 elsewhere: the ``cmps`` form reads its neighbours'."""
+    re2 = re * re
+    for i in prange(pos.shape[0]):
+        out[i] = 0.0
+        if kind[i] == 0:
+            out[i] = row_reference_pressure(
+                i, pos, p, kind, indptr, indices, re2, form, skip_dummy, ghost
+            )
+
+
+def fill_reference_pressures(
+    pos, p, kind, indptr, indices, re, form, skip_dummy, ghost, pref_all=None
+) -> np.ndarray:
+    """The ``pref_all`` argument of :func:`gradient_kernel`: for ``cmps`` every fluid
+    particle's p_min, written into ``pref_all`` (an (N,) work array; allocated when None), an
+    empty array for the other forms."""
+    if form != CMPS:
+        return _NO_REFERENCE
+    if pref_all is None:
+        pref_all = np.empty(len(p))
+    reference_pressures(pos, p, kind, indptr, indices, re, form, skip_dummy, ghost, pref_all)
+    return pref_all
+
+
+@njit(cache=True, inline="always")
+def neighbour_pressure(i, j, pos, p, kind, ghost, dry, rho, gravity):
+    """(p_j as fluid particle i's gradient row sees it (Pa), whether j counts at all): with
+    ``ghost`` a wet wall/dummy j is the ghost p_i + rho g . (x_j - x_i), a dry wall particle
+    has 0 and a dry dummy does not count (wall_boundary.py); otherwise j's own p."""
+    kj = kind[j]
+    if not ghost or kj == 0:
+        return p[j], True
+    if dry[j]:
+        if kj == 2 or kj == 4:
+            return 0.0, False
+        return 0.0, True
+    jump = 0.0
+    for d in range(pos.shape[1]):
+        jump += gravity[d] * (pos[j, d] - pos[i, d])
+    return p[i] + rho * jump, True
 
 
 @njit(cache=True, parallel=True)
 def gradient_kernel(
-    pos, p, kind, indptr, indices, re, wcode, n0, form, skip_dummy, ghost, dry, rho, gravity, out
-):
+    pos, p, kind, indptr, indices, re, wcode, n0, form, skip_dummy, ghost, dry, rho, gravity,
+    pref_all, out,
+):  # fmt: skip
     """The pressure gradient on FLUID particles (Pa/m) for both wall models.
 
     ``ghost`` False: every neighbour carries its own p (dummies left out with ``skip_dummy``);
@@ -206,7 +299,11 @@ def gradient_kernel(
     MPS by Khayyer & Gotoh 2011): exact for linear fields on any neighbourhood;
     3 ``corrected_pmin``: C_i^-1 sum_j (p_j - p_min,i) r_ij w_ij / r_ij^2 (exact where p_i is the
     local minimum, the p_min form's repulsion elsewhere). A near-singular C_i (fewer than dim
-    independent neighbour directions) falls back to d / n0."""
+    independent neighbour directions) falls back to d / n0;
+    4 ``cmps``: d / n0 sum_j (p_j + p_i - p_min,i - p_min,j) r_ij w_ij / r_ij^2 (Khayyer &
+    Gotoh 2008 eq. 9), ``pref_all`` holding every fluid particle's p_min
+    (:func:`reference_pressures`; a boundary neighbour takes p_min,i): antisymmetric, so the
+    fluid-fluid pairs conserve momentum (momentum_budget.py). Other forms ignore ``pref_all``."""
     n, dim = pos.shape
     c = dim / n0
     re2 = re * re
@@ -216,23 +313,9 @@ def gradient_kernel(
             out[i, d] = 0.0
         if kind[i] != 0:
             continue
-        pref = p[i]
-        sgn = -1.0 if form != 0 else 1.0
-        if form == 1 or form == 3:
-            for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
-                j = np.uint32(indices[k])
-                kj = kind[j]
-                if ghost and kj != 0:
-                    continue
-                if skip_dummy and (kj == 2 or kj == 4):
-                    continue
-                if p[j] < pref:
-                    r2 = 0.0
-                    for d in range(dim):
-                        dx = pos[j, d] - pos[i, d]
-                        r2 += dx * dx
-                    if r2 < re2:
-                        pref = p[j]
+        pref = row_reference_pressure(
+            i, pos, p, kind, indptr, indices, re2, form, skip_dummy, ghost
+        )
         v0 = v1 = v2 = 0.0
         m00 = m01 = m02 = m11 = m12 = m22 = 0.0
         for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
@@ -246,19 +329,12 @@ def gradient_kernel(
                 r2 += dx * dx
             if r2 >= re2 or r2 == 0.0:
                 continue
-            pj = p[j]
-            if ghost and kj != 0:
-                if dry[j]:
-                    if kj == 2 or kj == 4:
-                        continue
-                    pj = 0.0
-                else:
-                    jump = 0.0
-                    for d in range(dim):
-                        jump += gravity[d] * (pos[j, d] - pos[i, d])
-                    pj = p[i] + rho * jump
+            pj, counts = neighbour_pressure(i, j, pos, p, kind, ghost, dry, rho, gravity)
+            if not counts:
+                continue
             w = weight(np.sqrt(r2), re, wcode) / r2
-            a = (pj + sgn * pref) * w
+            prj = pref_all[j] if form == 4 and kj == 0 else pref
+            a = pair_pressure(form, pj, p[i], pref, prj) * w
             x0 = pos[j, 0] - pos[i, 0]
             x1 = pos[j, 1] - pos[i, 1]
             x2 = pos[j, 2] - pos[i, 2] if dim == 3 else 0.0

@@ -12,8 +12,11 @@ Data (SI; 2D forces per unit width, 3D forces in N):
   reference configuration, normals out of the structure (``cells`` empty: a point cloud);
 * written: ``"displacement"`` (m) and ``"velocity"`` (m/s) at those points, the values for the
   end of the next ``advance``; dummies follow by the rigid link of their column;
-* read: ``"forces"``, F_i = -p_i A_i n_i (N; N/m in 2D), the force of the fluid on the
-  structure at each interface point after the last step (zero on dry particles).
+* read: ``"forces"``, the force of the fluid on the structure at each interface point in the
+  last step (N; N/m in 2D): with ``fluid.boundary_force = "momentum_exchange"`` the reaction
+  to the step's pair interactions with the point and the dummies behind it
+  (momentum_budget.py), with ``"pressure_integral"`` F_i = -p_i A_i n_i (thesis eq. 2-51;
+  zero on dry particles).
 
 ``advance(dt)`` places the structure particles (``FluidSolver.set_patch_state``) and takes one
 MPS step of exactly ``dt``; ``max_dt()`` is the solver's next stable step. ``checkpoint()`` /
@@ -106,6 +109,8 @@ class FluidParticipant:
         self.times = {"place": 0.0, "filter": 0.0, "forces": 0.0}
         if fluid.hydrostatic_start:
             self._initial_structure_pressure()
+        if self.solver.exchange:  # the load before the first step, through the filter
+            self.solver.evaluate_exchange()
 
     # ------------------------------------------------------------------ set-up
     def _initial_structure_pressure(self) -> None:
@@ -147,7 +152,14 @@ class FluidParticipant:
         if name != "forces":
             raise KeyError(f"the fluid has no {name!r}; readable: 'forces'")
         tic = time.perf_counter()
-        f = self.surface.forces(self.solver.p)
+        s = self.solver
+        rows = self.surface.interface_index - s.n_fluid
+        if s.budget.model == "momentum_exchange":
+            f = s.budget.exchange_force[rows].copy()
+        else:
+            f = self.surface.forces(s.p)
+            if s.budget.model == "pressure_and_contact":
+                f += s.budget.contact_force[rows]
         self.times["forces"] += time.perf_counter() - tic
         return f
 
@@ -193,6 +205,7 @@ class FluidParticipant:
             "t": s.t,
             "step": s.step_count,
             "dt_next": s.dt_next,
+            "force_marks": {k: list(v) for k, v in s.force_marks.items()},
         }
 
     def load_state(self, state: dict) -> None:
@@ -209,11 +222,21 @@ class FluidParticipant:
         return self.solver.t
 
     def member_force(self, member: str) -> np.ndarray:
-        """Total fluid force on ``member``, both faces (N/m in 2D)."""
-        return self.surface.member_force(self.solver.p, member)
+        """Total fluid force on ``member`` in the last step, both faces, as
+        ``fluid.boundary_force`` defines it (N/m in 2D)."""
+        if self.solver.budget.model == "pressure_integral":
+            return self.surface.member_force(self.solver.p, member)
+        return self.solver.boundary_force(self._sides(member))
+
+    def _sides(self, member: str) -> list[str]:
+        """The member's patches (``<name>+``, ``<name>-``)."""
+        return [n for n in self.solver.budget.names if n[:-1] == member]
 
     def probe_value(self, probe):
-        """A fluid probe's value; ``force`` probes may target a structure member."""
+        """A fluid probe's value; ``force`` probes may target a structure member (with
+        ``average`` the mean force since the probe's last sample, as for walls)."""
         if probe.kind == "force" and probe.target in self.surface.names:
+            if probe.average:
+                return self.solver.mean_boundary_force(probe.name, self._sides(probe.target))
             return self.member_force(probe.target)
         return self.solver.probe_value(probe)

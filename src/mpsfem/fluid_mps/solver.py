@@ -38,6 +38,13 @@ from mpsfem.fluid_mps.dummy_pressure import dummy_sources, extrapolate_dummy_pre
 from mpsfem.fluid_mps.geometry import ExternalPatch, build_particles, hydrostatic_pressure
 from mpsfem.fluid_mps.kernels import weight_code
 from mpsfem.fluid_mps.lattice import lattice_constants
+from mpsfem.fluid_mps.momentum_budget import (
+    COLLISION,
+    PRESSURE,
+    SPONGE,
+    VISCOUS,
+    MomentumBudget,
+)
 from mpsfem.fluid_mps.neighbours import NeighbourSearch, build_neighbours
 from mpsfem.fluid_mps.particle_kinds import dummy_mask
 from mpsfem.fluid_mps.pressure_poisson import make_pressure_solver
@@ -71,6 +78,9 @@ class StageTimes:
             "other": self.other,
         }
 
+
+#: the gravity argument of a gradient without ghosts (unread there)
+_NO_GRAVITY = np.zeros(3)
 
 #: how much wider than the small kernels' radius the search's short list is, in l0 (module
 #: docstring of neighbours.py; _short_list)
@@ -125,6 +135,8 @@ class FluidSolver:
         n0_lap, lam_lap = lattice_constants(self.dim, l0, self.re_lap, k.weight)
         self.lap_coef = operators.laplacian_coefficient(self.dim, n0_lap, lam_lap)
         self.grad_form = operators.gradient_code(spec.pressure.gradient)
+        #: every fluid particle's reference pressure, read by the ``cmps`` gradient (Pa)
+        self.pref_all = np.zeros(len(ps.pos) if self.grad_form == operators.CMPS else 0)
 
         radii = [self.re_n, self.re_grad, self.re_ppe]
         if self.nu > 0.0:
@@ -215,6 +227,23 @@ class FluidSolver:
             for i, w in enumerate(pt.spec for pt in self.patches if pt.spec is not None)
         ]
         self.sponge = SpongeLayer(spec.sponges, self.dim)
+        self.exchange = spec.boundary_force == "momentum_exchange"
+        self.budget = MomentumBudget(
+            self.kind,
+            self.dummy_src,
+            self.n_fluid,
+            [(pt.name, pt.start, pt.stop) for pt in self.patches],
+            self.dim,
+            self.mass,
+            self.rho,
+            self.nu,
+            self.gravity,
+            full=spec.momentum_budget,
+            model=spec.boundary_force,
+        )
+        self.budget.reset((self.vel, self.kind))
+        #: per force probe, [time, impulse...] at its last sample (interval means, state)
+        self.force_marks: dict[str, list[float]] = {}
         rigid = [pt for pt in self.patches if pt.spec is not None]
         self.moving = [(pt, m) for pt, m in zip(rigid, self.motions, strict=True) if m.moves]
         self.wall_origin = {pt.name: self.pos[pt.start : pt.stop].copy() for pt, _ in self.moving}
@@ -231,6 +260,8 @@ class FluidSolver:
         self._uf_size: np.ndarray | None = None
         # the first step obeys the Courant and viscous limits too (a block that starts moving)
         self.dt_next = min(ts.dt_initial or ts.dt_max, self.stable_dt())
+        if self.exchange and neighbour_filter is None:  # a participant evaluates it once bound
+            self.evaluate_exchange()
 
     # ------------------------------------------------------------------ set-up helpers
     #: neighbour-grid cells allowed per particle (8 B each in the cell index), plus a base
@@ -359,6 +390,9 @@ class FluidSolver:
             self.lap_coef,
             self.lap_u,
         )
+        self.budget.viscous(
+            self.pos, self.vel, self.kind, nb, self.re_lap, self.wcode, self.lap_coef
+        )
         self._lap_u_ready = True
 
     def _ensure_lap_u(self) -> None:
@@ -382,14 +416,18 @@ class FluidSolver:
             self._ensure_lap_u()  # the first step only: later steps leave it at their end
         c1 = time.perf_counter()
         tm.neighbours += c1 - c0
+        budget = self.budget
+        budget.begin(self.vel, self.kind)
         if self.sponge.active:  # thesis eq. 3-9, explicit with u^n
             self.sponge.apply(self.pos, self.vel, self.n_fluid, dt)
+            budget.stage(SPONGE, self.vel, self.kind)
         if self.nu > 0.0:
             time_integration.predict(
                 self.pos, self.vel, self.kind, self.lap_u, self.nu, self.gravity, dt
             )
         else:
             time_integration.predict_inviscid(self.pos, self.vel, self.kind, self.gravity, dt)
+        budget.stage(VISCOUS, self.vel, self.kind)
         c2 = time.perf_counter()
         tm.explicit += c2 - c1
         nb = self._neighbours()
@@ -410,6 +448,11 @@ class FluidSolver:
                 col.distance * self.l0,
                 col.restitution,
             )
+            budget.collision(
+                self.pos, self.vel_before, self.kind, pairs, col.distance * self.l0,
+                col.restitution,
+            )  # fmt: skip
+            budget.stage(COLLISION, self.vel, self.kind)
             time_integration.shift_by_velocity_change(
                 self.pos, self.vel, self.vel_before, self.kind, dt
             )
@@ -508,6 +551,7 @@ class FluidSolver:
                 self.rho,
                 self.gravity,
                 self.grad_p,
+                self.pref_all,
             )
             wall_boundary.wall_pressure(
                 self.pos,
@@ -535,8 +579,12 @@ class FluidSolver:
                 self.grad_form,
                 False,
                 self.grad_p,
+                self.pref_all,
             )
+        budget.pressure(self._gradient_args(), near, self.vel_before, self.kind)
         time_integration.correct(self.pos, self.vel, self.kind, self.grad_p, self.rho, dt)
+        budget.stage(PRESSURE, self.vel, self.kind)
+        budget.finish(dt, None if self.exchange else self._pressure_integrals())
         self.t += dt
         self.step_count += 1
         self._check()
@@ -544,6 +592,79 @@ class FluidSolver:
             self._viscous_laplacian(nb)
         self.dt_next = self.stable_dt()
         tm.explicit += time.perf_counter() - c6
+
+    def _gradient_args(self) -> tuple:
+        """The pressure gradient's arguments of this wall model, as
+        ``MomentumBudget.pressure`` takes them (same pairs, same pressures as the step)."""
+        if self.neumann:
+            return (self.pos, self.p, self.kind, self.re_grad, self.wcode, self.n0_grad,
+                    self.grad_form, False, True, self.free_surface, self.rho,
+                    self.gravity, self.pref_all)  # fmt: skip
+        return (self.pos, self.p, self.kind, self.re_grad, self.wcode, self.n0_grad,
+                self.grad_form, False, False, self.kind, 0.0, _NO_GRAVITY,
+                self.pref_all)  # fmt: skip
+
+    def _pressure_integrals(self) -> np.ndarray:
+        """Per patch, the pressure integral force of thesis eq. 2-51 (N; N/m in 2D)."""
+        area = self.l0 ** (self.dim - 1)
+        return np.array(
+            [
+                probes.patch_force(self.p, self.normal, pt.start, pt.stop, self.kind, area)
+                for pt in self.patches
+            ]
+        ).reshape(len(self.patches), self.dim)
+
+    def boundary_force(self, names: Sequence[str]) -> np.ndarray:
+        """The force of the last step on the patches ``names`` as ``fluid.boundary_force``
+        defines it (momentum_budget.py), N (N/m in 2D); before any step, that of the state."""
+        b = self.budget
+        o = self.n_fluid
+        total = np.zeros(self.dim)
+        for name in names:
+            pt = self._patch[name]
+            if b.model != "momentum_exchange":
+                total += probes.patch_force(
+                    self.p, self.normal, pt.start, pt.stop, self.kind, self.l0 ** (self.dim - 1)
+                )
+            if b.model == "momentum_exchange":
+                total += b.exchange_force[pt.start - o : pt.stop - o].sum(axis=0)
+            elif b.model == "pressure_and_contact":
+                total += b.contact_force[pt.start - o : pt.stop - o].sum(axis=0)
+        return total
+
+    def mean_boundary_force(self, key: str, names: Sequence[str]) -> np.ndarray:
+        """The :meth:`boundary_force` on the patches ``names`` averaged since the last call
+        with ``key`` (a probe's name), N (N/m in 2D): their impulse over that interval divided
+        by its length, so that samples integrate to the impulse however coarse they are; the
+        last step's force at a first call or at the same time."""
+        ids = [self.budget.names.index(n) for n in names]
+        impulse = self.budget.patch_impulse[ids].sum(axis=0)
+        mark = self.force_marks.get(key)
+        self.force_marks[key] = [self.t, *impulse.tolist()]
+        if mark is None or not self.t > mark[0]:
+            return self.boundary_force(names)
+        return (impulse - np.array(mark[1:])) / (self.t - mark[0])
+
+    def evaluate_exchange(self, nb=None) -> None:
+        """The momentum-exchange force of the current state without a step (the load before
+        the first step, e.g. hydrostatic): number density, free surface and dry flags, then
+        the pressure gradient's exchange, plus the viscous share. ``nb``: a neighbour list at
+        the current positions (default: a fresh search, filtered)."""
+        if nb is None:
+            nb = self._neighbours()
+        operators.number_density(
+            self.pos, nb.indptr, nb.indices, self.re_n, self.wcode, self.number_density
+        )
+        self.surface.detect(self.pos, self.kind, self.number_density, nb, self.free_surface)
+        if self.neumann:
+            wall_boundary.mark_dry(
+                self.pos, self.kind, self.free_surface, self.dummy_src, nb.indptr, nb.indices,
+                self.re_n,
+            )  # fmt: skip
+        self.budget.pressure(self._gradient_args(), nb, self.vel_before, self.kind)
+        np.copyto(self.budget.contact_force, self.budget.viscous_force)
+        np.add(self.budget.pressure_force, self.budget.contact_force,
+               out=self.budget.exchange_force)  # fmt: skip
 
     def _check(self) -> None:
         i, code = time_integration.first_bad_particle(
@@ -590,10 +711,19 @@ class FluidSolver:
             "p": self.p,
             "grad_p": self.grad_p,
             "lap_u": self.lap_u,
+            "viscous_exchange": self.budget.viscous_force,
+            "exchange_force": self.budget.exchange_force,
+            "momentum_ledger": self.budget.ledger,
+            "patch_impulse": self.budget.patch_impulse,
         }
 
     def meta(self) -> dict:
-        return {"t": self.t, "step": self.step_count, "dt_next": self.dt_next}
+        return {
+            "t": self.t,
+            "step": self.step_count,
+            "dt_next": self.dt_next,
+            "force_marks": {k: list(v) for k, v in self.force_marks.items()},
+        }
 
     def restore(
         self, arrays: dict[str, np.ndarray], meta: dict, preconditioner: dict | None = None
@@ -603,19 +733,30 @@ class FluidSolver:
         (:meth:`preconditioner_state`); None starts a fresh one, which a run that was not
         restored has not done, so only the first gives bit-identical continuations."""
         self._lap_u_ready = "lap_u" in arrays  # else the next step recomputes it
-        for name in ("pos", "vel", "p", "grad_p", "lap_u"):
-            if name in ("grad_p", "lap_u") and name not in arrays:
+        budget = {
+            "viscous_exchange": self.budget.viscous_force,
+            "exchange_force": self.budget.exchange_force,
+            "momentum_ledger": self.budget.ledger,
+            "patch_impulse": self.budget.patch_impulse,
+        }
+        for name in ("pos", "vel", "p", "grad_p", "lap_u", *budget):
+            if name not in ("pos", "vel", "p") and name not in arrays:
                 continue  # checkpoints written before these were state
             src = arrays[name]
-            if src.shape != getattr(self, name).shape:
+            dst = budget[name] if name in budget else getattr(self, name)
+            if src.shape != dst.shape:
                 raise ValueError(
                     f"checkpoint array {name} has shape {src.shape}, the scenario gives "
-                    f"{getattr(self, name).shape}: the checkpoint belongs to another scenario"
+                    f"{dst.shape}: the checkpoint belongs to another scenario"
                 )
-            getattr(self, name)[...] = src
+            dst[...] = src
+        if "viscous_exchange" not in arrays:  # an older checkpoint: rebuilt from this state
+            self._lap_u_ready = False
+            self.budget.reset((self.vel, self.kind))
         self.t = float(meta["t"])
         self.step_count = int(meta["step"])
         self.dt_next = float(meta["dt_next"])
+        self.force_marks = {k: list(v) for k, v in meta.get("force_marks", {}).items()}
         self.pressure.set_preconditioner_state(preconditioner)
 
     def preconditioner_state(self) -> dict | None:
@@ -679,6 +820,10 @@ class FluidSolver:
             )
         if probe.kind == "force":
             pt = next(pt for pt in self.patches if pt.name == probe.target)
+            if probe.average:
+                return self.mean_boundary_force(probe.name, [pt.name])
+            if self.budget.model != "pressure_integral":
+                return self.boundary_force([pt.name])
             return probes.patch_force(
                 self.p, self.normal, pt.start, pt.stop, self.kind, l0 ** (self.dim - 1)
             )

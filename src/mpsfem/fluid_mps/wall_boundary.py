@@ -34,7 +34,7 @@ import numpy as np
 from numba import njit, prange
 
 from mpsfem.fluid_mps.kernels import weight
-from mpsfem.fluid_mps.operators import gradient_kernel
+from mpsfem.fluid_mps.operators import fill_reference_pressures, gradient_kernel
 from mpsfem.fluid_mps.particle_kinds import is_dummy
 
 
@@ -101,14 +101,19 @@ def ghost_rhs(
 
 
 def pressure_gradient_ghost(
-    pos, p, kind, dry, indptr, indices, re, wcode, n0, form, rho, gravity, out
+    pos, p, kind, dry, indptr, indices, re, wcode, n0, form, rho, gravity, out, pref_all=None
 ):
     """Pressure gradient on fluid particles (Pa/m) with wet wall/dummy neighbours as ghosts
     p_j = p_i + D_ij, dry wall particles at p = 0 and dry dummies left out; ``form`` as in
-    :func:`mpsfem.fluid_mps.operators.gradient_kernel`."""
-    return gradient_kernel(
-        pos, p, kind, indptr, indices, re, wcode, n0, form, False, True, dry, rho, gravity, out
+    :func:`mpsfem.fluid_mps.operators.gradient_kernel` (``pref_all``: its (N,) work array for
+    ``cmps``, allocated when None)."""
+    pref_all = fill_reference_pressures(
+        pos, p, kind, indptr, indices, re, form, False, True, pref_all
     )
+    return gradient_kernel(
+        pos, p, kind, indptr, indices, re, wcode, n0, form, False, True, dry, rho, gravity,
+        pref_all, out,
+    )  # fmt: skip
 
 
 @njit(cache=True, parallel=True)

@@ -37,6 +37,22 @@ from mpsfem import __version__
 from mpsfem.results.xdmf import write_xdmf
 
 SNAPSHOT_DIGITS = 6
+#: /momentum_budget datasets of the fluid as a whole and per boundary patch (momentum_budget.py)
+BUDGET_FLUID_KEYS = (
+    "fluid_momentum",
+    "momentum_change",
+    "gravity",
+    "sponge",
+    "viscous",
+    "collision",
+    "pressure",
+    "internal_pressure",
+    "internal_viscous",
+    "internal_collision",
+    "residual",
+    "residual_external",
+)
+BUDGET_PATCH_KEYS = ("pressure", "viscous", "collision", "exchange", "reported")
 
 
 def _append_rows(ds: h5py.Dataset, rows: np.ndarray) -> None:
@@ -63,6 +79,7 @@ class ResultsFile:
         self._wall_offset = float(h5.attrs.get("wall_time", 0.0))
         self._n_snapshots = len(h5["particles"]) if "particles" in h5 else 0
         self._pending: dict[str, tuple[list[float], list[np.ndarray]]] = {}
+        self._budget_rows: list[tuple[float, dict[str, np.ndarray]]] = []
         self._xdmf = Path(xdmf) if xdmf is not None else None
         self._xdmf_snapshots = -1  # snapshots the sidecar lists (-1: not written yet)
 
@@ -124,8 +141,38 @@ class ResultsFile:
         out.flush()
         return out
 
+    def mark_end_samples(self, t: float, paths: Sequence[str]) -> None:
+        """Record that the samples at ``paths`` (probe/structure groups, snapshot groups) were
+        taken at ``t`` (s) only because the run ended there, off their grid: a restart from
+        that time removes them, so that it continues the series as an uninterrupted run has
+        them (root attribute ``end_samples``)."""
+        self._h5.attrs["end_samples"] = json.dumps({"time": float(t), "paths": list(paths)})
+
+    def _drop_end_samples(self, t: float) -> None:
+        """Remove the samples :meth:`mark_end_samples` recorded, if the run continues from
+        their time ``t`` (s)."""
+        raw = self._h5.attrs.get("end_samples")
+        if raw is None:
+            return
+        del self._h5.attrs["end_samples"]
+        end = json.loads(raw)
+        if end["time"] != t:
+            return
+        for path in end["paths"]:
+            if path not in self._h5:
+                continue
+            g = self._h5[path]
+            if path.startswith("particles/"):
+                del self._h5[path]
+                continue
+            if g["time"].shape[0] and g["time"][-1] == t:
+                for ds in g.values():
+                    if not ds.name.endswith("/nodes"):
+                        ds.resize(ds.shape[0] - 1, axis=0)
+
     def _truncate_after(self, t: float) -> None:
         self._flush_series()
+        self._drop_end_samples(t)
         for top in ("probes", "structure"):
             for g in self._h5[top].values():
                 if "time" not in g:
@@ -135,8 +182,10 @@ class ResultsFile:
                     if ds.name.endswith("/nodes"):
                         continue
                     ds.resize(keep, axis=0)
-        if "coupling" in self._h5:
-            g = self._h5["coupling"]
+        for top in ("coupling", "momentum_budget"):
+            if top not in self._h5:
+                continue
+            g = self._h5[top]
             keep = int(np.searchsorted(g["time"][:], t, side="right"))
             for ds in g.values():
                 ds.resize(keep, axis=0)
@@ -282,6 +331,52 @@ class ResultsFile:
                     _append_rows(ds, np.full(g["time"].shape[0] - 1, np.nan))
             _append_rows(g[key], np.array([val], dtype=np.float64))
 
+    # ------------------------------------------------------------------ momentum budget
+    def add_momentum_budget(
+        self, patches: Sequence[str], dim: int, unit: str, boundary_force: str
+    ) -> None:
+        """Declare ``/momentum_budget`` (idempotent for restarts): one row per fluid step
+        (fluid-only runs) or per accepted coupling window, impulses over that period in
+        ``unit``; fluid keys (T, dim), patch keys (T, patches, dim) (docs/results.md)."""
+        if "momentum_budget" in self._h5:
+            return
+        g = self._h5.create_group("momentum_budget")
+        g.attrs["unit"] = unit
+        g.attrs["patches"] = list(patches)
+        g.attrs["components"] = ["x", "y", "z"][:dim]
+        g.attrs["boundary_force"] = boundary_force
+        _series(g, "time", ())
+        _series(g, "period", ())
+        for key in BUDGET_FLUID_KEYS:
+            _series(g, key, (dim,))
+        for key in BUDGET_PATCH_KEYS:
+            _series(g, f"patch_{key}", (len(patches), dim))
+
+    def append_momentum_budget(self, t: float, period: float, record: dict) -> None:
+        """Append one budget row at time ``t`` (s) over the last ``period`` (s): ``record`` as
+        ``MomentumBudget.take`` returns it; buffered until the next flush."""
+        names = self._h5["momentum_budget"].attrs["patches"]
+        row = {k: np.asarray(record[k], dtype=np.float64) for k in BUDGET_FLUID_KEYS}
+        for key in BUDGET_PATCH_KEYS:
+            row[f"patch_{key}"] = (
+                np.stack([record[f"{n}/{key}"] for n in names]) if len(names) else None
+            )
+        row["period"] = np.float64(period)
+        self._budget_rows.append((float(t), row))
+
+    def _flush_budget(self) -> None:
+        if not self._budget_rows:
+            return
+        g = self._h5["momentum_budget"]
+        rows, self._budget_rows = self._budget_rows, []
+        _append_rows(g["time"], np.array([t for t, _ in rows]))
+        patch_keys = tuple(f"patch_{k}" for k in BUDGET_PATCH_KEYS)
+        for key in ("period", *BUDGET_FLUID_KEYS, *patch_keys):
+            if rows[0][1][key] is None:
+                g[key].resize(g["time"].shape[0], axis=0)
+                continue
+            _append_rows(g[key], np.stack([r[key] for _, r in rows]))
+
     # ------------------------------------------------------------------ lifecycle
     @property
     def h5(self) -> h5py.File:
@@ -299,6 +394,7 @@ class ResultsFile:
         """Write buffered samples, update the wall time, push everything to disk and then bring
         the XDMF sidecar in step with the snapshots now on disk."""
         self._flush_series()
+        self._flush_budget()
         self._h5.attrs["wall_time"] = self._wall_offset + time.perf_counter() - self._t_start
         self._h5.flush()
         self._write_sidecar()

@@ -49,7 +49,7 @@ class PressureSection(Section):
         "particles are ghosts of each fluid particle carrying the projection method's wall "
         "condition (docs/architecture.md), walls are not unknowns",
     )
-    gradient: Literal["corrected_pmin", "corrected", "pmin", "tanaka"] = Field(
+    gradient: Literal["corrected_pmin", "corrected", "pmin", "tanaka", "cmps"] = Field(
         "corrected_pmin",
         description="pressure gradient: 'corrected_pmin', the p_j - p_min form of eq. 2-11 "
         "multiplied by the inverse moment matrix C_i^-1 (exact for linear fields on any "
@@ -57,7 +57,9 @@ class PressureSection(Section):
         "docs/fluid.md); 'corrected', the same with p_j - p_i (no repulsive part); 'pmin', eq. "
         "2-11 with the neighbourhood minimum (repulsive; half the gradient at a free surface); "
         "'tanaka', the momentum-conserving form of eq. 2-12 (unstable near a free surface in our "
-        "tests)",
+        "tests); 'cmps', Khayyer & Gotoh's (2008) antisymmetric form sum (p_i + p_j - p_min,i - "
+        "p_min,j): momentum-conserving and stabilised, its fluid-fluid pairs cancel exactly "
+        "(docs/fluid.md, momentum budget)",
     )
     gamma: float = Field(
         0.01,
@@ -384,6 +386,26 @@ class FluidSection(Section):
         ),
     )
     hydrostatic_start: bool = Field(True, description="start still water from hydrostatic pressure")
+    boundary_force: Literal["pressure_and_contact", "pressure_integral", "momentum_exchange"] = (
+        Field(
+            "pressure_and_contact",
+            description="force of the fluid on walls and structure members (force probes, "
+            "coupling loads): 'pressure_integral', the sum of -p_i l0^(d-1) n_i over the "
+            "pressure layer (thesis eq. 2-51; the earlier default); 'pressure_and_contact', that "
+            "plus the reaction to the step's viscous and collision pair interactions with the "
+            "boundary's particles (dummies booked on their pressure particle): the momentum the "
+            "collision model takes from fluid near a member reaches the member; "
+            "'momentum_exchange', the reaction to every pair interaction, pressure included, so "
+            "the impulse a boundary receives is exactly the momentum the fluid loses at it "
+            "(needs an antisymmetric fluid.pressure.gradient; docs/fluid.md, momentum budget)",
+        )
+    )
+    momentum_budget: bool = Field(
+        True,
+        description="record the fluid's momentum budget in the results file (/momentum_budget: "
+        "each stage's momentum change, the internal imbalance of the pair terms, the impulse "
+        "exchanged with and reported on each boundary patch, the residual)",
+    )
     dummy_layers: int | None = Field(
         None,
         ge=1,
@@ -445,6 +467,19 @@ class FluidSection(Section):
     @model_validator(mode="after")
     def _check(self) -> FluidSection:
         d = self.dim
+        if self.boundary_force == "momentum_exchange" and self.pressure.gradient not in (
+            "tanaka",
+            "cmps",
+        ):
+            raise InvalidValue(
+                "boundary_force",
+                f"'momentum_exchange' needs an antisymmetric pressure gradient "
+                f"(fluid.pressure.gradient = 'tanaka' or 'cmps'), not "
+                f"{self.pressure.gradient!r}: with it the fluid-fluid pairs do not cancel and "
+                "the pair exchange with walls misses most of their push (docs/fluid.md, "
+                "momentum budget); use 'pressure_and_contact' or 'pressure_integral'",
+                self.boundary_force,
+            )
         if len(self.gravity) != d:
             raise InvalidValue("gravity", f"must have {d} components (dim = {d})", self.gravity)
         for key in ("domain_lower", "domain_upper"):

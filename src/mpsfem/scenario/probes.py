@@ -84,10 +84,18 @@ class FrontProbe(_Probe):
 
 
 class ForceProbe(_Probe):
-    """Total pressure force of the fluid on a named wall patch or structure, N (N/m in 2D)."""
+    """Force of the fluid on a named wall patch or structure member (``fluid.boundary_force``
+    says which contributions), N (N/m in 2D)."""
 
     kind: Literal["force"]
     target: str = Field(description="name of a wall (fluid.walls[].name) or structure member")
+    average: bool = Field(
+        True,
+        description="true: the mean force since the probe's previous sample (its impulse over "
+        "the interval divided by the interval), so that samples integrate to the impulse the "
+        "boundary received however coarse the sampling; false: the force of the last step "
+        "(the earlier behaviour; it aliases the step-to-step pressure noise)",
+    )
 
 
 class DisplacementProbe(_Probe):

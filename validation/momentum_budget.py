@@ -1,0 +1,280 @@
+"""The fluid's momentum budget over impacts, and what walls and members are told they feel
+(issue "Interface loads that conserve momentum and do not ring").
+
+Cases (each an ``mpsfem run`` subprocess, resumable like every study in validation/):
+
+* the elastic obstacle (scenarios/dam_break_elastic_obstacle_2d.toml) at l0 = L/20 and L/40 to
+  0.25 s, with the structure loaded by ``fluid.boundary_force = "pressure_integral"`` (thesis
+  eq. 2-51, the earlier default) and ``"pressure_and_contact"`` (eq. 2-51 plus the viscous and
+  collision exchange); the impact window is 0.12-0.25 s;
+* the Koshizuka-Oka dam break (scenarios/dam_break_2d.toml) at L/40 to 0.4 s: the column's
+  collapse (0-0.2 s) and the impact on the far wall (0.2-0.4 s); a fluid-only run, so every
+  force model's numbers come from the one run's budget;
+* the antisymmetric gradients (``tanaka``, ``cmps``, with ``momentum_exchange``), which close
+  the budget to round-off (tests/fluid_mps/test_momentum_budget.py), on still water
+  (scenarios/hydrostatic_2d.toml, 0.5 s) and the dam break at L/40: do they run?
+
+Per case and window, from ``/momentum_budget`` (impulses in N s/m):
+
+* the fluid's momentum change, gravity's impulse, the internal imbalance of the pressure pairs;
+* per patch the reported impulse under each force model;
+* ``residual_external`` = dP - G - S + sum_b J_b: what the reported boundary impulses J_b leave
+  unexplained of the fluid's momentum change (gravity G, sponge S), per component and relative
+  to sum_b |J_b|; and the issue's ``residual`` (the same with the internal imbalance counted
+  as a further source);
+* obstacle: the impulse the member is handed, the collision model's share of it, the peak tip
+  displacement and its time, and the ringing of the force probe at 1 ms sampling (RMS of the
+  sample-to-sample jump over its peak) for the last-step force (``average = false``) and for
+  the interval mean (``average = true``).
+
+Writes validation/results/momentum_budget.csv and prints the table; discussed in docs/fluid.md
+("Momentum budget") and docs/validation.md.
+
+    python validation/momentum_budget.py [--threads 1] [--analyse-only] [--retry-failed]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import case_runner  # noqa: E402 - validation/case_runner.py: resumable runs of one case
+from results_csv import write_csv  # noqa: E402
+
+ROOT = case_runner.ROOT
+RESULTS_DIR = ROOT / "validation" / "results"
+OBSTACLE = ROOT / "scenarios" / "dam_break_elastic_obstacle_2d.toml"
+DAM = ROOT / "scenarios" / "dam_break_2d.toml"
+STILL = ROOT / "scenarios" / "hydrostatic_2d.toml"
+L = 0.146  # m, the column width of both dam breaks
+MODELS = ("pressure_integral", "pressure_and_contact")
+#: an instantaneous twin of the obstacle's force probe (the scenario's own one averages),
+#: appended to a copy of the scenario (--set cannot add a list item)
+INSTANT_PROBE = """
+[[probes]]
+name = "force_last_step"
+kind = "force"
+target = "obstacle"
+average = false
+"""
+WINDOWS = {
+    "obstacle": [("impact", 0.12, 0.25)],
+    "dam_break": [("collapse", 0.0, 0.2), ("impact", 0.2, 0.4)],
+}
+
+
+def obstacle_cases() -> dict:
+    cases = {}
+    for n in (20, 40):
+        for model in MODELS:
+            sets = [
+                f"fluid.spacing={L / n:.6g}",
+                "run.end_time=0.25",
+                f"fluid.boundary_force={model}",
+                "output.snapshot_interval=0",
+            ]
+            out = RESULTS_DIR / f"momentum_obstacle_L{n}_{model}.h5"
+            cases[("obstacle", n, model)] = (out, sets, f"[obstacle L/{n} {model}]")
+    return cases
+
+
+def dam_cases() -> dict:
+    sets = ["fluid.spacing=0.00365", "run.end_time=0.4", "output.probe_interval=0.001"]
+    out = RESULTS_DIR / "momentum_dam_break_L40.h5"
+    return {("dam_break", 40, "fluid_only"): (out, sets, "[dam break L/40]")}
+
+
+def conservative_cases() -> dict:
+    cases = {}
+    for gradient in ("tanaka", "cmps"):
+        sets = [f"fluid.pressure.gradient={gradient}", "fluid.boundary_force=momentum_exchange"]
+        out = RESULTS_DIR / f"momentum_still_{gradient}.h5"
+        cases[("still_water", 0, gradient)] = (
+            out,
+            [*sets, "run.end_time=0.5"],
+            f"[still water {gradient}]",
+        )
+        out = RESULTS_DIR / f"momentum_dam_break_L40_{gradient}.h5"
+        cases[("dam_break", 40, gradient)] = (
+            out,
+            [*sets, "fluid.spacing=0.00365", "run.end_time=0.4"],
+            f"[dam break L/40 {gradient}]",
+        )
+    return cases
+
+
+def window_sums(path: Path, t0: float, t1: float) -> dict:
+    """Budget rows with t0 < time <= t1, summed; patch arrays (patches, dim)."""
+    with h5py.File(path, "r") as h5:
+        g = h5["momentum_budget"]
+        t = g["time"][:]
+        sel = (t > t0) & (t <= t1)
+        out = {k: g[k][sel].sum(axis=0) for k in g if k not in ("time",)}
+        out["patches"] = [str(p) for p in g.attrs["patches"]]
+        out["model"] = str(g.attrs["boundary_force"])
+    return out
+
+
+def reported(b: dict, model: str) -> np.ndarray:
+    """Per patch the impulse ``model`` reports (derived from the budget's parts where the run
+    used another model: a fluid-only run's dynamics do not depend on it)."""
+    if model == b["model"]:
+        return b["patch_reported"]
+    integral = b["patch_reported"]
+    if b["model"] == "pressure_and_contact":
+        integral = integral - b["patch_viscous"] - b["patch_collision"]
+    if model == "pressure_integral":
+        return integral
+    return integral + b["patch_viscous"] + b["patch_collision"]
+
+
+def residuals(b: dict, rep: np.ndarray) -> dict:
+    explained_ext = b["gravity"] + b["sponge"] - rep.sum(axis=0)
+    res_ext = b["momentum_change"] - explained_ext
+    internal = b["internal_pressure"] + b["internal_viscous"] + b["internal_collision"]
+    res = res_ext - internal
+    scale = np.abs(rep).sum(axis=0)
+    row = {}
+    for a, ax in enumerate("xy"):
+        row[f"momentum_change_{ax}"] = float(b["momentum_change"][a])
+        row[f"boundary_impulse_{ax}"] = float(scale[a])
+        row[f"internal_pressure_{ax}"] = float(b["internal_pressure"][a])
+        row[f"residual_external_{ax}"] = float(res_ext[a])
+        row[f"residual_external_rel_{ax}"] = float(res_ext[a] / scale[a]) if scale[a] else np.nan
+        row[f"residual_{ax}"] = float(res[a])
+    return row
+
+
+def ringing(path: Path, probe: str, t0: float, t1: float) -> tuple[float, float]:
+    """(peak |F_x|, RMS of the sample-to-sample jump of F_x / peak) of a force probe."""
+    with h5py.File(path, "r") as h5:
+        t = h5[f"probes/{probe}/time"][:]
+        f = h5[f"probes/{probe}/value"][:, 0]
+    sel = (t >= t0) & (t <= t1)
+    peak = float(np.abs(f[sel]).max())
+    return peak, float(np.sqrt(np.mean(np.diff(f[sel]) ** 2)) / peak)
+
+
+def obstacle_row(path: Path, n: int, model: str) -> dict:
+    _, t0, t1 = WINDOWS["obstacle"][0]
+    b = window_sums(path, t0, t1)
+    rep = b["patch_reported"]
+    member = [k for k, p in enumerate(b["patches"]) if p.startswith("obstacle")]
+    with h5py.File(path, "r") as h5:
+        tip = h5["probes/tip/value"][:, 0]
+        tt = h5["probes/tip/time"][:]
+        wall = float(h5.attrs.get("wall_time", np.nan))
+    peak_inst, ring_inst = ringing(path, "force_last_step", t0, t1)
+    peak_mean, ring_mean = ringing(path, "obstacle_force", t0, t1)
+    return {
+        "case": "obstacle",
+        "resolution_L_over_l0": n,
+        "force_model": model,
+        "window": "impact",
+        "t0_s": t0,
+        "t1_s": t1,
+        **residuals(b, rep),
+        "member_impulse_x": float(rep[member, 0].sum()),
+        "member_collision_impulse_x": float(b["patch_collision"][member, 0].sum()),
+        "tip_peak_mm": float(1e3 * tip.max()),
+        "tip_peak_time_s": float(tt[np.argmax(tip)]),
+        "force_peak_last_step": peak_inst,
+        "ringing_last_step": ring_inst,
+        "force_peak_mean": peak_mean,
+        "ringing_mean": ring_mean,
+        "wall_time_s": wall,
+    }
+
+
+def dam_rows(path: Path) -> list[dict]:
+    rows = []
+    for label, t0, t1 in WINDOWS["dam_break"]:
+        b = window_sums(path, t0, t1)
+        for model in MODELS:
+            rows.append(
+                {
+                    "case": "dam_break",
+                    "resolution_L_over_l0": 40,
+                    "force_model": model,
+                    "window": label,
+                    "t0_s": t0,
+                    "t1_s": t1,
+                    **residuals(b, reported(b, model)),
+                }
+            )
+    return rows
+
+
+def stability_row(path: Path, key: tuple) -> dict:
+    case, n, gradient = key
+    with h5py.File(path, "r") as h5:
+        status = str(h5.attrs["status"])
+        t = h5["momentum_budget/time"][:]
+    return {
+        "case": case,
+        "resolution_L_over_l0": n,
+        "force_model": f"momentum_exchange, gradient {gradient}",
+        "window": "stability",
+        "t0_s": 0.0,
+        "t1_s": float(t[-1]) if len(t) else 0.0,
+        "status": status.split(":")[0]
+        + (": " + status.split(": ")[-1][:60] if ":" in status else ""),
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    case_runner.add_run_options(ap)
+    args = ap.parse_args(argv)
+    RESULTS_DIR.mkdir(parents=True, exist_ok=True)
+    run = (args.threads, args.analyse_only, args.retry_failed)
+    rows = []
+    scene = RESULTS_DIR / "dam_break_elastic_obstacle_2d_two_force_probes.toml"
+    scene.write_text(OBSTACLE.read_text() + INSTANT_PROBE)
+    for key, path in case_runner.finished_cases(scene, obstacle_cases(), *run).items():
+        rows.append(obstacle_row(path, key[1], key[2]))
+    for path in case_runner.finished_cases(DAM, dam_cases(), *run).values():
+        rows.extend(dam_rows(path))
+    for key, (out, sets, tag) in conservative_cases().items():
+        scene = STILL if key[0] == "still_water" else DAM
+        status = case_runner.case_status(scene, out, sets, *run, tag=tag)
+        if status is not None:  # a blow-up is the result here
+            rows.append(stability_row(out, key))
+    if not rows:
+        print("nothing to analyse")
+        return 1
+    columns = list(dict.fromkeys(k for r in rows for k in r))
+    write_csv(
+        rows,
+        RESULTS_DIR / "momentum_budget.csv",
+        columns,
+        "momentum budget over impacts (validation/momentum_budget.py); impulses N s/m",
+    )
+    print("case        L/l0  model                 window    res_ext x (rel)   res_ext y (rel)")
+    for r in rows:
+        if r["window"] == "stability":
+            print(f"{r['case']:10s} {r['resolution_L_over_l0']:>4}  {r['force_model']}: "
+                  f"{r['status']} at t = {r['t1_s']:.3f} s")  # fmt: skip
+            continue
+        print(
+            f"{r['case']:10s} {r['resolution_L_over_l0']:>4}  {r['force_model']:20s}  "
+            f"{r['window']:8s}  {r['residual_external_x']:7.2f} ({100 * r['residual_external_rel_x']:5.1f} %)"
+            f"  {r['residual_external_y']:7.2f} ({100 * r['residual_external_rel_y']:5.1f} %)"
+            + (
+                f"  member {r['member_impulse_x']:.2f} (collision {r['member_collision_impulse_x']:.2f})"
+                f"  tip {r['tip_peak_mm']:.1f} mm at {r['tip_peak_time_s']:.3f} s"
+                f"  ringing {r['ringing_last_step']:.3f} -> {r['ringing_mean']:.3f}"
+                if r["case"] == "obstacle"
+                else ""
+            )
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
