@@ -17,11 +17,10 @@ from __future__ import annotations
 
 from typing import Literal
 
-import numpy as np
 from pydantic import Field
 from scipy.linalg import solve_triangular
 
-from mpsfem.coupler.acceleration.quasi_newton import QuasiNewton, QuasiNewtonParams
+from mpsfem.coupler.acceleration.quasi_newton import PRIMARY, QuasiNewton, QuasiNewtonParams
 
 
 class IQNILSParams(QuasiNewtonParams):
@@ -34,12 +33,10 @@ class IQNILS(QuasiNewton):
     kind = "iqn-ils"
     Params = IQNILSParams
 
-    def _update(self, Q, R, r, x_tilde, st):
+    def _update(self, Q, R, r, bases):
         if Q is None:
             return None
-        alpha = solve_triangular(
-            R, -(Q.T @ self.scaled(r))
-        )  # Degroote et al. 2009, IQN-ILS least-squares step
-        x_next = x_tilde + np.stack(self.W, axis=1) @ alpha
-        sec = {k: s_t + np.stack(self.Ws[k], axis=1) @ alpha for k, s_t in st.items()}
-        return x_next, sec
+        alpha = solve_triangular(R, -(Q.T @ self.scaled(r)))  # Degroote et al. 2009, IQN-ILS step
+        # x_{k+1} = x_tilde_k + W alpha, the same alpha for every field
+        out = {f: base + self.columns(f) @ alpha for f, base in bases.items()}
+        return out.pop(PRIMARY), out

@@ -35,6 +35,7 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
+from mpsfem.coupler.acceleration.preconditioner import PreconditionerKind
 from mpsfem.coupler.acceleration.quasi_newton import PRIMARY, QuasiNewton, QuasiNewtonParams
 
 Restart = Literal["no-restart", "RS-SVD", "RS-LS", "RS-0"]
@@ -54,6 +55,30 @@ class IQNIMVJParams(QuasiNewtonParams):
     )
     max_columns: int = Field(
         20, ge=1, description="Most columns kept in V and W (>= 1); the oldest go first."
+    )
+    data: list[Literal["displacement", "velocity"]] = Field(
+        default_factory=lambda: ["displacement", "velocity"],
+        description=(
+            'Fields whose residuals the least squares fits: ["displacement", "velocity"] '
+            '(default: measured best, docs/coupler.md) or ["displacement"]. The convergence '
+            "criterion always measures the displacement."
+        ),
+    )
+    preconditioner: PreconditionerKind = Field(
+        "value",
+        description=(
+            'Residual scaling per field: "value" (default: measured best with two fields), '
+            '"residual_sum" (preCICE\'s default) or "none".'
+        ),
+    )
+    complement_relaxation: float | Literal["auto"] = Field(
+        "auto",
+        description=(
+            'Relaxation of the residual outside the span of the columns, in (0, 1], or "auto" '
+            "(default: 1 / the steepest secant slope of the residual; the only setting that "
+            "converged at every added-mass ratio of the sweep, docs/coupler.md). 1 is "
+            "preCICE's step."
+        ),
     )
     restart: Restart = Field(
         "no-restart",
@@ -123,17 +148,14 @@ class IQNIMVJ(QuasiNewton):
         n_r = next((t[field][1].shape[1] for t in self.chunk if field in t), None)
         return None if n_r is None else self._jprev(field, np.eye(n_r))
 
-    def _columns(self, field: str) -> np.ndarray:
-        return np.stack(self.W if field == PRIMARY else self.Ws[field], axis=1)
-
     def _wtilde(self, field: str, Vm: np.ndarray) -> np.ndarray:
         """W_tilde = W - J_prev V (Lindner et al. 2015, multi-vector update)."""
-        W = self._columns(field)
+        W = self.columns(field)
         JV = self._jprev(field, Vm)
         return W if JV is None else W - JV
 
     # ------------------------------------------------------------------ iteration
-    def _update(self, Q, R, r, x_tilde, st):
+    def _update(self, Q, R, r, bases):
         if Q is None and not self.has_jacobian():
             return None
         neg = -r
@@ -142,7 +164,7 @@ class IQNIMVJ(QuasiNewton):
             Vm = np.stack(self.V, axis=1)
             Zr = self.pseudo_inverse(Q, R) @ neg
         out = {}
-        for field, base in ((PRIMARY, x_tilde), *st.items()):
+        for field, base in bases.items():
             step = self._jprev(field, neg)
             nxt = base if step is None else base + step
             if Q is not None:
@@ -180,8 +202,8 @@ class IQNIMVJ(QuasiNewton):
         mine = [k for k, t in enumerate(self.tags) if t == self.window]
         self.rs_V = [self.V[k] for k in mine] + self.rs_V
         for f in [PRIMARY, *self.Ws]:
-            cols = self.W if f == PRIMARY else self.Ws[f]
-            self.rs_W[f] = [cols[k] for k in mine] + self.rs_W.get(f, [])
+            cols = self.columns(f)
+            self.rs_W[f] = [cols[:, k] for k in mine] + self.rs_W.get(f, [])
         self.rs_tags = [self.window] * len(mine) + self.rs_tags
         keep = [
             k
@@ -219,7 +241,7 @@ class IQNIMVJ(QuasiNewton):
             w = self._weights(B.shape[1])
             Qa, Ra = np.linalg.qr(A, mode="reduced")
             Qb, Rb = np.linalg.qr((B / w[None, :]).T, mode="reduced")
-            U, sig, Vt = np.linalg.svd(Ra @ Rb.T)
+            U, sig, Vt = np.linalg.svd(Ra @ Rb.T, full_matrices=False)
             keep = sig >= self.params.truncation * sig[0] if sig.size and sig[0] > 0 else sig > 0
             self.truncated += int(sig.size - keep.sum())
             if f == PRIMARY:

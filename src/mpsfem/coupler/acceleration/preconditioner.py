@@ -15,7 +15,7 @@ of field k the weight w_k, and the least squares is solved for P V, P r with P =
 
 Scaling one field by a constant c then scales its weight by 1 / c: the scaled least squares,
 and so every iterate, is the same (up to round-off), whatever units the field is written in.
-Weights only rescale rows; a field whose norm is zero keeps its last weight.
+Weights only rescale rows; a field whose norm is zero (or not finite) keeps its last weight.
 """
 
 from __future__ import annotations
@@ -82,7 +82,7 @@ class ValuePreconditioner(Preconditioner):
         if window_complete or self.first_window:
             for k, part in enumerate(self.parts(values)):
                 norm = float(np.linalg.norm(part))
-                if norm > _ZERO:
+                if _ZERO < norm < np.inf:
                     self.field_weights[k] = 1.0 / norm  # preCICE ValuePreconditioner: 1/|x_k|
             self.changed = True
         super().update(window_complete, values, residual)
@@ -105,7 +105,7 @@ class ResidualSumPreconditioner(Preconditioner):
             return
         norms = np.array([np.linalg.norm(p) for p in self.parts(residual)])
         total = float(np.linalg.norm(norms))
-        if total > _ZERO:
+        if _ZERO < total < np.inf:  # a non-finite residual stops the scheme; keep the weights
             self.sum += norms / total  # preCICE ResidualSumPreconditioner: sum_i |r_k,i| / |r_i|
         live = self.sum > _ZERO
         reset = self.first_window

@@ -13,6 +13,15 @@ and the accepted last iteration too (:meth:`QuasiNewton.iterations_converged`, p
 ``iterationsConverged``). The columns of the last ``reuse_windows`` windows are kept,
 ``max_columns`` caps them (oldest first), and V never has more columns than rows.
 
+``complement_relaxation`` omega_c relaxes the part of the residual the columns cannot explain:
+with alpha the least-squares coefficients, the step x_tilde + W alpha of preCICE is
+x + (W - V) alpha + (r + V alpha), i.e. a plain fixed-point step (factor 1) on the residual
+r + V alpha left outside the span of V. For an added-mass ratio mu the map has eigenvalues down
+to about -1.2 mu, so in directions not yet in V every iteration multiplies the error by up to
+1.2 mu; omega_c < 2 / (1 + 1.2 mu) keeps those directions contracting. Every field f uses it:
+its base x_tilde_f - (1 - omega_c) r_f and columns W_f - (1 - omega_c) V_f (V_f its residual
+differences), which is preCICE's scheme for omega_c = 1 (the default).
+
 Before every solve the per-field weights P (:mod:`.preconditioner`) are updated and the QR filter
 (:mod:`.qr_filter`) runs on P V; filtered columns are dropped for good. A subclass turns the
 filtered QR into the next iterate (:meth:`QuasiNewton._update`): IQN-ILS from the columns alone,
@@ -81,12 +90,32 @@ class QuasiNewtonParams(Section):
             "convergence criterion always measures the displacement."
         ),
     )
-    preconditioner: PreconditionerKind = Field(
-        "residual_sum",
+    complement_relaxation: float | Literal["auto"] = Field(
+        1.0,
         description=(
-            'Residual scaling per field: "none", "value" (1 / |field values|) or '
-            "\"residual_sum\" (1 / sum of the field's share of the residual; preCICE's default). "
-            "With one field in data it only rescales the whole least squares (no effect)."
+            "Relaxation of the residual outside the span of the columns, in (0, 1], or "
+            '"auto": 1 is preCICE\'s step x_tilde + W alpha; below 2 / (1 + 1.2 mu) (mu = added '
+            "/ structure mass) the directions not yet learnt contract instead of growing by up "
+            'to 1.2 mu per iteration. "auto": 1 / rho, rho the largest |dr| / |dx| of any column '
+            "so far (the steepest secant slope of the residual, about 1 + 1.2 mu), at most 1 "
+            "(docs/coupler.md, added-mass sweep)."
+        ),
+    )
+
+    @field_validator("complement_relaxation")
+    @classmethod
+    def _in_unit_interval(cls, v: float | str) -> float | str:
+        if v != "auto" and not 0.0 < v <= 1.0:
+            raise ValueError("must be in (0, 1] or 'auto'")
+        return v
+
+    preconditioner: PreconditionerKind = Field(
+        "value",
+        description=(
+            'Residual scaling per field: "value" (1 / |field values|; the default, measured '
+            'best with two fields, docs/coupler.md), "residual_sum" (1 / the field\'s summed '
+            'share of the residual; preCICE\'s default) or "none". With one field in data it '
+            "only rescales the whole least squares (no effect)."
         ),
     )
 
@@ -110,8 +139,12 @@ class QuasiNewton(Acceleration):
         self.V: list[np.ndarray] = []
         self.W: list[np.ndarray] = []  # the primary field's
         self.Ws: dict[str, list[np.ndarray]] = {}  # each secondary field's
+        self.Vs: dict[str, list[np.ndarray]] = {}  # each secondary's residual differences
+        self.nx = 0  # entries of the primary field
+        self.rho = 0.0  # steepest secant slope |dr| / |dx| of any column ("auto" omega_c)
         self.tags: list[int] = []
-        self._prev: tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]] | None = None
+        # (residual, x_tilde, secondary answers, secondary residuals) of the last iteration
+        self._prev: tuple | None = None
         self.filtered = 0  # columns removed by the filter so far
         self.precon: Preconditioner | None = None  # built at the first iteration (sizes)
         self._precon_state: dict | None = None
@@ -135,7 +168,7 @@ class QuasiNewton(Acceleration):
         st = {k: v[1] for k, v in sec.items()}
         r = self._residual(x, x_tilde, sec)
         if self._prev is not None:
-            self._add_column(r, x_tilde, st)
+            self._add_column(r, x_tilde, st, {k: b - a for k, (a, b) in sec.items()})
         self._prev = None
         self._learn()
         if self.precon is not None:
@@ -151,6 +184,7 @@ class QuasiNewton(Acceleration):
         self.V = [self.V[k] for k in keep]
         self.W = [self.W[k] for k in keep]
         self.Ws = {n: [cols[k] for k in keep] for n, cols in self.Ws.items()}
+        self.Vs = {n: [cols[k] for k in keep] for n, cols in self.Vs.items()}
         self.tags = [self.tags[k] for k in keep]
 
     # ------------------------------------------------------------------ iteration
@@ -172,7 +206,9 @@ class QuasiNewton(Acceleration):
 
     def _compute(self, x, x_tilde, secondary):
         st = {k: np.asarray(v[1], dtype=np.float64) for k, v in secondary.items()}
+        rs = {k: st[k] - np.asarray(v[0], dtype=np.float64) for k, v in secondary.items()}
         r = self._residual(x, x_tilde, secondary)
+        self.nx = x.size
         if self.precon is None:
             sizes = [x.size] + [st[n].size for n in self.params.data[1:]]
             self.precon = create_preconditioner(self.params.preconditioner, sizes)
@@ -180,37 +216,74 @@ class QuasiNewton(Acceleration):
                 self.precon.load_state_dict(self._precon_state)
         self.precon.update(False, self._values(x_tilde, st), r)
         if self._prev is not None:
-            self._add_column(r, x_tilde, st)
-        self._prev = (r, x_tilde.copy(), {k: v.copy() for k, v in st.items()})
+            self._add_column(r, x_tilde, st, rs)
+        self._prev = (r, x_tilde.copy(), {k: v.copy() for k, v in st.items()}, rs)
         Q, R = self._qr()
-        step = self._update(Q, R, r, x_tilde, st)
+        c = 1.0 - self.omega_c()
+        if c == 0.0:
+            bases = {PRIMARY: x_tilde, **st}
+        else:  # x_tilde_f - (1 - omega_c) r_f: relaxed where the columns do not reach
+            bases = {PRIMARY: x_tilde - c * (x_tilde - x), **{k: st[k] - c * rs[k] for k in st}}
+        step = self._update(Q, R, r, bases)
         if step is None:
             return relax(self.params.initial_relaxation, x, x_tilde, secondary)
         return step
 
     def _update(
+        self, Q: np.ndarray | None, R: np.ndarray, r: np.ndarray, bases: dict[str, np.ndarray]
+    ) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
+        """The next (primary, secondaries) from the filtered QR of P V (Q None: no columns),
+        the residual r (unscaled) and each field's base (x_tilde_f, or x_tilde_f - (1 - omega_c)
+        r_f), with :meth:`columns` as its W; None for a relaxation step (nothing learnt yet)."""
+        raise NotImplementedError
+
+    def columns(self, field: str) -> np.ndarray:
+        """The field's answer differences as the update uses them, (n_f x m): W_f, or
+        W_f - (1 - omega_c) V_f with complement relaxation."""
+        W = np.stack(self.W if field == PRIMARY else self.Ws[field], axis=1)
+        c = 1.0 - self.omega_c()
+        if c == 0.0:
+            return W
+        if field == PRIMARY:
+            Vf = np.stack(self.V, axis=1)[: self.nx]
+        else:
+            Vf = np.stack(self.Vs[field], axis=1)
+        return W - c * Vf
+
+    def omega_c(self) -> float:
+        """The complement relaxation in force: the configured one, or for "auto" 1 / rho (at
+        most 1), rho the steepest secant slope |dr| / |dx| of any column so far (0 before any:
+        omega_c = 1)."""
+        w = self.params.complement_relaxation
+        if w != "auto":
+            return float(w)
+        return 1.0 if self.rho <= 1.0 else 1.0 / self.rho
+
+    def _add_column(
         self,
-        Q: np.ndarray | None,
-        R: np.ndarray,
         r: np.ndarray,
         x_tilde: np.ndarray,
         st: dict[str, np.ndarray],
-    ) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
-        """The next (primary, secondaries) from the filtered QR of P V (Q None: no columns) and
-        the residual r (unscaled); None for a relaxation step (nothing learnt yet)."""
-        raise NotImplementedError
-
-    def _add_column(self, r: np.ndarray, x_tilde: np.ndarray, st: dict[str, np.ndarray]) -> None:
+        rs: dict[str, np.ndarray],
+    ) -> None:
         """Insert the differences to the previous iteration (newest first), capped at
         ``max_columns``."""
-        r0, xt0, st0 = self._prev
+        r0, xt0, st0, rs0 = self._prev
         self.V.insert(0, r - r0)
         self.W.insert(0, x_tilde - xt0)
         for k in st:
             self.Ws.setdefault(k, [np.zeros_like(st[k]) for _ in self.tags]).insert(
                 0, st[k] - st0[k]
             )
+            self.Vs.setdefault(k, [np.zeros_like(st[k]) for _ in self.tags]).insert(
+                0, rs[k] - rs0[k]
+            )
         self.tags.insert(0, self.window)
+        if self.params.complement_relaxation == "auto":
+            dr = self.V[0][: x_tilde.size]
+            ndx = float(np.linalg.norm(self.W[0] - dr))  # dx = dx_tilde - dr, the column's step
+            if ndx > 0.0:  # the residual's secant slope along dx; rho never decreases
+                self.rho = max(self.rho, float(np.linalg.norm(dr)) / ndx)
         if len(self.V) > self.params.max_columns:
             self._select(list(range(self.params.max_columns)))
 
@@ -248,9 +321,6 @@ class QuasiNewton(Acceleration):
             Z = Z * self.precon.weights[None, :]
         return Z
 
-    def secondary_columns(self, name: str) -> list[np.ndarray]:
-        return self.Ws.get(name, [])
-
     # ------------------------------------------------------------------ restart
     def state_dict(self):
         out = {
@@ -259,6 +329,9 @@ class QuasiNewton(Acceleration):
             "V": np.array(self.V),
             "W": np.array(self.W),
             **{f"Ws/{k}": np.array(v) for k, v in self.Ws.items()},
+            **{f"Vs/{k}": np.array(v) for k, v in self.Vs.items()},
+            "nx": self.nx,
+            "rho": self.rho,
         }
         if self.precon is not None:
             out.update({f"precon/{k}": v for k, v in self.precon.state_dict().items()})
@@ -270,6 +343,9 @@ class QuasiNewton(Acceleration):
         self.V = [np.array(c) for c in state["V"]]
         self.W = [np.array(c) for c in state["W"]]
         self.Ws = {k[3:]: [np.array(c) for c in v] for k, v in state.items() if k.startswith("Ws/")}
+        self.Vs = {k[3:]: [np.array(c) for c in v] for k, v in state.items() if k.startswith("Vs/")}
+        self.nx = int(state.get("nx", 0))
+        self.rho = float(state.get("rho", 0.0))
         self._prev = None
         pre = {k[7:]: v for k, v in state.items() if k.startswith("precon/")}
         self.precon = None
