@@ -183,7 +183,7 @@ class IQNIMVJ(QuasiNewton):
         Vm = np.stack(self.V, axis=1)
         Z = self.pseudo_inverse(Q, R)
         fields = [PRIMARY, *self.Ws]
-        term = {f: (self._wtilde(f, Vm), Z) for f in fields}
+        term = {f: (np.ascontiguousarray(self._wtilde(f, Vm)), Z) for f in fields}
         if self.params.restart == "no-restart":
             for f, (Wt, Zf) in term.items():
                 upd = Wt @ Zf  # Lindner et al. 2015: J = J_prev + (W - J_prev V) Z
@@ -248,7 +248,7 @@ class IQNIMVJ(QuasiNewton):
                 self.svd_rank = int(keep.sum())
             A_new = (Qa @ U[:, keep]) * sig[keep][None, :]
             B_new = (Vt[keep] @ Qb.T) * w[None, :]
-            out[f] = (A_new, B_new)
+            out[f] = (np.ascontiguousarray(A_new), np.ascontiguousarray(B_new))
         return out
 
     def _least_squares_jacobian(self) -> Term:

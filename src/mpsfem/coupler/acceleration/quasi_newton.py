@@ -54,6 +54,7 @@ PRIMARY = "displacement"
 class QuasiNewtonParams(Section):
     """Keys shared by the quasi-Newton accelerators."""
 
+    kind: str = Field(description="The accelerator (each subclass names its own).")
     initial_relaxation: float = Field(
         0.1,
         gt=0,
@@ -96,8 +97,8 @@ class QuasiNewtonParams(Section):
             "Relaxation of the residual outside the span of the columns, in (0, 1], or "
             '"auto": 1 is preCICE\'s step x_tilde + W alpha; below 2 / (1 + 1.2 mu) (mu = added '
             "/ structure mass) the directions not yet learnt contract instead of growing by up "
-            'to 1.2 mu per iteration. "auto": 1 / rho, rho the largest |dr| / |dx| of any column '
-            "so far (the steepest secant slope of the residual, about 1 + 1.2 mu), at most 1 "
+            'to 1.2 mu per iteration. "auto": 1 / rho, rho the largest norm(dr) / norm(dx) of any '
+            "column so far (the steepest secant slope of the residual, about 1 + 1.2 mu), at most 1 "
             "(docs/coupler.md, added-mass sweep)."
         ),
     )
@@ -112,7 +113,7 @@ class QuasiNewtonParams(Section):
     preconditioner: PreconditionerKind = Field(
         "value",
         description=(
-            'Residual scaling per field: "value" (1 / |field values|; the default, measured '
+            'Residual scaling per field: "value" (1 / norm of the field\'s values; the default, measured '
             'best with two fields, docs/coupler.md), "residual_sum" (1 / the field\'s summed '
             'share of the residual; preCICE\'s default) or "none". With one field in data it '
             "only rescales the whole least squares (no effect)."
@@ -319,7 +320,8 @@ class QuasiNewton(Acceleration):
         Z = solve_triangular(R, Q.T)
         if self.precon is not None and self.precon.active:
             Z = Z * self.precon.weights[None, :]
-        return Z
+        # C order, as a copy from a checkpoint has: BLAS rounds by layout (bit-identical restart)
+        return np.ascontiguousarray(Z)
 
     # ------------------------------------------------------------------ restart
     def state_dict(self):
@@ -333,8 +335,8 @@ class QuasiNewton(Acceleration):
             "nx": self.nx,
             "rho": self.rho,
         }
-        if self.precon is not None:
-            out.update({f"precon/{k}": v for k, v in self.precon.state_dict().items()})
+        pre = self.precon.state_dict() if self.precon is not None else self._precon_state
+        out.update({f"precon/{k}": v for k, v in (pre or {}).items()})
         return out
 
     def load_state_dict(self, state):
