@@ -18,7 +18,7 @@ sub-cycles at 0.4 ms):
 Accelerators: constant (0.5), Aitken, IQN-ILS (its defaults: displacement only, complement
 relaxation 1 as preCICE; reuse 0; displacement + velocity with each preconditioner; "auto"
 complement relaxation) and IQN-IMVJ (its defaults: displacement + velocity, "value" scaling,
-"auto" complement relaxation, no restart; each of those changed alone; the RS-* restarts).
+"auto" complement relaxation, RS-SVD; each of those changed alone; the other restart modes).
 Labels: "d" displacement only, "d+v" displacement and velocity, "auto" complement relaxation.
 
 Every case runs ``--windows`` windows (default 100) with rtol 1e-3 (relative to the
@@ -69,7 +69,7 @@ ACCELERATORS: dict[str, dict] = {
     "iqn-imvj d+v residual_sum": {"kind": "iqn-imvj", "preconditioner": "residual_sum", "complement_relaxation": 1.0},
     "iqn-imvj d auto": {"kind": "iqn-imvj", "data": ["displacement"]},
     "iqn-imvj (defaults)": {"kind": "iqn-imvj"},
-    "iqn-imvj RS-SVD": {"kind": "iqn-imvj", "restart": "RS-SVD"},
+    "iqn-imvj no-restart": {"kind": "iqn-imvj", "restart": "no-restart"},
     "iqn-imvj RS-LS": {"kind": "iqn-imvj", "restart": "RS-LS"},
     "iqn-imvj RS-0": {"kind": "iqn-imvj", "restart": "RS-0"},
 }  # fmt: skip

@@ -17,9 +17,10 @@ iteration of the first window): relaxation with ``initial_relaxation``.
 How J_prev is stored (``restart``, preCICE's ``imvj-restart-mode``):
 
 * ``"no-restart"``: a dense n_f x n_r matrix per field, J_prev += W_tilde Z at every window end
-  (W_tilde = W - J_prev V). Memory n_f n_r; the right choice for small interfaces.
-* ``"RS-SVD"`` (preCICE's default): the low-rank terms W_tilde^q Z^q of the last ``chunk_size``
-  windows; after that many windows their sum (with the previous truncated SVD) is replaced by a
+  (W_tilde = W - J_prev V). Memory and work n_f n_r per iteration: fine for a beam (tens of
+  entries), 40 ms per iteration at 2000 entries.
+* ``"RS-SVD"`` (the default, preCICE's): the low-rank terms W_tilde^q Z^q of the last
+  ``chunk_size`` windows; after that many windows their sum (with the previous truncated SVD) is replaced by a
   truncated SVD of J_prev P^-1, singular values below ``truncation`` times the largest dropped
   (Scheufele & Mehl 2017, RS-SVD).
 * ``"RS-LS"``: the terms of the last ``chunk_size`` windows; at a restart J_prev is rebuilt as
@@ -81,10 +82,11 @@ class IQNIMVJParams(QuasiNewtonParams):
         ),
     )
     restart: Restart = Field(
-        "no-restart",
+        "RS-SVD",
         description=(
-            'How the Jacobian of past windows is kept: "no-restart" (dense matrix), "RS-SVD" '
-            '(truncated SVD every chunk_size windows), "RS-LS" (rebuilt from the columns of the '
+            'How the Jacobian of past windows is kept: "RS-SVD" (default, preCICE\'s: low-rank '
+            "terms, a truncated SVD every chunk_size windows; the same iterations as the dense "
+            'matrix on the mock at a fraction of its cost), "no-restart" (dense matrix), "RS-LS" (rebuilt from the columns of the '
             'last restart_reuse_windows windows), "RS-0" (forgotten every chunk_size windows).'
         ),
     )
