@@ -33,6 +33,7 @@ secondary ones by the names the scheme gives them (``"velocity"``).
 
 from __future__ import annotations
 
+from abc import abstractmethod
 from typing import Literal
 
 import numpy as np
@@ -223,20 +224,20 @@ class QuasiNewton(Acceleration):
         c = 1.0 - self.omega_c()
         if c == 0.0:
             bases = {PRIMARY: x_tilde, **st}
-        else:  # x_tilde_f - (1 - omega_c) r_f: relaxed where the columns do not reach
+        else:  # x_tilde_f - (1 - omega_c) r_f: complement relaxation (ours, docs/coupler.md)
             bases = {PRIMARY: x_tilde - c * (x_tilde - x), **{k: st[k] - c * rs[k] for k in st}}
         step = self._update(Q, R, r, bases)
         if step is None:
             return relax(self.params.initial_relaxation, x, x_tilde, secondary)
         return step
 
+    @abstractmethod
     def _update(
         self, Q: np.ndarray | None, R: np.ndarray, r: np.ndarray, bases: dict[str, np.ndarray]
     ) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
         """The next (primary, secondaries) from the filtered QR of P V (Q None: no columns),
         the residual r (unscaled) and each field's base (x_tilde_f, or x_tilde_f - (1 - omega_c)
         r_f), with :meth:`columns` as its W; None for a relaxation step (nothing learnt yet)."""
-        raise NotImplementedError
 
     def columns(self, field: str) -> np.ndarray:
         """The field's answer differences as the update uses them, (n_f x m): W_f, or
