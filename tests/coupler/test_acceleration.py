@@ -38,10 +38,10 @@ def iterate(acc, A, b, x0, tol=1e-10, max_it=2000, secondary=None):
         hist.append(r)
         if r <= tol * np.linalg.norm(xt) or not np.isfinite(r) or r > 1e30:
             return k, x, hist, s
-        sec = None if secondary is None else {"s": (s, secondary @ xt)}
+        sec = None if secondary is None else {"velocity": (s, secondary @ xt)}
         x, out = acc.compute(x, xt, sec)
         if secondary is not None:
-            s = out["s"]
+            s = out["velocity"]
     return max_it, x, hist, s
 
 

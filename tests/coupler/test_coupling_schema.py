@@ -69,7 +69,17 @@ def test_every_registered_component_is_a_kind(registry, key):
     [
         ({"scheme": "weak"}, "scheme: Value error, allowed: 'explicit', 'implicit'"),
         ({"mapping": {"kind": "nearest"}}, "'kfbi', 'conservative-kernel', 'shape-function'"),
-        ({"acceleration": {"kind": "anderson"}}, "'constant', 'aitken', 'iqn-ils'"),
+        ({"acceleration": {"kind": "anderson"}}, "'constant', 'aitken', 'iqn-ils', 'iqn-imvj'"),
+        ({"acceleration": {"kind": "iqn-imvj", "restart": "RS-X"}}, "'RS-SVD', 'RS-LS' or 'RS-0'"),
+        (
+            {"acceleration": {"kind": "iqn-ils", "preconditioner": "sum"}},
+            "'none', 'value' or 'residual_sum'",
+        ),
+        ({"acceleration": {"kind": "iqn-ils", "data": ["velocity"]}}, 'start with "displacement"'),
+        (
+            {"acceleration": {"kind": "iqn-imvj", "complement_relaxation": 0.0}},
+            "must be in (0, 1] or 'auto'",
+        ),
         ({"transport": {"kind": "tcp"}}, "'inproc', 'mpi', 'zenoh'"),
         (
             {"acceleration": {"kind": "iqn-ils", "reuse": 2}},

@@ -32,28 +32,8 @@ def config(**kw) -> CouplingSection:
 
 def reference(mu: float, windows: int, T: float = 1e-3) -> np.ndarray:
     """The monolithic solution of the same discrete problem (what implicit coupling converges
-    to): Newmark on the structure with the fluid's added-mass force taken implicitly."""
-    fluid, st = mock.pair(mu)
-    sch = create_scheme(fluid, st, config())
-    sch.initialize()
-    H = sch.mapping.to_fluid_matrix.toarray()
-    n = st.n
-    y = 2 * np.arange(n) + 1  # y components of the structure nodes
-    Hy = H[:, y]
-    Ma = Hy.T @ (np.repeat(fluid.m, 2)[:, None] * Hy)
-    Fy = (H.T @ fluid.load.reshape(-1))[y]
-    M, K = np.diag(st.m), st.K
-    u, v = np.zeros(n), np.zeros(n)
-    a = np.linalg.solve(M, Fy - K @ u)
-    out = []
-    A = M + 0.25 * T * T * K + 0.5 * Ma
-    for _ in range(windows):
-        a1 = np.linalg.solve(A, Fy - K @ (u + T * v + 0.25 * T * T * a) - 0.5 * Ma @ a)
-        u = u + T * v + 0.25 * T * T * (a + a1)
-        v = v + 0.5 * T * (a + a1)
-        a = a1
-        out.append(u.copy())
-    return np.array(out)
+    to): :func:`mpsfem.coupler.mock.monolithic_reference`."""
+    return mock.monolithic_reference(mu, windows, T)
 
 
 def run(mu, end=0.1, **kw):
@@ -341,8 +321,17 @@ def test_mapping_rebuilt_when_particles_change():
     assert sch.mapping.builds == 2 and sch.mapping.fluid.n_points == fluid.mesh.n_points
 
 
-def test_restart_continues_bit_for_bit():
-    cfg = config()
+@pytest.mark.parametrize(
+    "acc",
+    [
+        {"kind": "iqn-ils"},
+        {"kind": "iqn-imvj"},
+        {"kind": "iqn-imvj", "restart": "RS-SVD", "chunk_size": 3},
+        {"kind": "iqn-imvj", "restart": "RS-LS", "chunk_size": 3},
+    ],
+)
+def test_restart_continues_bit_for_bit(acc):
+    cfg = config(acceleration=acc)
     fluid, st = mock.pair(3.0)
     sch = create_scheme(fluid, st, cfg)
     sch.run(0.01)

@@ -13,8 +13,13 @@ usable in scenarios as soon as it is registered. Example::
     kind = "shape-function"      # "kfbi" | "conservative-kernel" | "shape-function"
 
     [coupling.acceleration]
-    kind = "iqn-ils"             # "constant" | "aitken" | "iqn-ils"
+    kind = "iqn-ils"             # "constant" | "aitken" | "iqn-ils" | "iqn-imvj"
     reuse_windows = 8
+    # kind = "iqn-imvj"          # Jacobian carried across windows (extreme added mass)
+    # restart = "no-restart"     # "RS-SVD" | "RS-LS" | "RS-0" (chunk_size windows)
+    # data = ["displacement", "velocity"]
+    # preconditioner = "value"   # "none" | "value" | "residual_sum"
+    # complement_relaxation = "auto"
 
     [coupling.convergence]
     relative_tolerance = 1e-4

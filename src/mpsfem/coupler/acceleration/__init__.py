@@ -11,6 +11,7 @@ ACCELERATIONS = Registry(
         "constant": "mpsfem.coupler.acceleration.constant:ConstantRelaxation",
         "aitken": "mpsfem.coupler.acceleration.aitken:Aitken",
         "iqn-ils": "mpsfem.coupler.acceleration.iqn_ils:IQNILS",
+        "iqn-imvj": "mpsfem.coupler.acceleration.iqn_imvj:IQNIMVJ",
     },
 )
 
