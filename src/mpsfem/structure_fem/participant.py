@@ -31,6 +31,7 @@ puts back; a restored participant repeats its steps bit for bit.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -38,14 +39,22 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
+from .alpha_method import NonlinearNewmark
 from .linsolve import factorize
 from .newmark import Newmark, NewmarkState
 from .system import StructureSystem
 
-__all__ = ["Interface", "StructureParticipant"]
+__all__ = ["Interface", "LargeRotationWarning", "StructureParticipant"]
 
 READABLE = ("displacement", "velocity", "acceleration", "rotation")
 WRITABLE = ("forces",)
+
+#: rotation (rad) beyond which a linear beam warns that it has left small-rotation theory
+LINEAR_ROTATION_LIMIT = 0.1
+
+
+class LargeRotationWarning(UserWarning):
+    """A member with ``kinematics = "linear"`` rotates beyond :data:`LINEAR_ROTATION_LIMIT`."""
 
 
 @dataclass(frozen=True)
@@ -112,11 +121,32 @@ class StructureParticipant:
         t = section.time
         self.dt = float(t.dt)
         sysm = self.system
-        self.integrator = Newmark(
-            sysm.M, sysm.K, sysm.C, beta=t.newmark_beta, gamma=t.newmark_gamma
-        )
-        if t.newmark_beta < (t.newmark_gamma + 0.5) ** 2 / 4.0 - 1e-12:
+        # linear members under Newmark keep the linear integrator (one solve per step); a
+        # co-rotational member or the HHT scheme takes Newton iterations
+        self.nonlinear = sysm.nonlinear or t.scheme == "hht"
+        if self.nonlinear:
+            nw = section.newton
+            self.integrator = NonlinearNewmark(
+                sysm,
+                beta=t.beta,
+                gamma=t.gamma,
+                alpha=t.alpha,
+                tolerance=nw.tolerance,
+                max_iterations=nw.max_iterations,
+                reuse_ratio=nw.reuse_ratio,
+            )
+        else:
+            self.integrator = Newmark(
+                sysm.M, sysm.K, sysm.C, beta=t.newmark_beta, gamma=t.newmark_gamma
+            )
+        if t.beta < (t.gamma + 0.5) ** 2 / 4.0 - 1e-12:
             self._check_conditional_stability()
+        self._linear_beams = [
+            (m.name, sysm.dof_slices[m.name], sp.csr_matrix(m.rotation)[:, m.free])
+            for m in sysm.models
+            if m.dim == 2 and not m.nonlinear and m.rotation is not None
+        ]
+        self._warned: set[str] = set()
         self.probe_names: list[str] = []
         rows = []
         for pr in probes:
@@ -142,7 +172,19 @@ class StructureParticipant:
         equilibrium, M a0 = F0 - K u0 (Newmark needs a0 consistent with the load at t0, else the
         first step puts a spurious free oscillation into an undamped member)."""
         F0 = self.external_load(0.0) + f_interface
-        if self.section.initial_state == "static":
+        if self.section.initial_state == "static" and self.system.nonlinear:
+            try:
+                u0 = self.integrator.solve_static(
+                    F0, increments=self.section.newton.static_increments
+                )
+            except np.linalg.LinAlgError as exc:
+                raise ValueError(
+                    'structure.initial_state = "static" needs every member supported against '
+                    'rigid motion (give it supports in `bc`, or use "rest"): the tangent '
+                    f"stiffness is singular: {exc}"
+                ) from exc
+            self.integrator.initialize(F0, u0=u0)
+        elif self.section.initial_state == "static":
             try:
                 u0 = factorize(self.system.K.tocsc()).solve(F0)
             except np.linalg.LinAlgError as exc:
@@ -212,7 +254,27 @@ class StructureParticipant:
             self.integrator.step(h, self.external_load(t) + f_if)
         self.integrator.state.t = t0 + dt
         self._f_start = f1
+        if self._linear_beams:
+            self._check_linear_rotation()
         return dt
+
+    def _check_linear_rotation(self) -> None:
+        """Warn once per linear beam whose nodal rotation exceeds LINEAR_ROTATION_LIMIT."""
+        u = self.integrator.state.u
+        for name, sl, R in self._linear_beams:
+            if name in self._warned:
+                continue
+            rot = float(np.abs(R @ u[sl]).max()) if R.shape[0] else 0.0
+            if rot > LINEAR_ROTATION_LIMIT:
+                self._warned.add(name)
+                warnings.warn(
+                    f'structure member {name!r} (kinematics = "linear") rotates {rot:.3g} rad '
+                    f"at t = {self.time:.6g} s, beyond the {LINEAR_ROTATION_LIMIT} rad of "
+                    'small-rotation theory: set kinematics = "corotational" on this member in '
+                    "[[structure.members]] for large deflections",
+                    LargeRotationWarning,
+                    stacklevel=3,
+                )
 
     def max_dt(self) -> float:
         """Longest step the structure takes in one go (the scenario's ``structure.time.dt``)."""
@@ -230,6 +292,8 @@ class StructureParticipant:
             "f_start": self._f_start.copy(),
             "forces": self._forces.copy(),
         }
+        if self.nonlinear:
+            state.update(self.integrator.checkpoint_extra())
         self._checkpoint = state
         return {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in state.items()}
 
@@ -238,13 +302,17 @@ class StructureParticipant:
         state = self._checkpoint if state is None else state
         if state is None:
             raise RuntimeError("restore() before any checkpoint()")
-        self.integrator.state = NewmarkState(
+        restored = NewmarkState(
             np.array(state["u"], dtype=float),
             np.array(state["v"], dtype=float),
             np.array(state["a"], dtype=float),
             float(state["t"]),
             int(state["steps"]),
         )
+        if self.nonlinear:
+            self.integrator.restore_extra(restored, state)
+        else:
+            self.integrator.state = restored
         self._f_start = np.array(state["f_start"], dtype=float)
         self._initial_data_pending = False
         self.write("forces", state["forces"])
