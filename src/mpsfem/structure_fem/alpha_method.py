@@ -182,10 +182,8 @@ class NonlinearNewmark:
             return r, scale
 
         def jacobian(u1):
-            J = c0 * M + (1.0 + al) * sysm.tangent(u1)
-            if C is not None:
-                J = J + ((1.0 + al) * c1) * C
-            return J
+            cc = (1.0 + al) * c1 if C is not None else 0.0
+            return sysm.effective_tangent(u1, 1.0 + al, c0, cc)
 
         where = f"step {s.steps + 1} (t = {s.t:.6g} s to {s.t + dt:.6g} s, dt = {dt:.3g} s)"
         res = newton_solve(

@@ -90,6 +90,19 @@ def _r_z(c: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return r, z
 
 
+def _forces(c, s, l, N, M1, M2) -> np.ndarray:
+    # Crisfield (1991) eq. 7.14, f = B^T [N, M1, M2] = r N - z (M1 + M2) / l + e3 M1 + e6 M2
+    Q = (M1 + M2) / l
+    f = np.empty((len(l), 6))
+    f[:, 0] = -c * N - s * Q
+    f[:, 1] = -s * N + c * Q
+    f[:, 2] = M1
+    f[:, 3] = -f[:, 0]
+    f[:, 4] = -f[:, 1]
+    f[:, 5] = M2
+    return f
+
+
 def corotational_element_forces(
     D0: np.ndarray,
     L0: np.ndarray,
@@ -103,12 +116,11 @@ def corotational_element_forces(
     """
     l, c, s, ul, t1, t2 = corotational_local(D0, L0, ue[:, 3:5] - ue[:, 0:2], ue[:, 2], ue[:, 5])
     N, M1, M2 = _local_forces(ul, t1, t2, L0, EA, EI)
-    r, z = _r_z(c, s)
-    # Crisfield (1991) eq. 7.14, f = B^T [N, M1, M2], B = [r; e3 - z/l; e6 - z/l]
-    f = r * N[:, None] - z * ((M1 + M2) / l)[:, None]
-    f[:, 2] += M1
-    f[:, 5] += M2
-    return f
+    return _forces(c, s, l, N, M1, M2)
+
+
+def _outer(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[:, :, None] * b[:, None, :]
 
 
 def corotational_element_tangents(
@@ -122,27 +134,20 @@ def corotational_element_tangents(
     l, c, s, ul, t1, t2 = corotational_local(D0, L0, ue[:, 3:5] - ue[:, 0:2], ue[:, 2], ue[:, 5])
     N, M1, M2 = _local_forces(ul, t1, t2, L0, EA, EI)
     r, z = _r_z(c, s)
-    ne = len(L0)
-    B = np.empty((ne, 3, 6))
-    B[:, 0] = r
-    B[:, 1] = -z / l[:, None]
-    B[:, 2] = B[:, 1]
-    B[:, 1, 2] += 1.0
-    B[:, 2, 5] += 1.0
-    f = r * N[:, None] - z * ((M1 + M2) / l)[:, None]
-    f[:, 2] += M1
-    f[:, 5] += M2
-    k = EI / L0
-    D = np.zeros((ne, 3, 3))
-    D[:, 0, 0] = EA / L0
-    D[:, 1, 1] = D[:, 2, 2] = 4.0 * k
-    D[:, 1, 2] = D[:, 2, 1] = 2.0 * k
-    # Crisfield (1991) eq. 7.16: K_t = B^T D B + N/l z z^T + (M1 + M2)/l^2 (r z^T + z r^T)
-    Kt = np.einsum("eai,eab,ebj->eij", B, D, B, optimize=True)
-    Kt += (N / l)[:, None, None] * z[:, :, None] * z[:, None, :]
-    rz = r[:, :, None] * z[:, None, :]
+    b1 = -z / l[:, None]  # rows 2, 3 of B: e3 - z/l, e6 - z/l
+    b2 = b1.copy()
+    b1[:, 2] += 1.0
+    b2[:, 5] += 1.0
+    k = (EI / L0)[:, None, None] if np.ndim(L0) else EI / L0
+    # Crisfield (1991) eq. 7.16: K_t = B^T D B + N/l z z^T + (M1 + M2)/l^2 (r z^T + z r^T),
+    # D = diag(EA/l0, EI/l0 [[4, 2], [2, 4]])
+    b12 = _outer(b1, b2)
+    Kt = (EA / L0)[:, None, None] * _outer(r, r)
+    Kt += k * (4.0 * _outer(b1, b1) + 4.0 * _outer(b2, b2) + 2.0 * (b12 + b12.transpose(0, 2, 1)))
+    Kt += (N / l)[:, None, None] * _outer(z, z)
+    rz = _outer(r, z)
     Kt += ((M1 + M2) / (l * l))[:, None, None] * (rz + rz.transpose(0, 2, 1))
-    return f, Kt
+    return _forces(c, s, l, N, M1, M2), Kt
 
 
 class CorotationalBeamModel(MemberModel):
@@ -265,6 +270,7 @@ class CorotationalBeamModel(MemberModel):
         model.EI, model.EA, model.rhoA, model.width = EI, EA, rhoA, width
         model._D0, model._L0, model._edofs = D0, L0, edofs
         model._rows, model._cols = rows, cols
+        model._me, model._k0e = me, k0
         model._free_plan = None
         return model
 
@@ -322,6 +328,22 @@ class CorotationalBeamModel(MemberModel):
         data = np.bincount(target, weights=ke.ravel()[keep], minlength=len(indices))
         K = sp.csr_matrix((data, indices, indptr), shape=(len(free), len(free)))
         return self._scatter(fe)[free], K
+
+    def reduced_effective(
+        self, q: np.ndarray, free: np.ndarray, ck: float, cm: float, cc: float
+    ) -> sp.csr_matrix:
+        """``ck K_t(q) + cm M + cc C`` over the `free` dofs, assembled once from the element
+        matrices (C = a1 M + a2 K0, the Rayleigh matrix of :mod:`.model`)."""
+        _, ke = corotational_element_tangents(
+            self._D0, self._L0, self.EA, self.EI, self._element_dofs(q)
+        )
+        e = ck * ke
+        e += (cm + cc * self.rayleigh_a1) * self._me
+        if cc * self.rayleigh_a2:
+            e += (cc * self.rayleigh_a2) * self._k0e
+        indptr, indices, target, keep = self.free_plan(free)
+        data = np.bincount(target, weights=e.ravel()[keep], minlength=len(indices))
+        return sp.csr_matrix((data, indices, indptr), shape=(len(free), len(free)))
 
     def strain_energy(self, q: np.ndarray) -> float:
         """Strain energy (J/m): sum of 1/2 EA u_l^2 / l0 + EI / l0 (2 t1^2 + 2 t1 t2 + 2 t2^2)."""

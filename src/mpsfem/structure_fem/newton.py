@@ -28,7 +28,10 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
-from .linsolve import factorize
+from .linsolve import BandedFactor, bandwidth, factorize
+
+#: Jacobians of at most this half-bandwidth take the banded Cholesky
+BANDED_LIMIT = 16
 
 __all__ = ["NewtonFailure", "NewtonResult", "TangentFactor", "newton_solve", "solve_static"]
 
@@ -68,8 +71,12 @@ class _GeneralLU:
 
 
 def factorize_jacobian(A: sp.spmatrix):
-    """Cholesky (dense / SuperLU, :func:`.linsolve.factorize`) when A is positive definite, else LU."""
+    """Cholesky when A is positive definite (banded LAPACK for a narrow band, e.g. a single
+    co-rotational beam; else :func:`.linsolve.factorize`), LU with pivoting otherwise."""
     try:
+        bw = bandwidth(A)
+        if bw <= BANDED_LIMIT and A.shape[0] > 2 * bw:
+            return BandedFactor(A, bw)
         return factorize(A)
     except np.linalg.LinAlgError:
         try:

@@ -161,6 +161,14 @@ class StructureSystem:
             f[sl] = m.internal_force(self.expand(u, name))[self.free_of(name)]
         return f
 
+    def effective_tangent(self, u: np.ndarray, ck: float, cm: float, cc: float) -> sp.csr_matrix:
+        """``ck K_t(u) + cm M + cc C`` over the free dofs (the Jacobian of a time step)."""
+        if self.nonlinear and len(self.models) == 1:
+            m = self.models[0]
+            return m.reduced_effective(self.expand(u, m.name), self.frees[0], ck, cm, cc)
+        J = ck * self.tangent(u) + cm * self.M
+        return J + cc * self.C if cc else J
+
     def tangent(self, u: np.ndarray) -> sp.csr_matrix:
         """Tangent stiffness d(internal_force)/du over the free dofs (K for linear members)."""
         if not self.nonlinear:
