@@ -610,7 +610,7 @@ class NewtonSettings(Section):
         25, ge=1, description="Iterations per step (or load increment) before Newton fails (>= 1)."
     )
     reuse_ratio: float = Field(
-        0.1,
+        0.01,
         ge=0,
         lt=1,
         description=(

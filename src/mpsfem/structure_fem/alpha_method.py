@@ -28,12 +28,14 @@ Every vector is over the free dofs of the :class:`~.system.StructureSystem`.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import scipy.sparse as sp
 
 from .linsolve import factorize
 from .newmark import NewmarkState
-from .newton import TangentFactor, newton_solve, solve_static
+from .newton import ROUNDOFF, TangentFactor, newton_solve, solve_static
 
 __all__ = ["AlphaState", "NonlinearNewmark"]
 
@@ -70,7 +72,7 @@ class NonlinearNewmark:
         alpha: float = 0.0,
         tolerance: float = 1e-8,
         max_iterations: int = 25,
-        reuse_ratio: float = 0.1,
+        reuse_ratio: float = 0.01,
     ) -> None:
         if beta <= 0:
             raise ValueError(f"newmark_beta = {beta}: must be > 0 (implicit schemes only)")
@@ -88,6 +90,15 @@ class NonlinearNewmark:
         self.max_iterations = int(max_iterations)
         self.reuse_ratio = float(reuse_ratio)
         self.n = self.M.shape[0]
+        # M a1 + (1 + alpha) C v1 as one product [M | (1 + alpha) C] [a1; v1]
+        self._MC = (
+            None if self.C is None else sp.hstack([self.M, (1.0 + alpha) * self.C], format="csr")
+        )
+        # row-sum norm of M: bounds the terms of M a1 = c0 M (u1 - u) + M base_a (round-off)
+        self._M_norm = float(abs(self.M).sum(axis=1).max()) if self.n else 0.0
+        self._C_norm = (
+            (1.0 + alpha) * float(abs(self.C).sum(axis=1).max()) if self.C is not None else 0.0
+        )
         self.tangent = TangentFactor()
         self.iterations = 0
         self.state = AlphaState(np.zeros(self.n), np.zeros(self.n), np.zeros(self.n))
@@ -169,17 +180,33 @@ class NonlinearNewmark:
             rhs = rhs + al * old
         base_a = -c2 * v - c3 * a  # a1 = c0 (u1 - u) + base_a
         base_v = v + dt * (1.0 - g) * a  # v1 = base_v + dt gamma a1
-        rhs_norm = float(np.linalg.norm(rhs))
+        rhs_norm = math.sqrt(rhs @ rhs)
+        base_a_norm = math.sqrt(base_a @ base_a)
+        M_norm, C_norm = self._M_norm, self._C_norm
+        MC = self._MC
+        n = self.n
+        av = np.empty(2 * n)
 
         def residual(u1):
             a1 = c0 * (u1 - u) + base_a
             fi = sysm.internal_force(u1)
-            if C is not None:
-                fi = fi + C @ (base_v + dt * g * a1)
-            ma = M @ a1
-            r = ma + (1.0 + al) * fi - rhs
-            scale = float(np.linalg.norm(ma) + (1.0 + al) * np.linalg.norm(fi)) + rhs_norm
-            return r, scale
+            if MC is None:
+                ma = M @ a1
+            else:  # M a1 + (1 + alpha) C v1
+                av[:n] = a1
+                av[n:] = base_v + (dt * g) * a1
+                ma = MC @ av
+            fi *= 1.0 + al
+            r = ma + fi - rhs
+            # the forces in balance: inertial (+ damping), internal, external
+            fn = math.sqrt(fi @ fi)
+            scale = math.sqrt(ma @ ma) + fn + rhs_norm
+            du = u1 - u
+            terms = M_norm * (c0 * math.sqrt(du @ du) + base_a_norm) + fn + rhs_norm
+            if MC is not None:
+                v1 = av[n:]
+                terms += C_norm * math.sqrt(v1 @ v1)
+            return r, scale, ROUNDOFF * terms
 
         def jacobian(u1):
             cc = (1.0 + al) * c1 if C is not None else 0.0

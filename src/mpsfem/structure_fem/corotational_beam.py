@@ -31,96 +31,126 @@ Per metre of width like every 2D quantity: EI (N m^2/m), EA (N/m), rho A (kg/m^2
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import scipy.sparse as sp
+from numba import njit
 
 from .boundary_conditions import beam_constrained_dofs
+from .linsolve import BandMatrix
 from .model import MemberModel
 
-__all__ = [
-    "CorotationalBeamModel",
-    "corotational_local",
-    "corotational_element_forces",
-    "corotational_element_tangents",
-]
+__all__ = ["CorotationalBeamModel", "corotational_element_tangents"]
 
 TWO_PI = 2.0 * np.pi
 
 
-def corotational_local(
-    D0: np.ndarray, L0: np.ndarray, du: np.ndarray, th1: np.ndarray, th2: np.ndarray
-) -> tuple[np.ndarray, ...]:
-    """Current chord and local deformations of every element.
-
-    D0 (ne, 2): reference chord vectors X2 - X1 (m); L0 (ne,): their lengths (m); du (ne, 2):
-    u2 - u1 (m); th1, th2 (ne,): nodal rotations (rad). Returns (l, c, s, ul, t1, t2): current
-    chord length (m), its direction cosines, axial stretch ul = l - l0 (m) and the local end
-    rotations (rad).
-    """
-    d = D0 + du
+@njit(cache=True)
+def _local(d0x, d0y, L0, dux, duy, th1, th2):
+    """Current chord (l, c, s), axial stretch ul and local end rotations t1, t2 of one element."""
     # l^2 - l0^2 = 2 D0.du + du.du, without the cancellation of l - l0
-    dl2 = 2.0 * (D0[:, 0] * du[:, 0] + D0[:, 1] * du[:, 1]) + du[:, 0] ** 2 + du[:, 1] ** 2
-    l = np.sqrt(L0 * L0 + dl2)
+    dl2 = 2.0 * (d0x * dux + d0y * duy) + dux * dux + duy * duy
+    l = math.sqrt(L0 * L0 + dl2)
     ul = dl2 / (l + L0)  # Crisfield (1991) eq. 7.2, u_l = l - l0
-    c = d[:, 0] / l
-    s = d[:, 1] / l
-    c0 = D0[:, 0] / L0
-    s0 = D0[:, 1] / L0
+    c = (d0x + dux) / l
+    s = (d0y + duy) / l
+    c0 = d0x / L0
+    s0 = d0y / L0
     # rigid rotation of the chord, beta - beta0, on the branch (mod 2 pi) nearest the mean
     # nodal rotation: nodal rotations are unbounded (a beam rolled into a circle turns by 2 pi),
     # and a node turned by a further 2 pi is a different, strained, state
-    alpha = np.arctan2(c0 * s - s0 * c, c0 * c + s0 * s)
-    alpha = alpha + TWO_PI * np.round((0.5 * (th1 + th2) - alpha) / TWO_PI)
+    alpha = math.atan2(c0 * s - s0 * c, c0 * c + s0 * s)
+    alpha += TWO_PI * math.floor((0.5 * (th1 + th2) - alpha) / TWO_PI + 0.5)
     # Crisfield (1991) eq. 7.3, theta_il = theta_i - (beta - beta0)
     return l, c, s, ul, th1 - alpha, th2 - alpha
 
 
-def _local_forces(ul, t1, t2, L0, EA, EI):
-    k = EI / L0
-    N = EA * ul / L0  # Crisfield (1991) eq. 7.6, N = EA u_l / l0
+@njit(cache=True)
+def _element(D0, L0, EA, EI, u, e, fe, ke, tangent):
+    """Force fe (6,) and, if `tangent`, tangent ke (6, 6) of element e; u (n, 3) nodal dofs of
+    the element's nodes e, e + 1 (rows e and e + 1)."""
+    l, c, s, ul, t1, t2 = _local(
+        D0[e, 0], D0[e, 1], L0[e], u[e + 1, 0] - u[e, 0], u[e + 1, 1] - u[e, 1], u[e, 2],
+        u[e + 1, 2],
+    )  # fmt: skip
+    k = EI / L0[e]
+    N = EA * ul / L0[e]  # Crisfield (1991) eq. 7.6, N = EA u_l / l0
     M1 = k * (4.0 * t1 + 2.0 * t2)  # eq. 7.6, linear Euler-Bernoulli end moments
     M2 = k * (2.0 * t1 + 4.0 * t2)
-    return N, M1, M2
-
-
-def _r_z(c: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    z0 = np.zeros_like(c)
-    r = np.stack([-c, -s, z0, c, s, z0], axis=1)  # Crisfield (1991) eq. 7.10, r = d l / d p
-    z = np.stack([s, -c, z0, -s, c, z0], axis=1)  # eq. 7.11, z = l d beta / d p
-    return r, z
-
-
-def _forces(c, s, l, N, M1, M2) -> np.ndarray:
-    # Crisfield (1991) eq. 7.14, f = B^T [N, M1, M2] = r N - z (M1 + M2) / l + e3 M1 + e6 M2
     Q = (M1 + M2) / l
-    f = np.empty((len(l), 6))
-    f[:, 0] = -c * N - s * Q
-    f[:, 1] = -s * N + c * Q
-    f[:, 2] = M1
-    f[:, 3] = -f[:, 0]
-    f[:, 4] = -f[:, 1]
-    f[:, 5] = M2
-    return f
+    # Crisfield (1991) eq. 7.14, f = B^T [N, M1, M2] = r N - z (M1 + M2) / l + e3 M1 + e6 M2,
+    # r = (-c, -s, 0, c, s, 0) = dl/dp (eq. 7.10), z = (s, -c, 0, -s, c, 0) = l dbeta/dp (7.11)
+    fe[0] = -c * N - s * Q
+    fe[1] = -s * N + c * Q
+    fe[2] = M1
+    fe[3] = c * N + s * Q
+    fe[4] = s * N - c * Q
+    fe[5] = M2
+    if not tangent:
+        return
+    r = (-c, -s, 0.0, c, s, 0.0)
+    z = (s, -c, 0.0, -s, c, 0.0)
+    ka = EA / L0[e]
+    gN = N / l
+    gM = (M1 + M2) / (l * l)
+    for i in range(6):
+        b1i = -z[i] / l + (1.0 if i == 2 else 0.0)  # rows 2, 3 of B: e3 - z/l, e6 - z/l
+        b2i = -z[i] / l + (1.0 if i == 5 else 0.0)
+        for j in range(6):
+            b1j = -z[j] / l + (1.0 if j == 2 else 0.0)
+            b2j = -z[j] / l + (1.0 if j == 5 else 0.0)
+            # Crisfield (1991) eq. 7.16: K_t = B^T D B + N/l z z^T + (M1 + M2)/l^2 (r z^T + z r^T),
+            # D = diag(EA/l0, EI/l0 [[4, 2], [2, 4]])
+            ke[i, j] = (
+                ka * r[i] * r[j]
+                + k * (4.0 * b1i * b1j + 2.0 * b1i * b2j + 2.0 * b2i * b1j + 4.0 * b2i * b2j)
+                + gN * z[i] * z[j]
+                + gM * (r[i] * z[j] + z[i] * r[j])
+            )
 
 
-def corotational_element_forces(
-    D0: np.ndarray,
-    L0: np.ndarray,
-    EA: float,
-    EI: float,
-    ue: np.ndarray,
-) -> np.ndarray:
-    """Internal force vectors (ne, 6) of all elements, N (N/m per metre of width) and N m/m.
-
-    ue (ne, 6): element dofs (ux1, uy1, theta1, ux2, uy2, theta2).
-    """
-    l, c, s, ul, t1, t2 = corotational_local(D0, L0, ue[:, 3:5] - ue[:, 0:2], ue[:, 2], ue[:, 5])
-    N, M1, M2 = _local_forces(ul, t1, t2, L0, EA, EI)
-    return _forces(c, s, l, N, M1, M2)
+@njit(cache=True)
+def _chain_forces(D0, L0, EA, EI, u, f):
+    """Internal force f (n, 3) of a chain of elements (element e joins nodes e, e + 1)."""
+    fe = np.empty(6)
+    ke = np.empty((6, 6))
+    f[:] = 0.0
+    for e in range(L0.shape[0]):
+        _element(D0, L0, EA, EI, u, e, fe, ke, False)
+        for a in range(3):
+            f[e, a] += fe[a]
+            f[e + 1, a] += fe[3 + a]
 
 
-def _outer(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return a[:, :, None] * b[:, None, :]
+@njit(cache=True)
+def _chain_tangents(D0, L0, EA, EI, u, f, ke):
+    """Internal force f (n, 3) and element tangents ke (ne, 6, 6) of a chain."""
+    fe = np.empty(6)
+    f[:] = 0.0
+    for e in range(L0.shape[0]):
+        _element(D0, L0, EA, EI, u, e, fe, ke[e], True)
+        for a in range(3):
+            f[e, a] += fe[a]
+            f[e + 1, a] += fe[3 + a]
+
+
+@njit(cache=True)
+def _chain_energy(D0, L0, EA, EI, u):
+    """Strain energy and largest local end rotation of a chain."""
+    W = 0.0
+    tmax = 0.0
+    for e in range(L0.shape[0]):
+        _, _, _, ul, t1, t2 = _local(
+            D0[e, 0], D0[e, 1], L0[e], u[e + 1, 0] - u[e, 0], u[e + 1, 1] - u[e, 1], u[e, 2],
+            u[e + 1, 2],
+        )  # fmt: skip
+        # 1/2 EA ul^2 / l0 + 1/2 [t1 t2] EI/l0 [[4, 2], [2, 4]] [t1 t2]^T
+        W += 0.5 * EA * ul * ul / L0[e] + EI / L0[e] * (
+            2.0 * t1 * t1 + 2.0 * t1 * t2 + 2.0 * t2 * t2
+        )
+        tmax = max(tmax, abs(t1), abs(t2))
+    return W, tmax
 
 
 def corotational_element_tangents(
@@ -130,24 +160,19 @@ def corotational_element_tangents(
     EI: float,
     ue: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Internal forces (ne, 6) and consistent tangent stiffnesses (ne, 6, 6) of all elements."""
-    l, c, s, ul, t1, t2 = corotational_local(D0, L0, ue[:, 3:5] - ue[:, 0:2], ue[:, 2], ue[:, 5])
-    N, M1, M2 = _local_forces(ul, t1, t2, L0, EA, EI)
-    r, z = _r_z(c, s)
-    b1 = -z / l[:, None]  # rows 2, 3 of B: e3 - z/l, e6 - z/l
-    b2 = b1.copy()
-    b1[:, 2] += 1.0
-    b2[:, 5] += 1.0
-    k = (EI / L0)[:, None, None] if np.ndim(L0) else EI / L0
-    # Crisfield (1991) eq. 7.16: K_t = B^T D B + N/l z z^T + (M1 + M2)/l^2 (r z^T + z r^T),
-    # D = diag(EA/l0, EI/l0 [[4, 2], [2, 4]])
-    b12 = _outer(b1, b2)
-    Kt = (EA / L0)[:, None, None] * _outer(r, r)
-    Kt += k * (4.0 * _outer(b1, b1) + 4.0 * _outer(b2, b2) + 2.0 * (b12 + b12.transpose(0, 2, 1)))
-    Kt += (N / l)[:, None, None] * _outer(z, z)
-    rz = _outer(r, z)
-    Kt += ((M1 + M2) / (l * l))[:, None, None] * (rz + rz.transpose(0, 2, 1))
-    return _forces(c, s, l, N, M1, M2), Kt
+    """Internal forces (ne, 6) and consistent tangents (ne, 6, 6) of separate elements.
+
+    D0 (ne, 2): reference chords X2 - X1 (m); L0 (ne,): their lengths; EA (N/m), EI (N m^2/m);
+    ue (ne, 6): element dofs (ux1, uy1, theta1, ux2, uy2, theta2) in m and rad. Forces in N/m
+    and N m/m per metre of width.
+    """
+    ne = len(L0)
+    fe = np.empty((ne, 6))
+    ke = np.empty((ne, 6, 6))
+    for e in range(ne):
+        u = np.ascontiguousarray(ue[e].reshape(2, 3), dtype=float)
+        _element(D0[e : e + 1], L0[e : e + 1], float(EA), float(EI), u, 0, fe[e], ke[e], True)
+    return fe, ke
 
 
 class CorotationalBeamModel(MemberModel):
@@ -268,111 +293,92 @@ class CorotationalBeamModel(MemberModel):
         )
         model.length, model.tangent_vector, model.normal, model.start, model.s = L, t, n, start, s
         model.EI, model.EA, model.rhoA, model.width = EI, EA, rhoA, width
-        model._D0, model._L0, model._edofs = D0, L0, edofs
+        model._D0, model._L0 = np.ascontiguousarray(D0), np.ascontiguousarray(L0)
+        model.EA, model.EI = float(EA), float(EI)
         model._rows, model._cols = rows, cols
         model._me, model._k0e = me, k0
         model._free_plan = None
         return model
 
     # ------------------------------------------------------------------ kernels, full dofs
-    def _element_dofs(self, q: np.ndarray) -> np.ndarray:
-        q3 = q.reshape(-1, 3)
-        return np.concatenate([q3[:-1], q3[1:]], axis=1)  # (ne, 6), chain connectivity
-
-    def _scatter(self, fe: np.ndarray) -> np.ndarray:
-        f = np.zeros((self.n_nodes, 3))
-        f[:-1] += fe[:, :3]
-        f[1:] += fe[:, 3:]
-        return f.reshape(-1)
-
     def internal_force(self, q: np.ndarray) -> np.ndarray:
         """Internal force vector over all dofs (N/m, N m/m) at the full dof vector `q`."""
-        fe = corotational_element_forces(
-            self._D0, self._L0, self.EA, self.EI, self._element_dofs(q)
-        )
-        return self._scatter(fe)
+        f = np.empty((self.n_nodes, 3))
+        _chain_forces(self._D0, self._L0, self.EA, self.EI, q.reshape(-1, 3), f)
+        return f.reshape(-1)
+
+    def element_tangents(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(internal force over all dofs, element tangents (ne, 6, 6)) at `q`."""
+        f = np.empty((self.n_nodes, 3))
+        ke = np.empty((len(self._L0), 6, 6))
+        _chain_tangents(self._D0, self._L0, self.EA, self.EI, q.reshape(-1, 3), f, ke)
+        return f.reshape(-1), ke
 
     def tangent_stiffness(self, q: np.ndarray) -> tuple[np.ndarray, sp.csr_matrix]:
         """(internal force, consistent tangent stiffness) over all dofs at `q`."""
-        fe, ke = corotational_element_tangents(
-            self._D0, self._L0, self.EA, self.EI, self._element_dofs(q)
-        )
+        f, ke = self.element_tangents(q)
         K = sp.csr_matrix((ke.ravel(), (self._rows, self._cols)), shape=(self.n_dof, self.n_dof))
         K.sum_duplicates()
-        return self._scatter(fe), K
+        return f, K
 
-    def free_plan(self, free: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Pattern of the tangent over the free dofs: (indptr, indices, target, keep) such that
-        ``data = bincount(target, ke.ravel()[keep])`` is its CSR data (computed once)."""
+    def _plans(self, free: np.ndarray) -> dict:
+        """Assembly maps of element matrices onto the `free` dofs (computed once per `free`):
+        CSR (indptr, indices, target, keep) and LAPACK upper band storage (bw, band, upper)."""
         if self._free_plan is None or not np.array_equal(self._free_plan[0], free):
+            n = len(free)
             where = np.full(self.n_dof, -1, dtype=np.int64)
-            where[free] = np.arange(len(free))
+            where[free] = np.arange(n)
             r, c = where[self._rows], where[self._cols]
             keep = (r >= 0) & (c >= 0)
-            key = r[keep] * len(free) + c[keep]
+            key = r[keep] * n + c[keep]
             uniq, target = np.unique(key, return_inverse=True)
-            rr = uniq // len(free)
-            indptr = np.zeros(len(free) + 1, dtype=np.int64)
-            np.add.at(indptr, rr + 1, 1)
-            indptr = np.cumsum(indptr)
-            indices = (uniq % len(free)).astype(np.int32)
-            self._free_plan = (free.copy(), (indptr, indices, target, keep))
+            indptr = np.zeros(n + 1, dtype=np.int64)
+            np.add.at(indptr, uniq // n + 1, 1)
+            upper = keep & (r <= c)
+            bw = int((c[upper] - r[upper]).max()) if upper.any() else 0
+            band = (bw + r[upper] - c[upper]) * n + c[upper]  # ab[bw + i - j, j] = A[i, j]
+            plans = {
+                "csr": (np.cumsum(indptr), (uniq % n).astype(np.int32), target, keep),
+                "band": (bw, band, upper),
+            }
+            self._free_plan = (free.copy(), plans)
         return self._free_plan[1]
 
     def reduced_tangent(self, q: np.ndarray, free: np.ndarray) -> tuple[np.ndarray, sp.csr_matrix]:
         """(internal force, tangent) restricted to the `free` dofs at the full dof vector `q`."""
-        fe, ke = corotational_element_tangents(
-            self._D0, self._L0, self.EA, self.EI, self._element_dofs(q)
-        )
-        indptr, indices, target, keep = self.free_plan(free)
+        f, ke = self.element_tangents(q)
+        indptr, indices, target, keep = self._plans(free)["csr"]
         data = np.bincount(target, weights=ke.ravel()[keep], minlength=len(indices))
         K = sp.csr_matrix((data, indices, indptr), shape=(len(free), len(free)))
-        return self._scatter(fe)[free], K
+        return f[free], K
 
     def reduced_effective(
         self, q: np.ndarray, free: np.ndarray, ck: float, cm: float, cc: float
-    ) -> sp.csr_matrix:
-        """``ck K_t(q) + cm M + cc C`` over the `free` dofs, assembled once from the element
-        matrices (C = a1 M + a2 K0, the Rayleigh matrix of :mod:`.model`)."""
-        _, ke = corotational_element_tangents(
-            self._D0, self._L0, self.EA, self.EI, self._element_dofs(q)
-        )
+    ) -> BandMatrix:
+        """``ck K_t(q) + cm M + cc C`` over the `free` dofs in band storage, assembled once from
+        the element matrices (C = a1 M + a2 K0, the Rayleigh matrix of :mod:`.model`)."""
+        _, ke = self.element_tangents(q)
         e = ck * ke
         e += (cm + cc * self.rayleigh_a1) * self._me
         if cc * self.rayleigh_a2:
             e += (cc * self.rayleigh_a2) * self._k0e
-        indptr, indices, target, keep = self.free_plan(free)
-        data = np.bincount(target, weights=e.ravel()[keep], minlength=len(indices))
-        return sp.csr_matrix((data, indices, indptr), shape=(len(free), len(free)))
+        bw, band, upper = self._plans(free)["band"]
+        n = len(free)
+        ab = np.bincount(band, weights=e.ravel()[upper], minlength=(bw + 1) * n)
+        return BandMatrix(ab.reshape(bw + 1, n), bw)
 
     def strain_energy(self, q: np.ndarray) -> float:
         """Strain energy (J/m): sum of 1/2 EA u_l^2 / l0 + EI / l0 (2 t1^2 + 2 t1 t2 + 2 t2^2)."""
-        ue = self._element_dofs(q)
-        _, _, _, ul, t1, t2 = corotational_local(
-            self._D0, self._L0, ue[:, 3:5] - ue[:, 0:2], ue[:, 2], ue[:, 5]
-        )
-        # 1/2 [t1 t2] EI/l0 [[4, 2], [2, 4]] [t1 t2]^T + 1/2 EA ul^2 / l0
-        k = self.EI / self._L0
-        return float(
-            np.sum(
-                0.5 * self.EA * ul * ul / self._L0 + k * (2 * t1 * t1 + 2 * t1 * t2 + 2 * t2 * t2)
-            )
-        )
+        return float(_chain_energy(self._D0, self._L0, self.EA, self.EI, q.reshape(-1, 3))[0])
 
     def max_local_rotation(self, q: np.ndarray) -> float:
         """Largest local (chord-relative) end rotation of any element, rad."""
-        ue = self._element_dofs(q)
-        *_, t1, t2 = corotational_local(
-            self._D0, self._L0, ue[:, 3:5] - ue[:, 0:2], ue[:, 2], ue[:, 5]
-        )
-        return float(max(np.abs(t1).max(), np.abs(t2).max()))
+        return float(_chain_energy(self._D0, self._L0, self.EA, self.EI, q.reshape(-1, 3))[1])
 
     def classify_modes(self, shapes: np.ndarray) -> list[str]:
         """ "axial" or "bending" per mode shape (columns): kinetic energy of the translation
         along the reference tangent vs the rest (normal translation and rotation)."""
         Mphi = self.M @ shapes
-        ta = np.zeros(self.n_dof)
-        ta[0::3], ta[1::3] = self.tangent_vector[0], self.tangent_vector[1]
         out = []
         for j in range(shapes.shape[1]):
             phi = shapes[:, j]

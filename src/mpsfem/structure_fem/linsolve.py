@@ -9,12 +9,14 @@ Both are deterministic.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 from scipy.linalg import lapack
 
-__all__ = ["DENSE_LIMIT", "MIN_PIVOT_RATIO", "BandedFactor", "Factor", "bandwidth", "factorize"]
+__all__ = ["DENSE_LIMIT", "MIN_PIVOT_RATIO", "BandMatrix", "BandedFactor", "Factor", "factorize"]
 
 #: largest system factorised densely
 DENSE_LIMIT = 128
@@ -86,29 +88,37 @@ def factorize(A, *, dense_limit: int = DENSE_LIMIT) -> Factor:
     return Factor(A, dense_limit=dense_limit)
 
 
-def bandwidth(A: sp.spmatrix) -> int:
-    """Half-bandwidth max |i - j| over the stored entries of a sparse matrix."""
-    A = sp.csr_matrix(A)
-    if A.nnz == 0:
-        return 0
-    rows = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
-    return int(np.abs(A.indices - rows).max())
+@dataclass
+class BandMatrix:
+    """Symmetric n x n matrix in LAPACK upper band storage: ``ab[bw + i - j, j] = A[i, j]`` for
+    ``j - bw <= i <= j``; ab has shape (bw + 1, n)."""
+
+    ab: np.ndarray
+    bw: int
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        n = self.ab.shape[1]
+        return n, n
+
+    def tocsr(self) -> sp.csr_matrix:
+        """The full symmetric matrix as CSR."""
+        n, bw = self.shape[0], self.bw
+        diags = [self.ab[bw - k, k:] for k in range(bw + 1)]
+        U = sp.diags(diags, list(range(bw + 1)), shape=(n, n), format="csr")
+        return (U + sp.triu(U, 1, format="csr").T).tocsr()
 
 
 class BandedFactor:
-    """Banded Cholesky (LAPACK ``dpbtrf`` / ``dpbtrs``) of an SPD matrix of half-bandwidth `bw`:
-    O(n bw^2) work, for the node-major tangents of co-rotational beams (bw <= 5 per chain)."""
+    """Banded Cholesky (LAPACK ``dpbtrf`` / ``dpbtrs``) of an SPD :class:`BandMatrix`: O(n bw^2)
+    work, for the node-major tangents of co-rotational beams (bw = 5 for a chain)."""
 
-    def __init__(self, A: sp.spmatrix, bw: int) -> None:
-        A = sp.coo_matrix(A)
-        n = A.shape[0]
-        self.n = n
+    def __init__(self, A: BandMatrix) -> None:
+        bw = A.bw
+        self.n = A.shape[0]
         self.dense = False
-        upper = A.row <= A.col
-        ab = np.zeros((bw + 1, n), order="F")
-        np.add.at(ab, (bw + A.row[upper] - A.col[upper], A.col[upper]), A.data[upper])
-        diag = ab[bw].copy()
-        c, info = lapack.dpbtrf(ab, lower=0, overwrite_ab=1)
+        diag = A.ab[bw].copy()
+        c, info = lapack.dpbtrf(np.asfortranarray(A.ab), lower=0, overwrite_ab=1)
         if info != 0:
             raise np.linalg.LinAlgError(
                 f"matrix not positive definite (dpbtrf info {info}); {_RIGID_HINT}"

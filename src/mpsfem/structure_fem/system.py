@@ -155,7 +155,7 @@ class StructureSystem:
         for the others (N; N/m in 2D)."""
         if not self.nonlinear:
             return self.K @ u
-        f = self._K_linear @ u
+        f = self._K_linear @ u if self._K_linear.nnz else np.zeros(self.n)
         for name in self.nonlinear_members:
             m, sl = self.model(name), self.dof_slices[name]
             f[sl] = m.internal_force(self.expand(u, name))[self.free_of(name)]
