@@ -10,7 +10,9 @@ of freedom, the list of constrained ones, and the linear maps between the genera
 * ``rotation`` (``n_nodes*n_rot x n_dof``) or ``None``: beam rotation (anticlockwise), plate slopes
   ``(dw/du, dw/dv)`` in local axes (BFS only).
 
-Load vectors and point-evaluation matrices are built on demand by the subclasses.
+Load vectors and point-evaluation matrices are built on demand by the subclasses. A nonlinear
+member (``nonlinear = True``, the co-rotational beam) adds its state-dependent internal force,
+tangent and strain energy; its ``K`` is the tangent at the reference configuration.
 """
 
 from __future__ import annotations

@@ -13,6 +13,14 @@ mesh vertices). Data exchanged (SI units; in 2D per unit width):
   ``"rotation"`` (n_points, r): beams r = 1 (anticlockwise angle, rad), plates r = 2 (slopes
   dw/du, dw/dv along the plate axes; NaN for Morley members, which have no nodal slopes).
 
+Co-rotational beams (``kinematics = "corotational"``) have global dofs (ux, uy, theta) per node:
+"displacement" is then the true nodal translation in the scene frame however far the member
+turns, "rotation" the total anticlockwise angle (not wrapped), and a written force acts on the
+translation dofs of its node in the scene frame, on the deformed member (a dead load). Their
+steps, and every step under ``scheme = "hht"``, are solved by Newton iterations
+(:mod:`.alpha_method`); the static start by load-stepped Newton. A linear beam whose rotation
+passes 0.1 rad warns once (:class:`LargeRotationWarning`, Python ``warnings``).
+
 ``advance(dt)`` integrates exactly `dt`: in ceil(dt / max_dt()) equal Newmark sub-steps, the
 interface force rising linearly from the value of the previous window's end to the value just
 written (one sub-step: the written value at the end of the step, as Newmark wants F(t + dt)).
@@ -24,7 +32,8 @@ Self-weight acts always; the scenario's prescribed loads only when the participa
 ``prescribed_loads=True`` (standalone runs).
 
 The full state (u, v, a over the free dofs, the time, the step count, the interface force of the
-window start and the last written forces) is what :meth:`checkpoint` copies and :meth:`restore`
+window start and the last written forces; with Newton also the external load at t and the point
+at which the kept Jacobian was formed) is what :meth:`checkpoint` copies and :meth:`restore`
 puts back; a restored participant repeats its steps bit for bit.
 """
 
