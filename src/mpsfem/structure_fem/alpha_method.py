@@ -60,7 +60,7 @@ class NonlinearNewmark:
 
     Same interface as :class:`~.newmark.Newmark` (``state``, ``initialize``, ``step``,
     ``energy``, ``factorizations``, ``beta``, ``gamma``) plus ``alpha``, ``iterations`` (total
-    Newton iterations) and :meth:`solve_static`.
+    Newton iterations), :meth:`solve_static` and ``static_increments`` (load increments it took).
     """
 
     def __init__(
@@ -103,6 +103,7 @@ class NonlinearNewmark:
         self.iterations = 0
         self.state = AlphaState(np.zeros(self.n), np.zeros(self.n), np.zeros(self.n))
         self._mass_factor = None
+        self.static_increments = 0  # load increments the last solve_static took
 
     @property
     def factorizations(self) -> int:
@@ -143,7 +144,7 @@ class NonlinearNewmark:
 
     def solve_static(self, F: np.ndarray, *, increments: int = 1) -> np.ndarray:
         """Static equilibrium f_int(u) = F by load stepping (:func:`.newton.solve_static`)."""
-        u, _ = solve_static(
+        u, self.static_increments = solve_static(
             self.system.internal_force,
             self.system.tangent,
             F,
