@@ -334,3 +334,21 @@ def test_mixed_linear_and_corotational_members():
     assert np.allclose(d[:9], parts[1].read("displacement"), rtol=1e-9, atol=1e-14)
     # the linear member through Newton vs the linear Newmark: round-off
     assert np.allclose(d[9:], parts[2].read("displacement"), rtol=1e-9, atol=1e-14)
+
+
+def test_modes_of_a_corotational_member():
+    """Linearised about the reference, the co-rotational cantilever has the Euler-Bernoulli
+    frequencies to O(h^2) (its mass is the linear-interpolation one) and labels its modes."""
+    from mpsfem.structure_fem.modal import natural_modes
+    from mpsfem.structure_fem.model import build_member
+
+    # EA = 100 EI / L^2, rho A = 1: an axial mode among the low bending ones
+    sec = cantilever_section(40, area=1e2, material={"youngs_modulus": 1.0, "density": 1e-2})
+    res = natural_modes(build_member(sec.members[0]), 4)
+    print("omega", res.omega, res.kind)
+    beta_l = [1.875104, 4.694091, 7.854757]  # cantilever: cos(bL) cosh(bL) = -1
+    bending = [f for f, k in zip(res.omega, res.kind, strict=True) if k == "bending"]
+    for b, w in zip(beta_l, bending, strict=False):
+        assert w == pytest.approx(b**2, rel=2e-3)  # omega = (beta L)^2 sqrt(EI / rho A L^4)
+    axial = [w for w, k in zip(res.omega, res.kind, strict=True) if k == "axial"]
+    assert axial and axial[0] == pytest.approx(math.pi / 2 * 10.0, rel=2e-3)  # c = sqrt(EA/rhoA)

@@ -150,11 +150,13 @@ class StructureParticipant:
             )
         if t.beta < (t.gamma + 0.5) ** 2 / 4.0 - 1e-12:
             self._check_conditional_stability()
-        self._linear_beams = [
-            (m.name, sysm.dof_slices[m.name], sp.csr_matrix(m.rotation)[:, m.free])
-            for m in sysm.models
-            if m.dim == 2 and not m.nonlinear and m.rotation is not None
-        ]
+        # linear beams: positions of their nodal rotation (slope) dofs in the reduced vector
+        self._linear_beams = []
+        for m in sysm.models:
+            if m.dim == 2 and not m.nonlinear and m.rotation is not None:
+                R = sp.csr_matrix(m.rotation)[:, m.free]
+                idx = np.flatnonzero(np.asarray(abs(R).sum(axis=0)).ravel())
+                self._linear_beams.append((m.name, sysm.dof_slices[m.name].start + idx))
         self._warned: set[str] = set()
         self.probe_names: list[str] = []
         rows = []
@@ -270,10 +272,10 @@ class StructureParticipant:
     def _check_linear_rotation(self) -> None:
         """Warn once per linear beam whose nodal rotation exceeds LINEAR_ROTATION_LIMIT."""
         u = self.integrator.state.u
-        for name, sl, R in self._linear_beams:
+        for name, idx in self._linear_beams:
             if name in self._warned:
                 continue
-            rot = float(np.abs(R @ u[sl]).max()) if R.shape[0] else 0.0
+            rot = float(np.abs(u[idx]).max()) if idx.size else 0.0
             if rot > LINEAR_ROTATION_LIMIT:
                 self._warned.add(name)
                 warnings.warn(
