@@ -343,3 +343,11 @@ def test_corotational_member_in_an_implicit_coupling_loop():
     print("iterations per window:", h["iterations"].min(), "-", h["iterations"].max())
     assert h["converged"].all() and h["iterations"].max() < 10
     assert 0 < np.abs(st.read("displacement")).max() < 1e-2
+
+
+def test_schema_round_trips_through_model_dump():
+    """A dumped section (defaults written out) validates again, under either scheme."""
+    for t in ({"dt": 1e-4}, {"dt": 1e-4, "scheme": "hht", "hht_alpha": -0.2}):
+        sec = section([corot()], time=t)
+        again = type(sec).model_validate(sec.model_dump())
+        assert again.time == sec.time and again.members[0].kinematics == "corotational"

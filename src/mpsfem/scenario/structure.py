@@ -394,10 +394,26 @@ class PlateMember(_MemberCommon):
         )
     )
 
+    kinematics: Literal["linear", "von_karman"] = Field(
+        "linear",
+        description=(
+            '"linear": small deflections (Kirchhoff bending only); "von_karman": moderately '
+            "large deflections, bending coupled to membrane stretching (in-plane dofs u, v on "
+            'ElementQuad2; held edges are immovable in-plane), element = "bfs" rectangles only, '
+            "solved by Newton iterations in every step."
+        ),
+    )
+
     @model_validator(mode="after")
     def _geometry(self) -> PlateMember:
         if self.material.poisson_ratio is None:
             raise InvalidValue("material.poisson_ratio", "a plate needs `material.poisson_ratio`")
+        if self.kinematics == "von_karman" and (self.element != "bfs" or self.shape != "rectangle"):
+            raise InvalidValue(
+                "kinematics",
+                'kinematics = "von_karman" needs element = "bfs" and shape = "rectangle"',
+                self.kinematics,
+            )
         for key in ("axis_u", "axis_v"):
             if not any(getattr(self, key)):
                 raise InvalidValue(
@@ -558,17 +574,19 @@ class StructureTime(Section):
 
     @model_validator(mode="after")
     def _scheme_keys(self) -> StructureTime:
-        given = self.model_fields_set
+        # a key of the other scheme is refused when it differs from its default (a default
+        # written out, as model_dump does, is harmless and must validate again)
+        defaults = type(self).model_fields
         if self.scheme == "hht":
             for key in ("newmark_beta", "newmark_gamma"):
-                if key in given:
+                if getattr(self, key) != defaults[key].default:
                     raise InvalidValue(
                         key,
                         'scheme = "hht" sets beta = (1 - hht_alpha)^2 / 4 and gamma = 1/2 - '
                         "hht_alpha; leave newmark_beta and newmark_gamma out",
                         getattr(self, key),
                     )
-        elif "hht_alpha" in given:
+        elif self.hht_alpha != defaults["hht_alpha"].default:
             raise InvalidValue(
                 "hht_alpha", 'hht_alpha is used only with scheme = "hht"', self.hht_alpha
             )

@@ -110,6 +110,10 @@ def build_member(cfg) -> MemberModel:
         model = CorotationalBeamModel.from_config(cfg)
     elif cfg.type == "beam":
         model = BeamModel.from_config(cfg)
+    elif cfg.type == "plate" and getattr(cfg, "kinematics", "linear") == "von_karman":
+        from .von_karman_plate import VonKarmanPlateModel
+
+        model = VonKarmanPlateModel.from_config(cfg)
     elif cfg.type == "plate":
         model = PlateModel.from_config(cfg)
     else:
