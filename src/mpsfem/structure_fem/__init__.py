@@ -1,5 +1,6 @@
 """Structure solver on scikit-fem: Euler-Bernoulli beams (linear or co-rotational), Kirchhoff
-plates, Newmark-beta and HHT-alpha (Newton iterations for nonlinear members).
+plates (linear or von Karman), Newmark-beta and HHT-alpha (Newton iterations for nonlinear
+members).
 
 Public entry points:
 
@@ -8,8 +9,9 @@ Public entry points:
 * :func:`run_structure` - a structure-only run under prescribed loads (``mpsfem structure``);
 * :func:`modal_analysis` - natural frequencies and mode shapes (``mpsfem modes``);
 * :func:`build_member`, :class:`BeamModel`, :class:`CorotationalBeamModel`,
-  :class:`PlateModel`, :class:`Newmark`, :class:`NonlinearNewmark`, :func:`natural_modes` - the
-  building blocks; :class:`NewtonFailure` and :class:`LargeRotationWarning` what they raise.
+  :class:`PlateModel`, :class:`VonKarmanPlateModel`, :class:`Newmark`,
+  :class:`NonlinearNewmark`, :func:`natural_modes` - the building blocks; :class:`NewtonFailure`
+  and :class:`LargeRotationWarning` what they raise.
 """
 
 from .alpha_method import NonlinearNewmark
@@ -22,6 +24,7 @@ from .newton import NewtonFailure
 from .participant import Interface, LargeRotationWarning, StructureParticipant
 from .plate import PlateModel
 from .standalone import StructureRunSummary, cli_main, modal_analysis, run_structure
+from .von_karman_plate import VonKarmanPlateModel
 
 __all__ = [
     "BeamModel",
@@ -37,6 +40,7 @@ __all__ = [
     "PlateModel",
     "StructureParticipant",
     "StructureRunSummary",
+    "VonKarmanPlateModel",
     "build_member",
     "cli_main",
     "format_modes",

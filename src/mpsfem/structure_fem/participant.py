@@ -7,8 +7,8 @@ mesh vertices). Data exchanged (SI units; in 2D per unit width):
 
 * written: ``"forces"``, nodal forces at the interface points, shape (n_points, dim), in N (N/m in
   2D). Each is applied at its node as a point load (consistent with the nodal translation map, so
-  no moment). A plate takes only the component along its normal, an inextensible beam
-  (`axial = false`) only the one along its normal.
+  no moment). A linear plate takes only the component along its normal (a von Karman plate all
+  three), an inextensible beam (`axial = false`) only the one along its normal.
 * read: ``"displacement"``, ``"velocity"``, ``"acceleration"`` (n_points, dim), translational;
   ``"rotation"`` (n_points, r): beams r = 1 (anticlockwise angle, rad), plates r = 2 (slopes
   dw/du, dw/dv along the plate axes; NaN for Morley members, which have no nodal slopes).
