@@ -56,11 +56,6 @@ def _vector_mass_form(u, v, w):
     return dot(u, v)
 
 
-def _S(gw, gd):
-    """sym(grad w (x) grad d): the variation of 1/2 grad w (x) grad w along d."""
-    return 0.5 * (gw[:, None] * gd[None, :] + gd[:, None] * gw[None, :])
-
-
 @LinearForm
 def _force_w(v, w):
     """int grad(v) . N grad(w~) (geometric part of the force on w)."""
@@ -75,25 +70,26 @@ def _force_m(v, w):
 
 @BilinearForm
 def _tangent_ww(u, v, w):
-    """int grad(v) . N grad(u) + C [(1 - nu) S(u) : S(v) + nu tr S(u) tr S(v)]."""
+    """int grad(v) . Q grad(u), Q = N + C (1 - nu) / 2 |g|^2 I + C (1 + nu) / 2 g (x) g.
+
+    With g = grad w~ and S(a) = sym(g (x) a) (the variation of 1/2 g (x) g along a):
+    S(a) : S(b) = 1/2 [(g.g)(a.b) + (g.a)(g.b)] and tr S(a) = g.a, so the second variation
+    grad(v) . N grad(u) + C [(1 - nu) S(u) : S(v) + nu tr S(u) tr S(v)] is grad(v) . Q grad(u).
+    """
     gu, gv = grad(u), grad(v)
-    Su, Sv = _S(w.gw, gu), _S(w.gw, gv)
-    geo = (w.N[0, 0] * gu[0] + w.N[0, 1] * gu[1]) * gv[0] + (
-        w.N[1, 0] * gu[0] + w.N[1, 1] * gu[1]
-    ) * gv[1]
-    return geo + w.C * (
-        (1.0 - w.nu) * ddot(Su, Sv) + w.nu * (Su[0, 0] + Su[1, 1]) * (Sv[0, 0] + Sv[1, 1])
-    )
+    Q = w.Q
+    return (Q[0, 0] * gu[0] + Q[0, 1] * gu[1]) * gv[0] + (Q[1, 0] * gu[0] + Q[1, 1] * gu[1]) * gv[1]
 
 
 @BilinearForm
 def _tangent_mw(u, v, w):
-    """Trial d (w basis), test v (membrane): C [(1 - nu) S(d) : eps(v) + nu tr S(d) div v]."""
-    Sd = _S(w.gw, grad(u))
-    ev = sym_grad(v)
-    return w.C * (
-        (1.0 - w.nu) * ddot(Sd, ev) + w.nu * (Sd[0, 0] + Sd[1, 1]) * (ev[0, 0] + ev[1, 1])
-    )
+    """Trial d (w basis), test v (membrane): C [(1 - nu) S(d) : eps(v) + nu tr S(d) div v]
+    = grad(d) . C [(1 - nu) eps(v) g + nu div(v) g] (S(d) : eps = (eps g) . d, eps symmetric)."""
+    gd, ev, g = grad(u), sym_grad(v), w.gw
+    dv = ev[0, 0] + ev[1, 1]
+    a0 = (1.0 - w.nu) * (ev[0, 0] * g[0] + ev[0, 1] * g[1]) + w.nu * dv * g[0]
+    a1 = (1.0 - w.nu) * (ev[1, 0] * g[0] + ev[1, 1] * g[1]) + w.nu * dv * g[1]
+    return w.C * (a0 * gd[0] + a1 * gd[1])
 
 
 @Functional
@@ -173,9 +169,12 @@ class VonKarmanPlateModel(PlateModel):
     def tangent_stiffness(self, q: np.ndarray) -> tuple[np.ndarray, sp.csr_matrix]:
         """(internal force, consistent tangent) over all dofs at `q`."""
         fd = self._fields(q)
-        kw = {"gw": fd["gw"], "N": fd["N"], "C": self.C_membrane, "nu": self.nu}
-        Kww = self.Kb + _tangent_ww.assemble(self.bw, **kw)
-        Kmw = _tangent_mw.assemble(self.bw, self.bm, **kw)
+        g, C, nu = fd["gw"], self.C_membrane, self.nu
+        Q = fd["N"] + 0.5 * C * (1.0 + nu) * g[:, None] * g[None, :]
+        Q[0, 0] += 0.5 * C * (1.0 - nu) * (g[0] ** 2 + g[1] ** 2)
+        Q[1, 1] += 0.5 * C * (1.0 - nu) * (g[0] ** 2 + g[1] ** 2)
+        Kww = self.Kb + _tangent_ww.assemble(self.bw, Q=Q)
+        Kmw = _tangent_mw.assemble(self.bw, self.bm, gw=g, C=C, nu=nu)
         K = sp.bmat([[Kww, Kmw.T], [Kmw, self.Km]], format="csr")
         fw = self.Kb @ q[: self.Nw] + _force_w.assemble(self.bw, Ngw=fd["Ngw"])
         fm = _force_m.assemble(self.bm, N=fd["N"])
