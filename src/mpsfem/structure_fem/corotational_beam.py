@@ -6,11 +6,12 @@ out by a frame that follows its chord; in that frame the element is the linear E
 beam (axial bar + cubic bending), so strains stay small while rotations are unrestricted.
 
 Unknowns are global, node-major, per node: ``(ux, uy, theta)`` - the translation in scene
-coordinates (m) and the anticlockwise rotation (rad, total, not wrapped). Element kernels work on
-all elements at once (numpy arrays over the element axis):
+coordinates (m) and the anticlockwise rotation (rad, total, not wrapped). The element kernels
+are small numba functions looping over the chain of elements (element e joins nodes e, e + 1):
 
 * local deformations: axial stretch ``u_l = l - l0`` and end rotations
-  ``theta_i,l = theta_i - (beta - beta0)`` (wrapped into (-pi, pi]);
+  ``theta_i,l = theta_i - (beta - beta0)``, the chord rotation ``beta - beta0`` taken on the
+  branch (mod 2 pi) nearest the element's mean nodal rotation;
 * local forces: ``N = EA u_l / l0``, ``[M1, M2] = EI / l0 [[4, 2], [2, 4]] [theta_1l, theta_2l]``;
 * internal force ``f = B^T [N, M1, M2]`` and the consistent tangent
   ``K_t = B^T D B + N / l z z^T + (M1 + M2) / l^2 (r z^T + z r^T)`` (geometric stiffness incl.).
