@@ -352,3 +352,15 @@ def test_modes_of_a_corotational_member():
         assert w == pytest.approx(b**2, rel=2e-3)  # omega = (beta L)^2 sqrt(EI / rho A L^4)
     axial = [w for w, k in zip(res.omega, res.kind, strict=True) if k == "axial"]
     assert axial and axial[0] == pytest.approx(math.pi / 2 * 10.0, rel=2e-3)  # c = sqrt(EA/rhoA)
+
+
+def test_newmark_with_gamma_above_half_dissipates_at_first_order():
+    """gamma = 0.6, beta = (gamma + 1/2)^2 / 4: unconditionally stable, numerically damped and
+    first order: the energy lost over a period halves with dt."""
+    scheme = {"newmark_beta": 0.3025, "newmark_gamma": 0.6}
+    res = [free_vibration_drift(n, scheme) for n in (40, 80, 160)]
+    losses = [-r[1] for r in res]
+    orders = observed_order(losses)
+    print("Newmark gamma 0.6 energy loss", [f"{d:.3e}" for d in losses], "orders", orders)
+    assert all(x > 0 for x in losses)
+    assert all(0.8 < p < 1.3 for p in orders)
