@@ -10,8 +10,10 @@ Shells*, sec. 96, eqs. 219-220)::
 
 Strain energy ``1/2 int N : eps dA + 1/2 D int [(1 - nu) w_,ij w_,ij + nu (lap w)^2] dA``; its
 first variation is the internal force, its second the tangent (membrane + bending + geometric
-``int grad(dw) . N grad(w~)``). Internal force and tangent are scikit-fem forms evaluated with
-the current state at the quadrature points (one quadrature, ``INTORDER``, for both bases).
+``int grad(dw) . N grad(w~)``). The linear parts are scikit-fem forms; the nonlinear ones are
+element kernels (einsum over the scikit-fem bases' gradients at the quadrature points, one
+quadrature, ``INTORDER``, for both bases) scattered by the bases' element dofs; the membrane
+energy is a scikit-fem Functional (an independent check of the kernels in the tests).
 
 Supports: a ``clamped`` or ``simply_supported`` edge also holds the in-plane displacements
 (u = v = 0, an immovable edge: stretching carries the load); a ``free`` edge holds nothing.
@@ -33,7 +35,7 @@ from skfem import (
     Functional,
     LinearForm,
 )
-from skfem.helpers import ddot, dot, grad, sym_grad
+from skfem.helpers import ddot, dot, sym_grad
 
 from .plate import PlateModel, area_mass_form, plate_bending_form
 
@@ -54,42 +56,6 @@ def _membrane_form(u, v, w):
 def _vector_mass_form(u, v, w):
     """int u . v dA (times rho h: in-plane inertia)."""
     return dot(u, v)
-
-
-@LinearForm
-def _force_w(v, w):
-    """int grad(v) . N grad(w~) (geometric part of the force on w)."""
-    return dot(w.Ngw, grad(v))
-
-
-@LinearForm
-def _force_m(v, w):
-    """int N : eps(v) (force on u, v)."""
-    return ddot(w.N, sym_grad(v))
-
-
-@BilinearForm
-def _tangent_ww(u, v, w):
-    """int grad(v) . Q grad(u), Q = N + C (1 - nu) / 2 |g|^2 I + C (1 + nu) / 2 g (x) g.
-
-    With g = grad w~ and S(a) = sym(g (x) a) (the variation of 1/2 g (x) g along a):
-    S(a) : S(b) = 1/2 [(g.g)(a.b) + (g.a)(g.b)] and tr S(a) = g.a, so the second variation
-    grad(v) . N grad(u) + C [(1 - nu) S(u) : S(v) + nu tr S(u) tr S(v)] is grad(v) . Q grad(u).
-    """
-    gu, gv = grad(u), grad(v)
-    Q = w.Q
-    return (Q[0, 0] * gu[0] + Q[0, 1] * gu[1]) * gv[0] + (Q[1, 0] * gu[0] + Q[1, 1] * gu[1]) * gv[1]
-
-
-@BilinearForm
-def _tangent_mw(u, v, w):
-    """Trial d (w basis), test v (membrane): C [(1 - nu) S(d) : eps(v) + nu tr S(d) div v]
-    = grad(d) . C [(1 - nu) eps(v) g + nu div(v) g] (S(d) : eps = (eps g) . d, eps symmetric)."""
-    gd, ev, g = grad(u), sym_grad(v), w.gw
-    dv = ev[0, 0] + ev[1, 1]
-    a0 = (1.0 - w.nu) * (ev[0, 0] * g[0] + ev[0, 1] * g[1]) + w.nu * dv * g[0]
-    a1 = (1.0 - w.nu) * (ev[1, 0] * g[0] + ev[1, 1] * g[1]) + w.nu * dv * g[1]
-    return w.C * (a0 * gd[0] + a1 * gd[1])
 
 
 @Functional
@@ -143,14 +109,29 @@ class VonKarmanPlateModel(PlateModel):
         model.dof_kind_names = ("bending", "membrane")
         model.bw, model.bm, model.Nw, model.Nm = bw, bm, Nw, Nm
         model.C_membrane, model.nu, model.Kb, model.Km = C, nu, Kb, Km
+        # element kernels: basis gradients at the quadrature points, (local dof, ..., el, qp)
+        model._Gw = np.stack([bw.basis[i][0].grad for i in range(len(bw.basis))])
+        Gm = np.stack([bm.basis[i][0].grad for i in range(len(bm.basis))])
+        model._Em = 0.5 * (Gm + Gm.transpose(0, 2, 1, 3, 4))  # eps of each membrane function
+        model._dx = bw.dx
+        model._ew, model._em = bw.element_dofs, Nw + bm.element_dofs
+        ew, em = model._ew, bm.element_dofs
+        nw_, nm_ = ew.shape[0], em.shape[0]
+        # COO pattern of the element blocks (e, i, j): ww over the w dofs, mw (membrane rows,
+        # w columns) over the local membrane / w numbering
+        model._pattern = (
+            (np.broadcast_to(ew.T[:, :, None], (ew.shape[1], nw_, nw_)).ravel(),
+             np.broadcast_to(em.T[:, :, None], (em.shape[1], nm_, nw_)).ravel()),
+            (np.broadcast_to(ew.T[:, None, :], (ew.shape[1], nw_, nw_)).ravel(),
+             np.broadcast_to(ew.T[:, None, :], (em.shape[1], nm_, nw_)).ravel()),
+        )  # fmt: skip
         return model
 
     # ------------------------------------------------------------------ state at quadrature points
     def _fields(self, q: np.ndarray) -> dict:
-        wq, mq = q[: self.Nw], q[self.Nw :]
-        gw = self.bw.interpolate(wq).grad  # (2, nel, nqp)
-        gm = self.bm.interpolate(mq).grad  # (2, 2, nel, nqp)
-        eps = 0.5 * (gm + gm.transpose(1, 0, 2, 3)) + 0.5 * gw[:, None] * gw[None, :]
+        gw = np.einsum("ie,iaeq->aeq", q[self._ew], self._Gw, optimize=True)  # (2, nel, nqp)
+        em = np.einsum("ie,iabeq->abeq", q[self._em], self._Em, optimize=True)  # sym grad (u, v)
+        eps = em + 0.5 * gw[:, None] * gw[None, :]
         tr = eps[0, 0] + eps[1, 1]
         # Timoshenko & Woinowsky-Krieger (1959) eq. 219: N = C [(1 - nu) eps + nu tr(eps) I]
         N = self.C_membrane * (1.0 - self.nu) * eps
@@ -159,26 +140,49 @@ class VonKarmanPlateModel(PlateModel):
         Ngw = np.einsum("ij...,j...->i...", N, gw)
         return {"gw": gw, "eps": eps, "N": N, "Ngw": Ngw}
 
+    def _element_forces(self, fd: dict) -> np.ndarray:
+        """Nonlinear internal force (all dofs): int grad(dw) . N grad(w~) on w, int N : eps(du)
+        on (u, v) (the first variation of the membrane energy), by element kernels."""
+        dx = self._dx
+        fw = np.einsum("aeq,iaeq,eq->ie", fd["Ngw"], self._Gw, dx, optimize=True)
+        fm = np.einsum("abeq,iabeq,eq->ie", fd["N"], self._Em, dx, optimize=True)
+        f = np.bincount(self._ew.ravel(), weights=fw.ravel(), minlength=self.n_dof)
+        f += np.bincount(self._em.ravel(), weights=fm.ravel(), minlength=self.n_dof)
+        return f
+
     def internal_force(self, q: np.ndarray) -> np.ndarray:
         """Internal force over all dofs (N) at the full dof vector `q`."""
-        fd = self._fields(q)
-        fw = self.Kb @ q[: self.Nw] + _force_w.assemble(self.bw, Ngw=fd["Ngw"])
-        fm = _force_m.assemble(self.bm, N=fd["N"])
-        return np.concatenate([fw, fm])
+        f = self._element_forces(self._fields(q))
+        f[: self.Nw] += self.Kb @ q[: self.Nw]
+        return f
 
     def tangent_stiffness(self, q: np.ndarray) -> tuple[np.ndarray, sp.csr_matrix]:
-        """(internal force, consistent tangent) over all dofs at `q`."""
+        """(internal force, consistent tangent) over all dofs at `q`.
+
+        With g = grad w~ and S(a) = sym(g (x) a) (the variation of 1/2 g (x) g along a):
+        S(a) : S(b) = 1/2 [(g.g)(a.b) + (g.a)(g.b)] and tr S(a) = g.a, so the ww block
+        int grad(v) . N grad(u) + C [(1 - nu) S(u) : S(v) + nu tr S(u) tr S(v)] is
+        int grad(v) . Q grad(u), Q = N + C (1 - nu) / 2 |g|^2 I + C (1 + nu) / 2 g (x) g; the
+        membrane-bending block int C [(1 - nu) S(d) : eps(v) + nu tr S(d) div v] is
+        int grad(d) . C [(1 - nu) eps(v) g + nu div(v) g] (eps symmetric).
+        """
         fd = self._fields(q)
-        g, C, nu = fd["gw"], self.C_membrane, self.nu
+        g, C, nu, dx = fd["gw"], self.C_membrane, self.nu, self._dx
         Q = fd["N"] + 0.5 * C * (1.0 + nu) * g[:, None] * g[None, :]
         Q[0, 0] += 0.5 * C * (1.0 - nu) * (g[0] ** 2 + g[1] ** 2)
         Q[1, 1] += 0.5 * C * (1.0 - nu) * (g[0] ** 2 + g[1] ** 2)
-        Kww = self.Kb + _tangent_ww.assemble(self.bw, Q=Q)
-        Kmw = _tangent_mw.assemble(self.bw, self.bm, gw=g, C=C, nu=nu)
-        K = sp.bmat([[Kww, Kmw.T], [Kmw, self.Km]], format="csr")
-        fw = self.Kb @ q[: self.Nw] + _force_w.assemble(self.bw, Ngw=fd["Ngw"])
-        fm = _force_m.assemble(self.bm, N=fd["N"])
-        return np.concatenate([fw, fm]), K
+        Gw, Em = self._Gw, self._Em
+        kww = np.einsum("iaeq,abeq,jbeq,eq->eij", Gw, Q, Gw, dx, optimize=True)
+        div = Em[:, 0, 0] + Em[:, 1, 1]
+        Ag = (1.0 - nu) * np.einsum("iabeq,beq->iaeq", Em, g) + nu * div[:, None] * g[None]
+        kmw = C * np.einsum("iaeq,jaeq,eq->eij", Ag, Gw, dx, optimize=True)
+        r, c = self._pattern
+        Kww = sp.csr_matrix((kww.ravel(), (r[0], c[0])), shape=(self.Nw, self.Nw))
+        Kmw = sp.csr_matrix((kmw.ravel(), (r[1], c[1])), shape=(self.Nm, self.Nw))
+        K = self.K + sp.bmat([[Kww, Kmw.T], [Kmw, None]], format="csr")
+        f = self._element_forces(fd)
+        f[: self.Nw] += self.Kb @ q[: self.Nw]
+        return f, K
 
     def reduced_tangent(self, q: np.ndarray, free: np.ndarray) -> tuple[np.ndarray, sp.csr_matrix]:
         f, K = self.tangent_stiffness(q)
