@@ -19,7 +19,8 @@ turns, "rotation" the total anticlockwise angle (not wrapped), and a written for
 translation dofs of its node in the scene frame, on the deformed member (a dead load). Their
 steps, and every step under ``scheme = "hht"``, are solved by Newton iterations
 (:mod:`.alpha_method`); the static start by load-stepped Newton. A linear beam whose rotation
-passes 0.1 rad warns once (:class:`LargeRotationWarning`, Python ``warnings``).
+passes 0.1 rad warns once (:class:`LargeRotationWarning`, Python ``warnings``; a linear BFS plate
+likewise when a slope passes tan 0.1, pointing to ``kinematics = "von_karman"``).
 
 ``advance(dt)`` integrates exactly `dt`: in ceil(dt / max_dt()) equal Newmark sub-steps, the
 interface force rising linearly from the value of the previous window's end to the value just
@@ -63,7 +64,8 @@ LINEAR_ROTATION_LIMIT = 0.1
 
 
 class LargeRotationWarning(UserWarning):
-    """A member with ``kinematics = "linear"`` rotates beyond :data:`LINEAR_ROTATION_LIMIT`."""
+    """A member with ``kinematics = "linear"`` rotates beyond :data:`LINEAR_ROTATION_LIMIT`
+    (a beam's nodal angle, a BFS plate's slope angle atan(dw/du), atan(dw/dv))."""
 
 
 @dataclass(frozen=True)
@@ -150,13 +152,17 @@ class StructureParticipant:
             )
         if t.beta < (t.gamma + 0.5) ** 2 / 4.0 - 1e-12:
             self._check_conditional_stability()
-        # linear beams: positions of their nodal rotation (slope) dofs in the reduced vector
-        self._linear_beams = []
+        # linear members with nodal rotations (beams: the angle; BFS plates: the slopes
+        # dw/du, dw/dv, an angle atan(slope)): their positions in the reduced vector, and the
+        # kinematics that would take large rotations
+        self._linear_rotations = []
         for m in sysm.models:
-            if m.dim == 2 and not m.nonlinear and m.rotation is not None:
+            if not m.nonlinear and m.rotation is not None:
                 R = sp.csr_matrix(m.rotation)[:, m.free]
                 idx = np.flatnonzero(np.asarray(abs(R).sum(axis=0)).ravel())
-                self._linear_beams.append((m.name, sysm.dof_slices[m.name].start + idx))
+                remedy = "corotational" if m.dim == 2 else "von_karman"
+                start = sysm.dof_slices[m.name].start
+                self._linear_rotations.append((m.name, start + idx, m.dim == 3, remedy))
         self._warned: set[str] = set()
         self.probe_names: list[str] = []
         rows = []
@@ -265,23 +271,25 @@ class StructureParticipant:
             self.integrator.step(h, self.external_load(t) + f_if)
         self.integrator.state.t = t0 + dt
         self._f_start = f1
-        if self._linear_beams:
+        if self._linear_rotations:
             self._check_linear_rotation()
         return dt
 
     def _check_linear_rotation(self) -> None:
-        """Warn once per linear beam whose nodal rotation exceeds LINEAR_ROTATION_LIMIT."""
+        """Warn once per linear member whose nodal rotation exceeds LINEAR_ROTATION_LIMIT."""
         u = self.integrator.state.u
-        for name, idx in self._linear_beams:
-            if name in self._warned:
+        for name, idx, slopes, remedy in self._linear_rotations:
+            if name in self._warned or not idx.size:
                 continue
-            rot = float(np.abs(u[idx]).max()) if idx.size else 0.0
+            rot = float(np.abs(u[idx]).max())
+            if slopes:
+                rot = math.atan(rot)
             if rot > LINEAR_ROTATION_LIMIT:
                 self._warned.add(name)
                 warnings.warn(
                     f'structure member {name!r} (kinematics = "linear") rotates {rot:.3g} rad '
                     f"at t = {self.time:.6g} s, beyond the {LINEAR_ROTATION_LIMIT} rad of "
-                    'small-rotation theory: set kinematics = "corotational" on this member in '
+                    f'small-rotation theory: set kinematics = "{remedy}" on this member in '
                     "[[structure.members]] for large deflections",
                     LargeRotationWarning,
                     stacklevel=3,
