@@ -362,3 +362,8 @@ def test_linear_plate_warns_beyond_a_tenth_of_a_radian_of_slope():
     assert np.abs(p.read("rotation")).max() > math.tan(0.1)
     with pytest.warns(LargeRotationWarning, match='kinematics = "von_karman"'):
         p.advance(1e-4)
+
+
+def test_static_start_of_an_unsupported_corotational_member_says_so():
+    with pytest.raises(ValueError, match="supported against rigid motion"):
+        StructureParticipant(section([corot(bc="free")], initial_state="static"))

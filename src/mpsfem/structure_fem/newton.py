@@ -169,11 +169,21 @@ def newton_solve(
     norm = math.sqrt(r @ r)
     if norm <= max(tolerance * scale, floor):
         return NewtonResult(x, 0, norm, scale, 0)
-    if reuse_ratio <= 0.0:
-        tangent.form(jacobian, x, key)
-        made += 1
-    elif tangent.ensure(jacobian, x, key):
-        made += 1
+
+    def form(fresh: bool, it: int) -> int:
+        try:
+            if fresh:
+                tangent.form(jacobian, x, key)
+                return 1
+            return int(tangent.ensure(jacobian, x, key))
+        except np.linalg.LinAlgError as exc:
+            raise NewtonFailure(
+                f"{failure(x, r, norm, scale, it)}; the Jacobian could not be factorised: {exc}",
+                residual=norm,
+                iterations=it,
+            ) from exc
+
+    made += form(reuse_ratio <= 0.0, 0)
     for it in range(1, max_iterations + 1):
         dx = tangent.factor.solve(-r)
         x += dx
@@ -185,8 +195,8 @@ def newton_solve(
             return NewtonResult(x, it, new, scale, made)
         if it < max_iterations and (reuse_ratio <= 0.0 or new > reuse_ratio * norm):
             # the kept tangent no longer contracts well (or full Newton): re-form it here
-            tangent.form(jacobian, x, key)
-            made += 1
+            norm = new
+            made += form(True, it)
         norm = new
     raise NewtonFailure(
         failure(x, r, norm, scale, max_iterations), residual=norm, iterations=max_iterations

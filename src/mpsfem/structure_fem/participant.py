@@ -191,6 +191,7 @@ class StructureParticipant:
         F0 = self.external_load(0.0) + f_interface
         if self.section.initial_state == "static" and self.system.nonlinear:
             try:
+                factorize(self.system.K.tocsc())  # supported against rigid motion at all?
                 u0 = self.integrator.solve_static(
                     F0, increments=self.section.newton.static_increments
                 )
