@@ -166,7 +166,7 @@ class NonlinearNewmark:
         largest residual, the step, the time and the residual when Newton does not converge.
         """
         dt = float(dt)
-        key = self.tangent.key
+        key = self.tangent.current_key
         if isinstance(key, float) and key > 0 and abs(dt - key) <= 1e-12 * key:
             dt = key  # round-off in t_end - t: keep the factorised Jacobian (as Newmark.snap)
         c0, c1, c2, c3, _, _ = self.coefficients(dt)

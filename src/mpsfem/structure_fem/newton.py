@@ -122,6 +122,11 @@ class TangentFactor:
             self.form(jacobian, x, key)
         return True
 
+    @property
+    def current_key(self):
+        """Key of the factor in use or, after a restore, of the one to be re-formed."""
+        return self._pending[1] if self._pending is not None else self.key
+
     def state(self) -> tuple[np.ndarray | None, float | None]:
         """(point, key) at which the current factor was formed (for checkpoints)."""
         if self._pending is not None:
