@@ -38,6 +38,7 @@ __all__ = [
     "PlateMember",
     "Member",
     "StructureTime",
+    "NewtonSettings",
     "StructureSection",
 ]
 
@@ -267,6 +268,17 @@ class BeamMember(_MemberCommon):
         ),
     )
 
+    kinematics: Literal["linear", "corotational"] = Field(
+        "linear",
+        description=(
+            '"linear": small deflections and rotations (Hermite bending + axial bar, '
+            'uncoupled); "corotational": large rotations, small strains (Crisfield\'s 2D '
+            "co-rotational beam, dofs ux, uy, theta per node, axial and bending coupled), solved "
+            "by Newton iterations in every step. A linear member warns once when a rotation "
+            "exceeds 0.1 rad."
+        ),
+    )
+
     @field_validator("bc")
     @classmethod
     def _bc_len(cls, v):
@@ -278,6 +290,12 @@ class BeamMember(_MemberCommon):
     def _distinct_ends(self) -> BeamMember:
         if math.dist(self.start, self.end) <= 0.0:
             raise InvalidValue("end", "`start` and `end` must be distinct points", self.end)
+        if self.kinematics == "corotational" and not self.axial:
+            raise InvalidValue(
+                "axial",
+                'kinematics = "corotational" couples axial and bending: it needs `axial = true`',
+                self.axial,
+            )
         if self.plate_strip and self.material.poisson_ratio is None:
             raise InvalidValue(
                 "material.poisson_ratio", "`plate_strip = true` needs `material.poisson_ratio`"
@@ -376,10 +394,26 @@ class PlateMember(_MemberCommon):
         )
     )
 
+    kinematics: Literal["linear", "von_karman"] = Field(
+        "linear",
+        description=(
+            '"linear": small deflections (Kirchhoff bending only); "von_karman": moderately '
+            "large deflections, bending coupled to membrane stretching (in-plane dofs u, v on "
+            'ElementQuad2; held edges are immovable in-plane), element = "bfs" rectangles only, '
+            "solved by Newton iterations in every step."
+        ),
+    )
+
     @model_validator(mode="after")
     def _geometry(self) -> PlateMember:
         if self.material.poisson_ratio is None:
             raise InvalidValue("material.poisson_ratio", "a plate needs `material.poisson_ratio`")
+        if self.kinematics == "von_karman" and (self.element != "bfs" or self.shape != "rectangle"):
+            raise InvalidValue(
+                "kinematics",
+                'kinematics = "von_karman" needs element = "bfs" and shape = "rectangle"',
+                self.kinematics,
+            )
         for key in ("axis_u", "axis_v"):
             if not any(getattr(self, key)):
                 raise InvalidValue(
@@ -491,7 +525,7 @@ Member = Annotated[BeamMember | PlateMember, Field(discriminator="type")]
 
 # --------------------------------------------------------------------------- time
 class StructureTime(Section):
-    """Time integration of the structure (Newmark-beta)."""
+    """Time integration of the structure (Newmark-beta or HHT-alpha)."""
 
     dt: float = Field(
         gt=0,
@@ -517,6 +551,98 @@ class StructureTime(Section):
             "Newmark gamma, 0.5 <= gamma <= 1 (above 0.5 adds numerical damping). Unconditional "
             "stability needs beta >= (gamma + 1/2)^2 / 4; below that (e.g. linear acceleration, "
             "beta = 1/6) the run checks dt against the stability limit of the highest mode."
+        ),
+    )
+    scheme: Literal["newmark", "hht"] = Field(
+        "newmark",
+        description=(
+            '"newmark" (newmark_beta, newmark_gamma) or "hht" (Hilber-Hughes-Taylor alpha '
+            "method: beta = (1 - alpha)^2 / 4, gamma = 1/2 - alpha from `hht_alpha`; "
+            "unconditionally stable, second order, dissipates high frequencies). Nonlinear "
+            '(co-rotational) members and "hht" are solved with Newton iterations per step.'
+        ),
+    )
+    hht_alpha: float = Field(
+        -0.05,
+        ge=-1.0 / 3.0,
+        le=0.0,
+        description=(
+            'HHT alpha, -1/3 <= alpha <= 0 (scheme = "hht" only): 0 is average acceleration, '
+            "-1/3 the most dissipative (spectral radius at infinity (1 + alpha) / (1 - alpha))."
+        ),
+    )
+
+    @model_validator(mode="after")
+    def _scheme_keys(self) -> StructureTime:
+        # a key of the other scheme is refused when it differs from its default (a default
+        # written out, as model_dump does, is harmless and must validate again)
+        defaults = type(self).model_fields
+        if self.scheme == "hht":
+            for key in ("newmark_beta", "newmark_gamma"):
+                if getattr(self, key) != defaults[key].default:
+                    raise InvalidValue(
+                        key,
+                        'scheme = "hht" sets beta = (1 - hht_alpha)^2 / 4 and gamma = 1/2 - '
+                        "hht_alpha; leave newmark_beta and newmark_gamma out",
+                        getattr(self, key),
+                    )
+        elif self.hht_alpha != defaults["hht_alpha"].default:
+            raise InvalidValue(
+                "hht_alpha", 'hht_alpha is used only with scheme = "hht"', self.hht_alpha
+            )
+        return self
+
+    @property
+    def beta(self) -> float:
+        """Newmark beta in effect (from hht_alpha under the HHT scheme)."""
+        if self.scheme == "hht":
+            return (1.0 - self.hht_alpha) ** 2 / 4.0
+        return self.newmark_beta
+
+    @property
+    def gamma(self) -> float:
+        """Newmark gamma in effect (from hht_alpha under the HHT scheme)."""
+        if self.scheme == "hht":
+            return 0.5 - self.hht_alpha
+        return self.newmark_gamma
+
+    @property
+    def alpha(self) -> float:
+        """HHT alpha in effect (0 under the Newmark scheme)."""
+        return self.hht_alpha if self.scheme == "hht" else 0.0
+
+
+class NewtonSettings(Section):
+    """Newton iterations of nonlinear structure steps (co-rotational members, the HHT scheme)."""
+
+    tolerance: float = Field(
+        1e-8,
+        gt=0,
+        lt=1,
+        description=(
+            "Converged when the residual norm is at most `tolerance` times the norm of the "
+            "forces in balance (inertial + internal + external), 0 < tolerance < 1."
+        ),
+    )
+    max_iterations: int = Field(
+        25, ge=1, description="Iterations per step (or load increment) before Newton fails (>= 1)."
+    )
+    reuse_ratio: float = Field(
+        0.01,
+        ge=0,
+        lt=1,
+        description=(
+            "Modified Newton: the factorised tangent is kept (across iterations and steps) while "
+            "every iteration reduces the residual norm at least by this factor; an iteration that "
+            "does not re-forms it at the current iterate. 0 = full Newton (0 <= value < 1)."
+        ),
+    )
+    static_increments: int = Field(
+        1,
+        ge=1,
+        description=(
+            'Load increments of the nonlinear static start (initial_state = "static"), >= 1; an '
+            "increment whose Newton iterations fail is halved (down to 1/1024 of the load)."
         ),
     )
 
@@ -549,6 +675,13 @@ class StructureSection(Section):
             '"rest": zero displacement and velocity at t = 0; "static": start from the static '
             "equilibrium under self-weight and the prescribed loads' values at t = 0 (no start-up "
             "transient)."
+        ),
+    )
+    newton: NewtonSettings = Field(
+        default_factory=NewtonSettings,
+        description=(
+            "Newton iterations, [structure.newton]; used by co-rotational members and the "
+            '"hht" scheme (linear members under Newmark need none).'
         ),
     )
     loads: list[Load] = Field(

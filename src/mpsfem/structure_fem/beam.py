@@ -27,11 +27,29 @@ from .model import MemberModel
 
 __all__ = [
     "BeamModel",
+    "beam_section",
     "beam_bending_form",
     "line_mass_form",
     "bar_stiffness_form",
     "unit_load_form",
 ]
+
+
+def beam_section(cfg) -> tuple[float, float, float]:
+    """(EI in N m^2/m, EA in N/m, rho A in kg/m^2) per metre of width of a
+    :class:`~mpsfem.scenario.structure.BeamMember`."""
+    mat = cfg.material
+    E = mat.youngs_modulus
+    if cfg.plate_strip:
+        E = E / (1.0 - mat.poisson_ratio**2)
+    # the section (A, I) describes the member's whole width b; the 2D model, like every 2D
+    # force and energy it exchanges, is per metre of width: A / b, I / b
+    b = cfg.width
+    area = (cfg.area if cfg.area is not None else b * cfg.thickness) / b
+    inertia = (
+        cfg.second_moment if cfg.second_moment is not None else b * cfg.thickness**3 / 12.0
+    ) / b
+    return E * inertia, E * area, mat.density * area
 
 
 @BilinearForm
@@ -78,25 +96,15 @@ class BeamModel(MemberModel):
     @classmethod
     def from_config(cls, cfg) -> BeamModel:
         """From a :class:`~mpsfem.scenario.structure.BeamMember`."""
-        mat = cfg.material
-        E = mat.youngs_modulus
-        if cfg.plate_strip:
-            E = E / (1.0 - mat.poisson_ratio**2)
-        # the section (A, I) describes the member's whole width b; the 2D model, like every 2D
-        # force and energy it exchanges, is per metre of width: A / b, I / b
-        b = cfg.width
-        area = (cfg.area if cfg.area is not None else b * cfg.thickness) / b
-        inertia = (
-            cfg.second_moment if cfg.second_moment is not None else b * cfg.thickness**3 / 12.0
-        ) / b
+        EI, EA, rhoA = beam_section(cfg)
         return cls.create(
             name=cfg.name,
             start=cfg.start,
             end=cfg.end,
             elements=cfg.elements,
-            EI=E * inertia,
-            EA=E * area,
-            rhoA=mat.density * area,
+            EI=EI,
+            EA=EA,
+            rhoA=rhoA,
             bcs=cfg.edge_bcs,
             axial=cfg.axial,
             width=cfg.width,

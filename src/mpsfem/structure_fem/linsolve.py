@@ -9,12 +9,14 @@ Both are deterministic.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 from scipy.linalg import lapack
 
-__all__ = ["DENSE_LIMIT", "MIN_PIVOT_RATIO", "Factor", "factorize"]
+__all__ = ["DENSE_LIMIT", "MIN_PIVOT_RATIO", "BandMatrix", "BandedFactor", "Factor", "factorize"]
 
 #: largest system factorised densely
 DENSE_LIMIT = 128
@@ -84,3 +86,48 @@ class Factor:
 def factorize(A, *, dense_limit: int = DENSE_LIMIT) -> Factor:
     """Factorise a symmetric positive definite matrix (sparse or dense)."""
     return Factor(A, dense_limit=dense_limit)
+
+
+@dataclass
+class BandMatrix:
+    """Symmetric n x n matrix in LAPACK upper band storage: ``ab[bw + i - j, j] = A[i, j]`` for
+    ``j - bw <= i <= j``; ab has shape (bw + 1, n)."""
+
+    ab: np.ndarray
+    bw: int
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        n = self.ab.shape[1]
+        return n, n
+
+    def tocsr(self) -> sp.csr_matrix:
+        """The full symmetric matrix as CSR."""
+        n, bw = self.shape[0], self.bw
+        diags = [self.ab[bw - k, k:] for k in range(bw + 1)]
+        U = sp.diags(diags, list(range(bw + 1)), shape=(n, n), format="csr")
+        return (U + sp.triu(U, 1, format="csr").T).tocsr()
+
+
+class BandedFactor:
+    """Banded Cholesky (LAPACK ``dpbtrf`` / ``dpbtrs``) of an SPD :class:`BandMatrix`: O(n bw^2)
+    work, for the node-major tangents of co-rotational beams (bw = 5 for a chain)."""
+
+    def __init__(self, A: BandMatrix) -> None:
+        bw = A.bw
+        self.n = A.shape[0]
+        self.dense = False
+        diag = A.ab[bw].copy()
+        c, info = lapack.dpbtrf(np.asfortranarray(A.ab), lower=0, overwrite_ab=1)
+        if info != 0:
+            raise np.linalg.LinAlgError(
+                f"matrix not positive definite (dpbtrf info {info}); {_RIGID_HINT}"
+            )
+        _check_pivots(c[bw] ** 2, diag)
+        self._c = c
+
+    def solve(self, b: np.ndarray) -> np.ndarray:
+        x, info = lapack.dpbtrs(self._c, b, lower=0)
+        if info != 0:  # pragma: no cover - only on invalid input
+            raise np.linalg.LinAlgError(f"dpbtrs failed (info {info})")
+        return x

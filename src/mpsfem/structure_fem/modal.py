@@ -91,12 +91,14 @@ def natural_modes(model: MemberModel, n_modes: int = 6) -> ModalResult:
     shapes[free] = phi
     Mphi = sp.csr_matrix(model.M) @ shapes
     kinds = []
-    for j in range(shapes.shape[1]):
+    for j in range(shapes.shape[1] if not hasattr(model, "classify_modes") else 0):
         energy = [
             float(shapes[model.dof_kind == k, j] @ Mphi[model.dof_kind == k, j])
             for k in range(len(model.dof_kind_names))
         ]
         kinds.append(model.dof_kind_names[int(np.argmax(energy))])
+    if hasattr(model, "classify_modes"):  # global dofs (co-rotational beam): by projection
+        kinds = model.classify_modes(shapes)
     nodal = np.stack(
         [
             (model.translation @ shapes[:, j]).reshape(model.n_nodes, model.dim)

@@ -10,13 +10,16 @@ of freedom, the list of constrained ones, and the linear maps between the genera
 * ``rotation`` (``n_nodes*n_rot x n_dof``) or ``None``: beam rotation (anticlockwise), plate slopes
   ``(dw/du, dw/dv)`` in local axes (BFS only).
 
-Load vectors and point-evaluation matrices are built on demand by the subclasses.
+Load vectors and point-evaluation matrices are built on demand by the subclasses. A nonlinear
+member (``nonlinear = True``, the co-rotational beam) adds its state-dependent internal force,
+tangent and strain energy; its ``K`` is the tangent at the reference configuration.
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 import scipy.sparse as sp
@@ -45,6 +48,9 @@ class MemberModel(ABC):
     rotation_components: tuple[str, ...] = ()
     dof_kind: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int8))
     dof_kind_names: tuple[str, ...] = ("bending",)
+    #: True for members whose internal force is not K q (co-rotational beams): they provide
+    #: ``internal_force(q)``, ``reduced_tangent(q, free)`` and ``strain_energy(q)``
+    nonlinear: ClassVar[bool] = False
 
     @property
     def n_dof(self) -> int:
@@ -97,10 +103,17 @@ def build_member(cfg) -> MemberModel:
     """Build the model of one scenario member (:class:`~mpsfem.scenario.structure.BeamMember` or
     :class:`~mpsfem.scenario.structure.PlateMember`)."""
     from .beam import BeamModel
+    from .corotational_beam import CorotationalBeamModel
     from .plate import PlateModel
 
-    if cfg.type == "beam":
+    if cfg.type == "beam" and getattr(cfg, "kinematics", "linear") == "corotational":
+        model = CorotationalBeamModel.from_config(cfg)
+    elif cfg.type == "beam":
         model = BeamModel.from_config(cfg)
+    elif cfg.type == "plate" and getattr(cfg, "kinematics", "linear") == "von_karman":
+        from .von_karman_plate import VonKarmanPlateModel
+
+        model = VonKarmanPlateModel.from_config(cfg)
     elif cfg.type == "plate":
         model = PlateModel.from_config(cfg)
     else:

@@ -7,11 +7,20 @@ mesh vertices). Data exchanged (SI units; in 2D per unit width):
 
 * written: ``"forces"``, nodal forces at the interface points, shape (n_points, dim), in N (N/m in
   2D). Each is applied at its node as a point load (consistent with the nodal translation map, so
-  no moment). A plate takes only the component along its normal, an inextensible beam
-  (`axial = false`) only the one along its normal.
+  no moment). A linear plate takes only the component along its normal (a von Karman plate all
+  three), an inextensible beam (`axial = false`) only the one along its normal.
 * read: ``"displacement"``, ``"velocity"``, ``"acceleration"`` (n_points, dim), translational;
   ``"rotation"`` (n_points, r): beams r = 1 (anticlockwise angle, rad), plates r = 2 (slopes
   dw/du, dw/dv along the plate axes; NaN for Morley members, which have no nodal slopes).
+
+Co-rotational beams (``kinematics = "corotational"``) have global dofs (ux, uy, theta) per node:
+"displacement" is then the true nodal translation in the scene frame however far the member
+turns, "rotation" the total anticlockwise angle (not wrapped), and a written force acts on the
+translation dofs of its node in the scene frame, on the deformed member (a dead load). Their
+steps, and every step under ``scheme = "hht"``, are solved by Newton iterations
+(:mod:`.alpha_method`); the static start by load-stepped Newton. A linear beam whose rotation
+passes 0.1 rad warns once (:class:`LargeRotationWarning`, Python ``warnings``; a linear BFS plate
+likewise when a slope passes tan 0.1, pointing to ``kinematics = "von_karman"``).
 
 ``advance(dt)`` integrates exactly `dt`: in ceil(dt / max_dt()) equal Newmark sub-steps, the
 interface force rising linearly from the value of the previous window's end to the value just
@@ -24,13 +33,15 @@ Self-weight acts always; the scenario's prescribed loads only when the participa
 ``prescribed_loads=True`` (standalone runs).
 
 The full state (u, v, a over the free dofs, the time, the step count, the interface force of the
-window start and the last written forces) is what :meth:`checkpoint` copies and :meth:`restore`
+window start and the last written forces; with Newton also the external load at t and the point
+at which the kept Jacobian was formed) is what :meth:`checkpoint` copies and :meth:`restore`
 puts back; a restored participant repeats its steps bit for bit.
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -38,14 +49,23 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
+from .alpha_method import NonlinearNewmark
 from .linsolve import factorize
 from .newmark import Newmark, NewmarkState
 from .system import StructureSystem
 
-__all__ = ["Interface", "StructureParticipant"]
+__all__ = ["Interface", "LargeRotationWarning", "StructureParticipant"]
 
 READABLE = ("displacement", "velocity", "acceleration", "rotation")
 WRITABLE = ("forces",)
+
+#: rotation (rad) beyond which a linear beam warns that it has left small-rotation theory
+LINEAR_ROTATION_LIMIT = 0.1
+
+
+class LargeRotationWarning(UserWarning):
+    """A member with ``kinematics = "linear"`` rotates beyond :data:`LINEAR_ROTATION_LIMIT`
+    (a beam's nodal angle, a BFS plate's slope angle atan(dw/du), atan(dw/dv))."""
 
 
 @dataclass(frozen=True)
@@ -112,11 +132,38 @@ class StructureParticipant:
         t = section.time
         self.dt = float(t.dt)
         sysm = self.system
-        self.integrator = Newmark(
-            sysm.M, sysm.K, sysm.C, beta=t.newmark_beta, gamma=t.newmark_gamma
-        )
-        if t.newmark_beta < (t.newmark_gamma + 0.5) ** 2 / 4.0 - 1e-12:
+        # linear members under Newmark keep the linear integrator (one solve per step); a
+        # co-rotational member or the HHT scheme takes Newton iterations
+        self.nonlinear = sysm.nonlinear or t.scheme == "hht"
+        if self.nonlinear:
+            nw = section.newton
+            self.integrator = NonlinearNewmark(
+                sysm,
+                beta=t.beta,
+                gamma=t.gamma,
+                alpha=t.alpha,
+                tolerance=nw.tolerance,
+                max_iterations=nw.max_iterations,
+                reuse_ratio=nw.reuse_ratio,
+            )
+        else:
+            self.integrator = Newmark(
+                sysm.M, sysm.K, sysm.C, beta=t.newmark_beta, gamma=t.newmark_gamma
+            )
+        if t.beta < (t.gamma + 0.5) ** 2 / 4.0 - 1e-12:
             self._check_conditional_stability()
+        # linear members with nodal rotations (beams: the angle; BFS plates: the slopes
+        # dw/du, dw/dv, an angle atan(slope)): their positions in the reduced vector, and the
+        # kinematics that would take large rotations
+        self._linear_rotations = []
+        for m in sysm.models:
+            if not m.nonlinear and m.rotation is not None:
+                R = sp.csr_matrix(m.rotation)[:, m.free]
+                idx = np.flatnonzero(np.asarray(abs(R).sum(axis=0)).ravel())
+                remedy = "corotational" if m.dim == 2 else "von_karman"
+                start = sysm.dof_slices[m.name].start
+                self._linear_rotations.append((m.name, start + idx, m.dim == 3, remedy))
+        self._warned: set[str] = set()
         self.probe_names: list[str] = []
         rows = []
         for pr in probes:
@@ -142,7 +189,20 @@ class StructureParticipant:
         equilibrium, M a0 = F0 - K u0 (Newmark needs a0 consistent with the load at t0, else the
         first step puts a spurious free oscillation into an undamped member)."""
         F0 = self.external_load(0.0) + f_interface
-        if self.section.initial_state == "static":
+        if self.section.initial_state == "static" and self.system.nonlinear:
+            try:
+                factorize(self.system.K.tocsc())  # supported against rigid motion at all?
+                u0 = self.integrator.solve_static(
+                    F0, increments=self.section.newton.static_increments
+                )
+            except np.linalg.LinAlgError as exc:
+                raise ValueError(
+                    'structure.initial_state = "static" needs every member supported against '
+                    'rigid motion (give it supports in `bc`, or use "rest"): the tangent '
+                    f"stiffness is singular: {exc}"
+                ) from exc
+            self.integrator.initialize(F0, u0=u0)
+        elif self.section.initial_state == "static":
             try:
                 u0 = factorize(self.system.K.tocsc()).solve(F0)
             except np.linalg.LinAlgError as exc:
@@ -212,7 +272,29 @@ class StructureParticipant:
             self.integrator.step(h, self.external_load(t) + f_if)
         self.integrator.state.t = t0 + dt
         self._f_start = f1
+        if self._linear_rotations:
+            self._check_linear_rotation()
         return dt
+
+    def _check_linear_rotation(self) -> None:
+        """Warn once per linear member whose nodal rotation exceeds LINEAR_ROTATION_LIMIT."""
+        u = self.integrator.state.u
+        for name, idx, slopes, remedy in self._linear_rotations:
+            if name in self._warned or not idx.size:
+                continue
+            rot = float(np.abs(u[idx]).max())
+            if slopes:
+                rot = math.atan(rot)
+            if rot > LINEAR_ROTATION_LIMIT:
+                self._warned.add(name)
+                warnings.warn(
+                    f'structure member {name!r} (kinematics = "linear") rotates {rot:.3g} rad '
+                    f"at t = {self.time:.6g} s, beyond the {LINEAR_ROTATION_LIMIT} rad of "
+                    f'small-rotation theory: set kinematics = "{remedy}" on this member in '
+                    "[[structure.members]] for large deflections",
+                    LargeRotationWarning,
+                    stacklevel=3,
+                )
 
     def max_dt(self) -> float:
         """Longest step the structure takes in one go (the scenario's ``structure.time.dt``)."""
@@ -230,6 +312,8 @@ class StructureParticipant:
             "f_start": self._f_start.copy(),
             "forces": self._forces.copy(),
         }
+        if self.nonlinear:
+            state.update(self.integrator.checkpoint_extra())
         self._checkpoint = state
         return {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in state.items()}
 
@@ -238,13 +322,17 @@ class StructureParticipant:
         state = self._checkpoint if state is None else state
         if state is None:
             raise RuntimeError("restore() before any checkpoint()")
-        self.integrator.state = NewmarkState(
+        restored = NewmarkState(
             np.array(state["u"], dtype=float),
             np.array(state["v"], dtype=float),
             np.array(state["a"], dtype=float),
             float(state["t"]),
             int(state["steps"]),
         )
+        if self.nonlinear:
+            self.integrator.restore_extra(restored, state)
+        else:
+            self.integrator.state = restored
         self._f_start = np.array(state["f_start"], dtype=float)
         self._initial_data_pending = False
         self.write("forces", state["forces"])

@@ -10,7 +10,8 @@ use, and writes the results-file contract:
 * ``/probes/<name>/{time,value}`` for every ``[[probes]]`` of kind "displacement" whose target is
   a member (attrs kind "displacement", unit "m", components ux, uy[, uz], position; value at the
   member point nearest `position`) and of kind "energy" targeting a member (unit "J/m" in 2D,
-  "J" in 3D; components kinetic, strain), every ``interval`` (default ``output.probe_interval``;
+  "J" in 3D; components kinetic, strain; attr "meaning" says what they are under the scheme:
+  the state at the end of each step, under HHT not at the alpha point), every ``interval`` (default ``output.probe_interval``;
   0 = every step).
 
 Records are taken every ``max(1, round(interval / dt))`` steps, at t = 0 and at the end.
@@ -77,6 +78,22 @@ class _ProbeBuffer:
             ts.clear()
             vs.clear()
         self.n = 0
+
+
+def energy_meaning(time) -> str:
+    """What an energy record means under the scheme of `time` (a StructureTime)."""
+    base = (
+        "kinetic 1/2 v.M v and strain energy (1/2 u.K u; co-rotational members: the sum of "
+        "their elements' local strain energies) of the state at the end of each step"
+    )
+    if time.scheme == "hht":
+        return (
+            f"{base}, not at the HHT point t + (1 + alpha) dt (hht_alpha = {time.hht_alpha:g}); "
+            "their sum decreases by the scheme's numerical dissipation, not by a physical loss"
+        )
+    if time.newmark_gamma > 0.5:
+        return f"{base}; newmark_gamma > 1/2 dissipates numerically, their sum decreases"
+    return f"{base}; average acceleration keeps their sum for linear undamped members"
 
 
 def _unpack(scenario):
@@ -156,9 +173,16 @@ def run_structure(
         comps = DISPLACEMENT_COMPONENTS[:dim]
         for p in probes:
             rf.add_probe(p.name, "displacement", "m", comps, p.position, attrs={"target": p.target})
+        meaning = energy_meaning(section.time)
         for p in energy_probes:
             unit = "J/m" if dim == 2 else "J"  # 2D: per metre of width, like every 2D energy
-            rf.add_probe(p.name, "energy", unit, ("kinetic", "strain"), attrs={"target": p.target})
+            rf.add_probe(
+                p.name,
+                "energy",
+                unit,
+                ("kinetic", "strain"),
+                attrs={"target": p.target, "meaning": meaning},
+            )
 
         buffer = _ProbeBuffer(rf)
 

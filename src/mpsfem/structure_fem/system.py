@@ -60,6 +60,17 @@ class StructureSystem:
         )
         self.TT = self.T.T.tocsr()
         self._blocks: dict[str, tuple[sp.csr_matrix, sp.csr_matrix]] = {}
+        # nonlinear (co-rotational) members: internal force and tangent from their kernels
+        self.nonlinear_members = [m.name for m in self.models if m.nonlinear]
+        self.nonlinear = bool(self.nonlinear_members)
+        if self.nonlinear:
+            self._K_linear = sp.block_diag(
+                [
+                    sp.csr_matrix((len(f), len(f))) if m.nonlinear else _reduce(m.K, f)
+                    for m, f in zip(self.models, self.frees, strict=True)
+                ],
+                format="csr",
+            )
         # constant loads: self-weight
         g = np.asarray(section.gravity_vector, dtype=float)
         self.constant_load = np.zeros(self.n)
@@ -127,9 +138,47 @@ class StructureSystem:
         return sp.hstack(blocks, format="csr")
 
     def member_energy(self, name: str, u: np.ndarray, v: np.ndarray) -> tuple[float, float]:
-        """(kinetic, strain) energy of member `name` (J; J/m in 2D)."""
+        """(kinetic, strain) energy of member `name` (J; J/m in 2D): 1/2 v.M v, and 1/2 u.K u or,
+        for a co-rotational member, the sum of its elements' local strain energies."""
         sl = self.dof_slices[name]
         if name not in self._blocks:
             self._blocks[name] = (self.M[sl, sl].tocsr(), self.K[sl, sl].tocsr())
         Mk, Kk = self._blocks[name]
+        m = self.model(name)
+        if m.nonlinear:
+            return 0.5 * float(v[sl] @ (Mk @ v[sl])), m.strain_energy(self.expand(u, name))
         return 0.5 * float(v[sl] @ (Mk @ v[sl])), 0.5 * float(u[sl] @ (Kk @ u[sl]))
+
+    # ------------------------------------------------------------------ nonlinear members
+    def internal_force(self, u: np.ndarray) -> np.ndarray:
+        """Internal force over the free dofs: K u for linear members, the co-rotational kernels
+        for the others (N; N/m in 2D)."""
+        if not self.nonlinear:
+            return self.K @ u
+        f = self._K_linear @ u if self._K_linear.nnz else np.zeros(self.n)
+        for name in self.nonlinear_members:
+            m, sl = self.model(name), self.dof_slices[name]
+            f[sl] = m.internal_force(self.expand(u, name))[self.free_of(name)]
+        return f
+
+    def effective_tangent(self, u: np.ndarray, ck: float, cm: float, cc: float) -> sp.csr_matrix:
+        """``ck K_t(u) + cm M + cc C`` over the free dofs (the Jacobian of a time step)."""
+        if self.nonlinear and len(self.models) == 1:
+            m = self.models[0]
+            return m.reduced_effective(self.expand(u, m.name), self.frees[0], ck, cm, cc)
+        J = ck * self.tangent(u) + cm * self.M
+        return J + cc * self.C if cc else J
+
+    def tangent(self, u: np.ndarray) -> sp.csr_matrix:
+        """Tangent stiffness d(internal_force)/du over the free dofs (K for linear members)."""
+        if not self.nonlinear:
+            return self.K
+        if len(self.models) == 1:
+            return self.models[0].reduced_tangent(self.expand(u, self.names[0]), self.frees[0])[1]
+        blocks = []
+        for m, f in zip(self.models, self.frees, strict=True):
+            if m.nonlinear:
+                blocks.append(m.reduced_tangent(self.expand(u, m.name), f)[1])
+            else:
+                blocks.append(self.K[self.dof_slices[m.name], self.dof_slices[m.name]])
+        return sp.block_diag(blocks, format="csr")

@@ -1,0 +1,234 @@
+"""Von Karman plate in a 3D scene: moderately large deflections (membrane-bending coupling).
+
+Kirchhoff bending of the deflection w (``ElementQuadBFS``, rectangles, as :mod:`.plate`) plus
+in-plane displacements (u, v) along the plate axes (``ElementVector(ElementQuad2)``), coupled by
+the von Karman membrane strain (Timoshenko & Woinowsky-Krieger 1959, *Theory of Plates and
+Shells*, sec. 96, eqs. 219-220)::
+
+    eps = sym grad(u, v) + 1/2 grad w (x) grad w
+    N = E h / (1 - nu^2) [(1 - nu) eps + nu tr(eps) I]     (membrane forces, N/m)
+
+Strain energy ``1/2 int N : eps dA + 1/2 D int [(1 - nu) w_,ij w_,ij + nu (lap w)^2] dA``; its
+first variation is the internal force, its second the tangent (membrane + bending + geometric
+``int grad(dw) . N grad(w~)``). The linear parts are scikit-fem forms; the nonlinear ones are
+element kernels (einsum over the scikit-fem bases' gradients at the quadrature points, one
+quadrature, ``INTORDER``, for both bases) scattered by the bases' element dofs; the membrane
+energy is a scikit-fem Functional (an independent check of the kernels in the tests).
+
+Supports: a ``clamped`` or ``simply_supported`` edge also holds the in-plane displacements
+(u = v = 0, an immovable edge: stretching carries the load); a ``free`` edge holds nothing.
+Mass: ``rho h`` on w and on (u, v) (in-plane inertia). Loads are dead: a pressure along the
+reference normal, self-weight (normal part on w, in-plane part on u, v), nodal forces on the
+nodal translation ``w n + u e_u + v e_v``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from skfem import (
+    Basis,
+    BilinearForm,
+    ElementQuad2,
+    ElementQuadBFS,
+    ElementVector,
+    Functional,
+    LinearForm,
+)
+from skfem.helpers import ddot, dot, sym_grad
+
+from .plate import PlateModel, area_mass_form, plate_bending_form
+
+__all__ = ["VonKarmanPlateModel"]
+
+#: polynomial degree integrated exactly by the quadrature of both bases
+INTORDER = 8
+
+
+@BilinearForm
+def _membrane_form(u, v, w):
+    """int [(1 - nu) eps(u) : eps(v) + nu div u div v] (times E h / (1 - nu^2))."""
+    eu, ev = sym_grad(u), sym_grad(v)
+    return (1.0 - w.nu) * ddot(eu, ev) + w.nu * (eu[0, 0] + eu[1, 1]) * (ev[0, 0] + ev[1, 1])
+
+
+@BilinearForm
+def _vector_mass_form(u, v, w):
+    """int u . v dA (times rho h: in-plane inertia)."""
+    return dot(u, v)
+
+
+@Functional
+def _membrane_energy(w):
+    """1/2 int N : eps dA."""
+    return 0.5 * ddot(w.N, w.eps)
+
+
+class VonKarmanPlateModel(PlateModel):
+    """Von Karman plate (BFS rectangles); dofs ``[w (BFS) | u, v (vector Q2)]``."""
+
+    nonlinear = True
+
+    @classmethod
+    def create(cls, *, element: str, **kw) -> VonKarmanPlateModel:
+        if element != "bfs":
+            raise ValueError(
+                f'kinematics = "von_karman" needs element = "bfs" (rectangles), got {element!r}'
+            )
+        model = super().create(element=element, **kw)
+        E, nu, h = kw["E"], kw["nu"], kw["thickness"]
+        mesh = model.mesh
+        bw = Basis(mesh, ElementQuadBFS(), intorder=INTORDER)
+        bm = Basis(mesh, ElementVector(ElementQuad2()), intorder=INTORDER)
+        Nw, Nm = bw.N, bm.N
+        C = E * h / (1.0 - nu**2)
+        Kb = (model.D * plate_bending_form(nu).assemble(bw)).tocsr()
+        Km = (C * _membrane_form.assemble(bm, nu=nu)).tocsr()
+        Mw = (model.rho_h * area_mass_form.assemble(bw)).tocsr()
+        Mm = (model.rho_h * _vector_mass_form.assemble(bm)).tocsr()
+        model.M = sp.block_diag((Mw, Mm), format="csr")
+        model.K = sp.block_diag((Kb, Km), format="csr")
+        # supports: the bending dofs as the linear plate; held edges also fix u, v
+        fixed = [model.fixed]
+        for facets, bc in zip(model.edge_facets, kw["bcs"], strict=True):
+            if bc != "free" and len(facets):
+                fixed.append(Nw + np.asarray(bm.get_dofs(facets=np.asarray(facets)).all()))
+        model.fixed = np.unique(np.concatenate(fixed)).astype(np.int64)
+        nn = mesh.p.shape[1]
+        ud, vd = Nw + bm.nodal_dofs[0], Nw + bm.nodal_dofs[1]
+        # nodal translation w n + u e_u + v e_v (node-major rows, as the linear plate)
+        rows = np.concatenate([3 * np.arange(nn) + c for c in range(3) for _ in range(2)])
+        cols = np.concatenate([d for _ in range(3) for d in (ud, vd)])
+        vals = np.concatenate([np.full(nn, e[c]) for c in range(3) for e in (model.e_u, model.e_v)])
+        Tm = sp.csr_matrix((vals, (rows, cols)), shape=(3 * nn, Nw + Nm))
+        pad = sp.csr_matrix((3 * nn, Nm))
+        model.translation = (sp.hstack([model.translation, pad], format="csr") + Tm).tocsr()
+        R = model.rotation
+        model.rotation = sp.hstack([R, sp.csr_matrix((R.shape[0], Nm))], format="csr")
+        model.dof_kind = np.concatenate([np.zeros(Nw, np.int8), np.ones(Nm, np.int8)])
+        model.dof_kind_names = ("bending", "membrane")
+        model.bw, model.bm, model.Nw, model.Nm = bw, bm, Nw, Nm
+        model.C_membrane, model.nu, model.Kb, model.Km = C, nu, Kb, Km
+        # element kernels: basis gradients at the quadrature points, (local dof, ..., el, qp)
+        model._Gw = np.stack([bw.basis[i][0].grad for i in range(len(bw.basis))])
+        Gm = np.stack([bm.basis[i][0].grad for i in range(len(bm.basis))])
+        model._Em = 0.5 * (Gm + Gm.transpose(0, 2, 1, 3, 4))  # eps of each membrane function
+        model._dx = bw.dx
+        model._ew, model._em = bw.element_dofs, Nw + bm.element_dofs
+        ew, em = model._ew, bm.element_dofs
+        nw_, nm_ = ew.shape[0], em.shape[0]
+        # COO pattern of the element blocks (e, i, j): ww over the w dofs, mw (membrane rows,
+        # w columns) over the local membrane / w numbering
+        model._pattern = (
+            (np.broadcast_to(ew.T[:, :, None], (ew.shape[1], nw_, nw_)).ravel(),
+             np.broadcast_to(em.T[:, :, None], (em.shape[1], nm_, nw_)).ravel()),
+            (np.broadcast_to(ew.T[:, None, :], (ew.shape[1], nw_, nw_)).ravel(),
+             np.broadcast_to(ew.T[:, None, :], (em.shape[1], nm_, nw_)).ravel()),
+        )  # fmt: skip
+        return model
+
+    # ------------------------------------------------------------------ state at quadrature points
+    def _fields(self, q: np.ndarray) -> dict:
+        gw = np.einsum("ie,iaeq->aeq", q[self._ew], self._Gw, optimize=True)  # (2, nel, nqp)
+        em = np.einsum("ie,iabeq->abeq", q[self._em], self._Em, optimize=True)  # sym grad (u, v)
+        eps = em + 0.5 * gw[:, None] * gw[None, :]
+        tr = eps[0, 0] + eps[1, 1]
+        # Timoshenko & Woinowsky-Krieger (1959) eq. 219: N = C [(1 - nu) eps + nu tr(eps) I]
+        N = self.C_membrane * (1.0 - self.nu) * eps
+        N[0, 0] += self.C_membrane * self.nu * tr
+        N[1, 1] += self.C_membrane * self.nu * tr
+        Ngw = np.einsum("ij...,j...->i...", N, gw)
+        return {"gw": gw, "eps": eps, "N": N, "Ngw": Ngw}
+
+    def _element_forces(self, fd: dict) -> np.ndarray:
+        """Nonlinear internal force (all dofs): int grad(dw) . N grad(w~) on w, int N : eps(du)
+        on (u, v) (the first variation of the membrane energy), by element kernels."""
+        dx = self._dx
+        fw = np.einsum("aeq,iaeq,eq->ie", fd["Ngw"], self._Gw, dx, optimize=True)
+        fm = np.einsum("abeq,iabeq,eq->ie", fd["N"], self._Em, dx, optimize=True)
+        f = np.bincount(self._ew.ravel(), weights=fw.ravel(), minlength=self.n_dof)
+        f += np.bincount(self._em.ravel(), weights=fm.ravel(), minlength=self.n_dof)
+        return f
+
+    def internal_force(self, q: np.ndarray) -> np.ndarray:
+        """Internal force over all dofs (N) at the full dof vector `q`."""
+        f = self._element_forces(self._fields(q))
+        f[: self.Nw] += self.Kb @ q[: self.Nw]
+        return f
+
+    def tangent_stiffness(self, q: np.ndarray) -> tuple[np.ndarray, sp.csr_matrix]:
+        """(internal force, consistent tangent) over all dofs at `q`.
+
+        With g = grad w~ and S(a) = sym(g (x) a) (the variation of 1/2 g (x) g along a):
+        S(a) : S(b) = 1/2 [(g.g)(a.b) + (g.a)(g.b)] and tr S(a) = g.a, so the ww block
+        int grad(v) . N grad(u) + C [(1 - nu) S(u) : S(v) + nu tr S(u) tr S(v)] is
+        int grad(v) . Q grad(u), Q = N + C (1 - nu) / 2 |g|^2 I + C (1 + nu) / 2 g (x) g; the
+        membrane-bending block int C [(1 - nu) S(d) : eps(v) + nu tr S(d) div v] is
+        int grad(d) . C [(1 - nu) eps(v) g + nu div(v) g] (eps symmetric).
+        """
+        fd = self._fields(q)
+        g, C, nu, dx = fd["gw"], self.C_membrane, self.nu, self._dx
+        Q = fd["N"] + 0.5 * C * (1.0 + nu) * g[:, None] * g[None, :]
+        Q[0, 0] += 0.5 * C * (1.0 - nu) * (g[0] ** 2 + g[1] ** 2)
+        Q[1, 1] += 0.5 * C * (1.0 - nu) * (g[0] ** 2 + g[1] ** 2)
+        Gw, Em = self._Gw, self._Em
+        kww = np.einsum("iaeq,abeq,jbeq,eq->eij", Gw, Q, Gw, dx, optimize=True)
+        div = Em[:, 0, 0] + Em[:, 1, 1]
+        Ag = (1.0 - nu) * np.einsum("iabeq,beq->iaeq", Em, g) + nu * div[:, None] * g[None]
+        kmw = C * np.einsum("iaeq,jaeq,eq->eij", Ag, Gw, dx, optimize=True)
+        r, c = self._pattern
+        Kww = sp.csr_matrix((kww.ravel(), (r[0], c[0])), shape=(self.Nw, self.Nw))
+        Kmw = sp.csr_matrix((kmw.ravel(), (r[1], c[1])), shape=(self.Nm, self.Nw))
+        K = self.K + sp.bmat([[Kww, Kmw.T], [Kmw, None]], format="csr")
+        f = self._element_forces(fd)
+        f[: self.Nw] += self.Kb @ q[: self.Nw]
+        return f, K
+
+    def reduced_tangent(self, q: np.ndarray, free: np.ndarray) -> tuple[np.ndarray, sp.csr_matrix]:
+        f, K = self.tangent_stiffness(q)
+        return f[free], K[free][:, free].tocsr()
+
+    def reduced_effective(
+        self, q: np.ndarray, free: np.ndarray, ck: float, cm: float, cc: float
+    ) -> sp.csr_matrix:
+        """``ck K_t(q) + cm M + cc C`` over the `free` dofs (sparse)."""
+        _, K = self.tangent_stiffness(q)
+        J = ck * K + (cm + cc * self.rayleigh_a1) * self.M
+        if cc * self.rayleigh_a2:
+            J = J + (cc * self.rayleigh_a2) * self.K
+        return J.tocsr()[free][:, free].tocsr()
+
+    def strain_energy(self, q: np.ndarray) -> float:
+        """Bending plus membrane strain energy (J)."""
+        fd = self._fields(q)
+        wq = q[: self.Nw]
+        return 0.5 * float(wq @ (self.Kb @ wq)) + float(
+            _membrane_energy.assemble(self.bm, N=fd["N"], eps=fd["eps"])
+        )
+
+    # ------------------------------------------------------------------ loads
+    def gravity_load(self, g: np.ndarray) -> np.ndarray:
+        g = np.asarray(g, dtype=float)
+        F = np.zeros(self.n_dof)
+        F[: self.Nw] = super().pressure_load(self.rho_h * float(g @ self.normal))[: self.Nw]
+        gt = self.rho_h * np.array([g @ self.e_u, g @ self.e_v])
+
+        @LinearForm
+        def inplane(v, w):
+            return gt[0] * v[0] + gt[1] * v[1]
+
+        F[self.Nw :] = inplane.assemble(self.bm)
+        return F
+
+    def pressure_load(self, p: float) -> np.ndarray:
+        F = np.zeros(self.n_dof)
+        F[: self.Nw] = super().pressure_load(p)
+        return F
+
+    def point_matrix(self, point) -> sp.csr_matrix:
+        uv = self.nearest_local(point)
+        Pw = self.bw.probes(uv[:, None]).tocsr()  # 1 x Nw
+        Pm = self.bm.probes(uv[:, None]).tocsr()  # 2 x Nm (u, v)
+        rows = sp.kron(sp.csr_matrix(self.normal[:, None]), Pw, format="csr")
+        inplane = sp.csr_matrix(np.column_stack([self.e_u, self.e_v])) @ Pm
+        return sp.hstack([rows, inplane], format="csr")
