@@ -30,3 +30,19 @@ def test_disabled_bar_writes_nothing(monkeypatch):
     bar.update(1.0, 1e-3)
     bar.close()
     assert term.getvalue() == ""
+
+
+def test_no_terminal_reports_a_line_per_interval(monkeypatch):
+    """stderr a file: one line per report interval with time, share, dt, rate and ETA."""
+    log = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", log)
+    clock = iter(float(k) for k in range(100))
+    monkeypatch.setattr("mpsfem.progress.time.perf_counter", lambda: next(clock))
+    bar = Progress(0.0, 1.0, enabled=True, label="fluid", report_interval=30.0)
+    for k in range(1, 61):  # one step per (mocked) second
+        bar.update(k / 100.0, 2e-3)
+    bar.close()
+    lines = log.getvalue().strip().splitlines()
+    assert len(lines) == 2, lines  # at 30 s and 60 s of wall clock
+    assert lines[0].startswith("fluid: t = 0.29 / 1 s (29 %), dt = 2.00e-03 s, 1.0 steps/s")
+    assert "ETA 1 min 13 s" in lines[0]  # 29 s for 29 %: 71 % more
