@@ -2,13 +2,21 @@
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
-from mpsfem.scenario.base import InvalidValue, Section
+from mpsfem.scenario.base import InvalidValue, Point, Section
 
 Vector = list[float]
+
+#: particle spacing bounds, m (a finer or coarser lattice is no MPS scene; 5e-324 overflowed
+#: the lattice arithmetic)
+MIN_SPACING = 1e-6
+MAX_SPACING = 1e3
+#: smallest Courant and viscous numbers (smaller ones make dt = 0: a division by zero)
+MIN_STEP_NUMBER = 1e-4
 
 
 class KernelSection(Section):
@@ -139,9 +147,11 @@ class SurfaceSection(Section):
 class TimeStepSection(Section):
     """Adaptive time step of the fluid."""
 
-    courant: float = Field(0.2, gt=0.0, le=1.0, description="Courant number u_max dt / l0")
+    courant: float = Field(
+        0.2, ge=MIN_STEP_NUMBER, le=1.0, description="Courant number u_max dt / l0"
+    )
     viscous_number: float = Field(
-        0.2, gt=0.0, le=0.5, description="viscous limit nu dt / l0^2 <= value"
+        0.2, ge=MIN_STEP_NUMBER, le=0.5, description="viscous limit nu dt / l0^2 <= value"
     )
     dt_max: float = Field(1e-3, gt=0.0, description="largest time step, s")
     dt_min: float = Field(
@@ -209,8 +219,8 @@ class FluidBlock(Section):
     """A region filled with fluid particles on the square lattice of spacing l0."""
 
     shape: Literal["box"] = Field("box", description="geometry primitive")
-    lower: Vector = Field(description="lower corner, m")
-    upper: Vector = Field(description="upper corner, m")
+    lower: Point = Field(description="lower corner, m")
+    upper: Point = Field(description="upper corner, m")
     velocity: Vector | None = Field(None, description="initial velocity, m/s (default 0)")
 
     @model_validator(mode="after")
@@ -278,6 +288,19 @@ class WallMotion(Section):
         "(crest at the paddle's mid-stroke at start_time + T/2) and stops",
     )
 
+    @field_validator("direction")
+    @classmethod
+    def _unit_direction(cls, v: Vector | None) -> Vector | None:
+        """Normalised without overflow (scaled by its largest entry first): [1e200, 0] is +x."""
+        if v is None:
+            return v
+        big = max((abs(x) for x in v), default=0.0)
+        if big == 0.0:
+            raise ValueError("must not be the zero vector (the motion needs a direction)")
+        scaled = [x / big for x in v]
+        norm = math.sqrt(sum(x * x for x in scaled))
+        return [x / norm for x in scaled]
+
     @model_validator(mode="after")
     def _check(self) -> WallMotion:
         if self.kind == "none":
@@ -329,8 +352,8 @@ class Wall(Section):
         description="'tank': walls on the floor and both sides (and the ends in 3D) of the "
         "box lower..upper, fluid inside, top open; 'box': a solid obstacle, fluid outside"
     )
-    lower: Vector = Field(description="lower corner of the fluid-side face box, m")
-    upper: Vector = Field(description="upper corner of the fluid-side face box, m")
+    lower: Point = Field(description="lower corner of the fluid-side face box, m")
+    upper: Point = Field(description="upper corner of the fluid-side face box, m")
     name: str | None = Field(None, description="patch name, for force probes")
     motion: WallMotion = Field(default_factory=WallMotion, description="prescribed motion")
 
@@ -374,7 +397,9 @@ class FluidSection(Section):
     """The MPS fluid: material, numerics and initial geometry."""
 
     dim: Literal[2, 3] = Field(2, description="space dimension")
-    spacing: Annotated[float, Field(gt=0.0)] = Field(description="initial particle spacing l0, m")
+    spacing: Annotated[float, Field(ge=MIN_SPACING, le=MAX_SPACING)] = Field(
+        description=f"initial particle spacing l0, m ({MIN_SPACING:g} .. {MAX_SPACING:g})"
+    )
     density: float = Field(1000.0, gt=0.0, description="density rho, kg/m^3")
     viscosity: float = Field(1e-6, ge=0.0, description="kinematic viscosity nu, m^2/s (0 = off)")
     gravity: Vector = Field(
@@ -391,12 +416,12 @@ class FluidSection(Section):
         description="dummy wall layers behind the pressure layer (default: enough to fill the "
         "largest kernel radius)",
     )
-    domain_lower: Vector | None = Field(
+    domain_lower: Point | None = Field(
         None,
         description="lower corner of the domain, m; a fluid particle leaving it stops the run "
         "(default: the walls' bounding box grown by 10 l0 sideways and 1 m upwards)",
     )
-    domain_upper: Vector | None = Field(None, description="upper corner of the domain, m")
+    domain_upper: Point | None = Field(None, description="upper corner of the domain, m")
     kernel: KernelSection = Field(default_factory=KernelSection, description="kernel")
     pressure: PressureSection = Field(default_factory=PressureSection, description="pressure")
     surface: SurfaceSection = Field(default_factory=SurfaceSection, description="free surface")
@@ -502,6 +527,17 @@ class FluidSection(Section):
         for i, z in enumerate(self.sponges):
             if z.axis >= d:
                 raise InvalidValue(f"sponges[{i}].axis", f"must be below dim = {d}", z.axis)
+        ts = self.time_step
+        if self.viscosity > 0.0:
+            viscous_dt = ts.viscous_number * self.spacing**2 / self.viscosity
+            if not viscous_dt >= ts.dt_min:
+                raise InvalidValue(
+                    "viscosity",
+                    f"limits the time step to time_step.viscous_number x spacing^2 / viscosity "
+                    f"= {viscous_dt:.3g} s, below time_step.dt_min = {ts.dt_min} s: the run "
+                    "could not take a step (lower the viscosity or dt_min, or coarsen spacing)",
+                    self.viscosity,
+                )
         rate = sum(z.coefficient for z in self.sponges)
         if rate * self.time_step.dt_max > 1.0:
             raise InvalidValue(
