@@ -23,6 +23,7 @@ from collections.abc import Callable, Iterator, Sequence
 
 from mpsfem.coupler.remote import RemoteParticipant, serve
 from mpsfem.coupler.transport import Transport, open_transport
+from mpsfem.coupler.transport.auth import TOKEN_ENV, TOKEN_FILE_ENV, new_run_token
 
 __all__ = [
     "connect_structure",
@@ -152,6 +153,13 @@ def deferred_signals(
 
 def spawn_structure(argv: Sequence[str], module: str | None = None) -> subprocess.Popen:
     """Start this program again as the structure participant (``--participant structure``
-    appended to ``argv``); ``module`` runs ``python -m module`` instead of ``argv[0]``."""
+    appended to ``argv``); ``module`` runs ``python -m module`` instead of ``argv[0]``.
+
+    Unless a coupling token is given (``MPSFEM_COUPLING_TOKEN`` or ``..._FILE``), this run gets a
+    fresh random one, set in this process's environment (its fluid side) and passed to the child
+    in its environment (never on a command line, which other users can list): the two processes
+    of this run accept only each other, and a second run on the same endpoint is told at once."""
+    if not os.environ.get(TOKEN_ENV) and not os.environ.get(TOKEN_FILE_ENV):
+        os.environ[TOKEN_ENV] = new_run_token()
     cmd = [sys.executable, "-m", module, *argv] if module else [*argv]
     return subprocess.Popen([*cmd, "--participant", "structure"], env=dict(os.environ))

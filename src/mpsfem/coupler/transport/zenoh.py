@@ -12,6 +12,15 @@ lost link — that it is gone, which ends a waiting receive at once with
 Messages are byte strings put reliably with congestion control BLOCK (never dropped). Received
 samples go from Zenoh's callback into a queue; the receiver blocks on it (no spinning).
 
+Authentication and run isolation (:mod:`~mpsfem.coupler.transport.auth`, threat model in
+docs/coupler.md): every message is sealed with an HMAC keyed by the run's coupling token and
+carries the sender's random session nonce and a growing sequence number. The first authentic
+hello fixes the peer's session; frames that fail the HMAC, come from another session or repeat a
+sequence number are dropped, and a liveliness token of another session (``alive/<role>/<nonce>``)
+is not taken for the peer's. A participant that meets, before its handshake, a peer of another
+token or a peer already coupled to another process (a second run on the same endpoint) stops at
+once with a message instead of waiting.
+
 Launch: ``mpsfem run S.toml --transport zenoh --participant structure`` and
 ``... --participant fluid`` in two shells (any order), or ``mpsfem run S.toml --transport zenoh``
 which starts both.
@@ -19,9 +28,12 @@ which starts both.
 
 from __future__ import annotations
 
+import ipaddress
 import json
 import queue
 import re
+import struct
+import sys
 import threading
 import time
 from typing import Literal
@@ -29,7 +41,8 @@ from typing import Literal
 from pydantic import Field, field_validator
 
 from mpsfem.coupler.errors import PeerLostError
-from mpsfem.coupler.transport.base import Transport, TransportParams
+from mpsfem.coupler.transport.auth import TOKEN_ENV, FrameSealer, coupling_token
+from mpsfem.coupler.transport.base import HELLO, MAGIC, Transport, TransportParams
 
 PREFIX = "mpsfem/coupling"
 ENDPOINT_RE = re.compile(r"^tcp/(\[[0-9a-fA-F:]+\]|[A-Za-z0-9.\-]+):([0-9]{1,5})$")
@@ -68,6 +81,7 @@ class ZenohTransport(Transport):
         *,
         endpoint: str = "tcp/127.0.0.1:7447",
         listen: bool | None = None,
+        token: str | None = None,
         **kw,
     ) -> None:
         super().__init__(role, **kw)
@@ -81,6 +95,12 @@ class ZenohTransport(Transport):
         self._alive = threading.Event()
         self._lost = False
         self.session = None
+        self._sealer = FrameSealer(token or coupling_token(), self.role, self.peer)
+        self._peer_nonce: bytes | None = None
+        self._peer_seq = 0
+        #: frames dropped: failed authentication, another session, replayed
+        self.rejected = {"forged": 0, "foreign": 0, "replayed": 0}
+        self._warned = False
 
     @classmethod
     def from_config(cls, role, config) -> ZenohTransport:
@@ -112,9 +132,33 @@ class ZenohTransport(Transport):
             conf.insert_json5("listen/endpoints", "[]")  # the fluid opens no port
         return conf
 
+    def _host(self) -> str:
+        m = ENDPOINT_RE.match(self.endpoint)
+        return m.group(1).strip("[]") if m else ""
+
+    def _loopback(self) -> bool:
+        host = self._host()
+        if host == "localhost":
+            return True
+        try:
+            return ipaddress.ip_address(host).is_loopback
+        except ValueError:
+            return False
+
+    def _say(self, text: str) -> None:
+        print(text, file=sys.stderr, flush=True)
+
     def _open(self) -> None:
         import zenoh
 
+        if not self._loopback():
+            how = "listens on" if self.listen else "connects to"
+            self._say(
+                f"warning: the {self.role} participant {how} {self.endpoint}, which is not a "
+                "loopback address: other machines can reach it. Messages are authenticated by "
+                f"the coupling token ({TOKEN_ENV}) but not encrypted (docs/coupler.md, threat "
+                "model)"
+            )
         try:
             self.session = s = zenoh.open(self._config())
         except Exception as exc:  # noqa: BLE001 - zenoh raises ZError
@@ -133,9 +177,16 @@ class ZenohTransport(Transport):
             reliability=zenoh.Reliability.RELIABLE,
         )
         self._live_sub = s.liveliness().declare_subscriber(
-            f"{PREFIX}/alive/{self.peer}", self._on_liveliness, history=True
+            f"{PREFIX}/alive/{self.peer}/*", self._on_liveliness, history=True
         )
-        self._token = s.liveliness().declare_token(f"{PREFIX}/alive/{self.role}")
+        self._token = s.liveliness().declare_token(
+            f"{PREFIX}/alive/{self.role}/{self._sealer.nonce.hex()}"
+        )
+        how = "listening on" if self.listen else "connecting to"
+        self._say(
+            f"{self.role} participant: waiting for the {self.peer} ({how} {self.endpoint}, "
+            f"timeout {self.startup_timeout_s:g} s) ..."
+        )
         deadline = time.monotonic() + self.startup_timeout_s
         while not (self._alive.is_set() and self._pub.matching_status.matching):
             if time.monotonic() > deadline:
@@ -152,8 +203,13 @@ class ZenohTransport(Transport):
         if sample.kind == zenoh.SampleKind.PUT:
             self._alive.set()
         elif sample.kind == zenoh.SampleKind.DELETE and self._alive.is_set():
-            self._lost = True
-            self._q.put(b"")  # wake a waiting receiver
+            # only the end of the peer's own session counts (another run's process may come
+            # and go on the same endpoint)
+            nonce = str(sample.key_expr).rsplit("/", 1)[-1]
+            peer = self._peer_nonce
+            if peer is not None and nonce == peer.hex():
+                self._lost = True
+                self._q.put(b"")  # wake a waiting receiver
 
     def _peer_gone(self) -> str | None:
         if self._lost:
@@ -161,14 +217,63 @@ class ZenohTransport(Transport):
         return None
 
     def _send_bytes(self, data: bytes) -> None:
-        self._pub.put(data)
+        self._pub.put(self._sealer.seal(data))
 
     def _receive_bytes(self, max_wait: float) -> bytes | None:
-        try:
-            data = self._q.get(timeout=max_wait)
-        except queue.Empty:
+        deadline = time.monotonic() + max_wait
+        while True:
+            try:
+                frame = self._q.get(timeout=max(0.0, deadline - time.monotonic()))
+            except queue.Empty:
+                return None
+            if not frame:
+                return None  # woken by the peer's liveliness ending
+            payload = self._accept(frame)
+            if payload is not None:
+                return payload
+
+    def _accept(self, frame: bytes) -> bytes | None:
+        """The payload of a frame of the peer's session, else None (dropped and counted)."""
+        opened = self._sealer.open(frame)
+        if opened is None:
+            self.rejected["forged"] += 1
+            if not self.connected:
+                raise PeerLostError(
+                    f"{self.describe()}: a {self.peer} participant on {self.endpoint} sent a "
+                    "message that fails authentication: it belongs to another run (give each "
+                    "run its own coupling.transport.endpoint) or was started with another "
+                    f"coupling token (the same {TOKEN_ENV} must reach both programs)"
+                )
+            self._warn("failed authentication (forged, or of another run)")
             return None
-        return data or None
+        nonce, seq, payload = opened
+        if self._peer_nonce is None:
+            if _tag_of(payload) != HELLO:
+                raise PeerLostError(
+                    f"{self.describe()}: the {self.peer} participant on {self.endpoint} is "
+                    f"already coupled to another {self.role} participant: another run uses this "
+                    "endpoint; give each concurrent run its own coupling.transport.endpoint"
+                )
+            self._peer_nonce, self._peer_seq = nonce, seq
+            return payload
+        if nonce != self._peer_nonce:
+            self.rejected["foreign"] += 1
+            self._warn(f"came from another {self.peer} participant (another run on this endpoint)")
+            return None
+        if seq <= self._peer_seq:
+            self.rejected["replayed"] += 1
+            self._warn("repeated an earlier sequence number (replayed)")
+            return None
+        self._peer_seq = seq
+        return payload
+
+    def _warn(self, why: str) -> None:
+        if not self._warned:
+            self._warned = True
+            self._say(
+                f"warning: {self.describe()}: dropped a message that {why}; further ones are "
+                "dropped silently"
+            )
 
     def _shutdown(self) -> None:
         s, self.session = self.session, None
@@ -186,3 +291,17 @@ class ZenohTransport(Transport):
         th = threading.Thread(target=close, name="mpsfem-zenoh-close", daemon=True)
         th.start()
         th.join(timeout=1.0)
+
+
+def _tag_of(payload: bytes) -> str | None:
+    """The tag of an encoded message (its header only), None if it is not one."""
+    try:
+        if payload[:8] != MAGIC:
+            return None
+        (n,) = struct.unpack("<Q", payload[8:16])
+        if n > len(payload):
+            return None
+        tag = json.loads(payload[16 : 16 + n]).get("tag")
+    except (ValueError, AttributeError, RecursionError, struct.error):
+        return None
+    return tag if isinstance(tag, str) else None

@@ -1,0 +1,218 @@
+"""Zenoh transport (issue 22): says what it waits for, isolates runs, authenticates its peer.
+
+A lone participant printed nothing for startup_timeout_s (120 s); a second run's fluid on the same
+endpoint connected to the first run's structure and never exited; a third local process could
+read the messages and inject forged forces. Loopback only; every launch is bounded in time.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import select
+import stat
+import subprocess
+import time
+
+import pytest
+from conftest import ENV, PY, free_port, reap, spawn
+
+from mpsfem.coupler.errors import PeerLostError
+from mpsfem.coupler.transport.auth import (
+    FrameSealer,
+    TokenError,
+    coupling_token,
+    default_token_file,
+)
+
+PINGPONG = ["-m", "mpsfem.coupler.transport.pingpong", "--transport", "zenoh"]
+TOKEN = "a-test-token-of-enough-length-0001"
+
+
+@pytest.fixture
+def env(tmp_path):
+    """The child processes' environment: a fixed token, no per-user file in the real home."""
+    return dict(ENV, MPSFEM_COUPLING_TOKEN=TOKEN, XDG_CONFIG_HOME=str(tmp_path / "config"))
+
+
+def launch(env, role, ep, *args):
+    return subprocess.Popen(
+        [PY, *PINGPONG, "--role", role, "--endpoint", ep, *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+
+
+def first_stderr_line(p: subprocess.Popen, within: float) -> str:
+    ready, _, _ = select.select([p.stderr], [], [], within)
+    return p.stderr.readline() if ready else ""
+
+
+# ------------------------------------------------------------------ frames and tokens
+def test_sealed_frames_authenticate_and_refuse_forgery_replay_and_other_tokens():
+    fluid = FrameSealer(TOKEN, "fluid", "structure")
+    structure = FrameSealer(TOKEN, "structure", "fluid")
+    frame = fluid.seal(b"payload")
+    nonce, seq, payload = structure.open(frame)
+    assert (nonce, seq, payload) == (fluid.nonce, 1, b"payload")
+    forged = frame[:-1] + b"X"
+    assert structure.open(forged) is None
+    other = FrameSealer("another-token-of-enough-length", "fluid", "structure")
+    assert structure.open(other.seal(b"payload")) is None
+    assert fluid.open(fluid.seal(b"own")) is None  # a reflected frame is not the peer's
+
+
+def test_token_from_the_environment_must_be_long_enough():
+    with pytest.raises(TokenError, match="MPSFEM_COUPLING_TOKEN: the coupling token has 5 char"):
+        coupling_token({"MPSFEM_COUPLING_TOKEN": "short"})
+
+
+def test_default_token_file_is_private_and_reused(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path))
+    first = coupling_token({})
+    assert coupling_token({}) == first and len(first) >= 32
+    mode = stat.S_IMODE(default_token_file().stat().st_mode)
+    assert mode == 0o600
+
+
+def test_token_file_readable_by_others_is_warned(tmp_path, capsys):
+    f = tmp_path / "tok"
+    f.write_text(TOKEN)
+    f.chmod(0o644)
+    assert coupling_token({"MPSFEM_COUPLING_TOKEN_FILE": str(f)}) == TOKEN
+    assert "readable by other users" in capsys.readouterr().err
+
+
+def test_non_loopback_endpoint_is_warned(monkeypatch, capsys):
+    """The warning comes before anything is opened (zenoh.open is stubbed: nothing binds)."""
+    import zenoh
+
+    from mpsfem.coupler.transport.zenoh import ZenohTransport
+
+    def refuse(conf):
+        raise RuntimeError("not opened in this test")
+
+    monkeypatch.setattr(zenoh, "open", refuse)
+    t = ZenohTransport("structure", endpoint="tcp/0.0.0.0:7447", token=TOKEN)
+    with pytest.raises(PeerLostError):
+        t._open()
+    assert "which is not a loopback address" in capsys.readouterr().err
+    assert ZenohTransport("fluid", endpoint="tcp/127.0.0.1:7447", token=TOKEN)._loopback()
+    assert ZenohTransport("fluid", endpoint="tcp/[::1]:7447", token=TOKEN)._loopback()
+
+
+@pytest.mark.parametrize(
+    "cut",
+    [
+        lambda m: m[:-1],
+        lambda m: m[:20],
+        lambda m: b"MPSFEMC1" + b"\xff" * 8,
+        lambda m: m.replace(b"<f8", b"|O8"),
+        lambda m: m.replace(b"[3]", b"[-3]"),
+    ],
+    ids=["short", "cut header", "huge header", "object dtype", "negative shape"],
+)
+def test_malformed_messages_raise_value_error_not_crash(cut):
+    import numpy as np
+
+    from mpsfem.coupler.transport import Message, decode, encode
+
+    good = encode(Message("x", {"a": 1}, {"z": np.arange(3.0)}))
+    assert decode(good).arrays["z"].tolist() == [0.0, 1.0, 2.0]
+    with pytest.raises(ValueError, match="coupler message|bad magic"):
+        decode(cut(good))
+
+
+# ------------------------------------------------------------------ processes on loopback
+def test_lone_participant_says_at_once_what_it_waits_for(env):
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    p = launch(env, "fluid", ep, "--startup-timeout", "30")
+    try:
+        line = first_stderr_line(p, within=20.0)
+    finally:
+        p.kill()
+        reap(p)
+    assert f"waiting for the structure (connecting to {ep}, timeout 30 s)" in line
+
+
+def test_second_run_on_the_same_endpoint_stops_within_seconds(env):
+    """Run A (structure answering slowly) is coupled; run B's fluid on A's endpoint is told at
+    once that the structure there is taken, and run A still finishes bit-exact."""
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    sa = launch(env, "structure", ep, "--wait", "12")
+    fa = launch(env, "fluid", ep, "--wait", "12")
+    try:
+        time.sleep(4.0)  # A has shaken hands and waits on its slow "ping"
+        t0 = time.monotonic()
+        fb = spawn_fluid(env, ep)
+        rc_b, _, err_b = reap(fb, timeout=30)
+        wall_b = time.monotonic() - t0
+        rc_a, out_a, err_a = reap(fa, timeout=60)
+    finally:
+        srv = reap(sa, timeout=30)
+    assert rc_b == 4 and "already coupled to another fluid participant" in err_b, err_b
+    assert wall_b < 15
+    assert rc_a == 0, err_a + srv[2]
+    assert json.loads(out_a)["bit_exact"]
+    assert srv[0] == 0, srv[2]
+
+
+def spawn_fluid(env, ep, token=None):
+    e = dict(env) if token is None else dict(env, MPSFEM_COUPLING_TOKEN=token)
+    return launch(e, "fluid", ep, "--startup-timeout", "60")
+
+
+def test_other_token_is_refused_within_seconds(env):
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    sa = launch(env, "structure", ep, "--wait", "12")
+    fa = launch(env, "fluid", ep, "--wait", "12")
+    try:
+        time.sleep(4.0)
+        t0 = time.monotonic()
+        fb = spawn_fluid(env, ep, token="a-different-token-of-the-other-run")
+        rc_b, _, err_b = reap(fb, timeout=30)
+        wall_b = time.monotonic() - t0
+        rc_a, out_a, err_a = reap(fa, timeout=60)
+    finally:
+        srv = reap(sa, timeout=30)
+    assert rc_b == 4 and "fails authentication" in err_b, err_b
+    assert wall_b < 15
+    assert rc_a == 0 and json.loads(out_a)["bit_exact"], err_a
+    assert srv[0] == 0, srv[2]
+
+
+def test_forged_messages_of_a_third_process_are_dropped(env, tmp_path):
+    """A process without the token publishes on both participants' keys mid-run: the pair
+    drops the forgeries (and says so once) and its echo stays bit-exact."""
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    sa = launch(env, "structure", ep, "--wait", "12")
+    fa = launch(env, "fluid", ep, "--wait", "12")
+    intruder = spawn(
+        [
+            PY,
+            "-c",
+            "import sys, time, zenoh\n"
+            "c = zenoh.Config()\n"
+            "c.insert_json5('mode', '\"peer\"')\n"
+            "c.insert_json5('scouting/multicast/enabled', 'false')\n"
+            f"c.insert_json5('connect/endpoints', '[\"{ep}\"]')\n"
+            "c.insert_json5('listen/endpoints', '[]')\n"
+            "s = zenoh.open(c)\n"
+            "time.sleep(5)\n"
+            "for _ in range(20):\n"
+            "    for key in ('mpsfem/coupling/fluid', 'mpsfem/coupling/structure'):\n"
+            "        s.put(key, b'MPSFEMA1' + bytes(56) + b'forged forces')\n"
+            "    time.sleep(0.05)\n"
+            "s.close()\n",
+        ]
+    )
+    try:
+        rc_a, out_a, err_a = reap(fa, timeout=60)
+    finally:
+        srv = reap(sa, timeout=30)
+        reap(intruder, timeout=10)
+    assert rc_a == 0 and json.loads(out_a)["bit_exact"], err_a + srv[2]
+    assert "failed authentication" in err_a + srv[2]
+    assert os.environ.get("MPSFEM_COUPLING_TOKEN") != TOKEN  # nothing leaked into this process
