@@ -89,7 +89,9 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--out", type=Path, help="results file (default: <scenario stem>.h5)")
     st.add_argument("--no-progress", action="store_true", help="no progress bar")
 
-    modes = sub.add_parser("modes", help="natural frequencies of the structure members")
+    modes = sub.add_parser(
+        "modes", help="natural frequencies of the structure members, dry (in vacuo: no fluid)"
+    )
     _scenario_args(modes)
     modes.add_argument("--count", type=_positive_int, default=6, help="number of modes (>= 1)")
 
@@ -97,7 +99,13 @@ def build_parser() -> argparse.ArgumentParser:
     _scenario_args(val)
 
     docs = sub.add_parser("docs", help="write docs/scenarios.md from the scenario schema")
-    docs.add_argument("--out", type=Path, default=Path("docs/scenarios.md"))
+    docs.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="file to write (default: docs/scenarios.md of the mpsfem source checkout this "
+        "program runs from; elsewhere --out is needed)",
+    )
 
     from mpsfem.tools.commands import add_tool_parsers
 
@@ -235,10 +243,27 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     return 0
 
 
+def source_docs_path() -> Path | None:
+    """docs/scenarios.md of the source checkout this package runs from, or None (installed)."""
+    path = Path(__file__).resolve().parents[2] / "docs" / "scenarios.md"
+    return path if path.is_file() else None
+
+
 def _cmd_docs(args: argparse.Namespace) -> int:
     from mpsfem.scenario.docs import write_scenario_docs
 
-    path = write_scenario_docs(args.out)
+    out = args.out if args.out is not None else source_docs_path()
+    if out is None:
+        print(
+            "error: mpsfem runs from an installed package, not a source checkout, so there is no "
+            "docs/scenarios.md to regenerate; give the file to write with --out PATH",
+            file=sys.stderr,
+        )
+        return 2
+    if not out.parent.is_dir():
+        print(f"error: --out {out}: the folder {out.parent} does not exist", file=sys.stderr)
+        return 2
+    path = write_scenario_docs(out)
     print(f"wrote {path}")
     return 0
 
