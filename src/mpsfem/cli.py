@@ -23,8 +23,12 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy is imported anywhere
 
 import argparse  # noqa: E402
+import contextlib  # noqa: E402
 import math  # noqa: E402
+import signal  # noqa: E402
 import sys  # noqa: E402
+import threading  # noqa: E402
+from collections.abc import Iterator  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 from mpsfem import __version__  # noqa: E402
@@ -123,7 +127,7 @@ def _set_threads(n: int | None) -> None:
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from mpsfem.scenario.loader import load_scenario
-    from mpsfem.simulation import RunFailed, run_coupled, run_fluid
+    from mpsfem.simulation import RunFailed
 
     loaded = load_scenario(args.scenario, args.overrides)
     sc = loaded.scenario
@@ -157,24 +161,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
             print(f"error: {problem}", file=sys.stderr)
             return 2
     try:
-        if coupled:
-            child = ["run", str(args.scenario), "--transport", "zenoh", "--no-progress"]
-            for item in args.overrides:
-                child += ["--set", item]
-            summary = run_coupled(
-                loaded,
-                out,
-                args.end_time,
-                args.restart,
-                progress=progress,
-                transport=args.transport,
-                participant=args.participant,
-                child_argv=child,
-            )
-            if summary is None:  # this process was the structure participant
-                return 0
-        else:
-            summary = run_fluid(loaded, out, args.end_time, args.restart, progress=progress)
+        with interrupt_as_stop_request():
+            summary = _launch(args, loaded, out, progress, coupled)
+        if summary is None:  # this process was the structure participant
+            return 0
     except RunFailed as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
@@ -186,6 +176,64 @@ def _cmd_run(args: argparse.Namespace) -> int:
         f"results {summary.results}, checkpoint {summary.checkpoint}"
     )
     return 0
+
+
+#: the status reason of a run stopped by Ctrl-C (``failed: interrupted (SIGINT)``)
+INTERRUPTED = "interrupted (SIGINT)"
+
+
+@contextlib.contextmanager
+def interrupt_as_stop_request() -> Iterator[None]:
+    """Within the block, a first SIGINT (Ctrl-C) asks the run to stop at the end of its current
+    step or window, as SIGTERM does: it checkpoints the last good state and leaves the status
+    ``failed: interrupted (SIGINT)``. Raised as KeyboardInterrupt at once, it surfaced inside a
+    numba call as ``SystemError: CPUDispatcher(...)`` and left ``failed: `` with no reason. A
+    second SIGINT restores the previous handler and interrupts at once (a stuck run)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    from mpsfem import simulation
+
+    previous = signal.getsignal(signal.SIGINT)
+
+    def on_sigint(signum, frame) -> None:  # noqa: ARG001
+        if simulation._stop_request:  # the second Ctrl-C: stop now
+            signal.signal(signal.SIGINT, previous)
+            raise KeyboardInterrupt
+        simulation._stop_request.append(INTERRUPTED)
+        print(
+            "\nSIGINT: stopping at the end of this step (checkpoint, results closed); press "
+            "Ctrl-C again to stop at once",
+            file=sys.stderr,
+            flush=True,
+        )
+
+    signal.signal(signal.SIGINT, on_sigint)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _launch(args: argparse.Namespace, loaded, out: Path, progress, coupled: bool):
+    """Run the fluid-only or coupled scenario; None where this process served the structure."""
+    from mpsfem.simulation import run_coupled, run_fluid
+
+    if not coupled:
+        return run_fluid(loaded, out, args.end_time, args.restart, progress=progress)
+    child = ["run", str(args.scenario), "--transport", "zenoh", "--no-progress"]
+    for item in args.overrides:
+        child += ["--set", item]
+    return run_coupled(
+        loaded,
+        out,
+        args.end_time,
+        args.restart,
+        progress=progress,
+        transport=args.transport,
+        participant=args.participant,
+        child_argv=child,
+    )
 
 
 def single_process_problem(what: str) -> str | None:

@@ -78,7 +78,8 @@ def test_huge_domain_grid_names_the_domain(capsys):
 
 def test_our_wording_and_did_you_mean(capsys):
     err = refused(capsys, DAM, "fluid.spacin=0.01", "fluid.pressure.tol=2.0", "fluid.dim=4")
-    assert "fluid.spacin: unknown key; did you mean 'spacing'?" in err
+    assert "fluid.spacin: unknown key; allowed here: blocks," in err
+    assert "walls; did you mean 'spacing'?" in err
     assert "fluid.pressure.tol = 2.0: must be < 1.0" in err
     assert "fluid.dim = 4: must be one of 2 or 3" in err
     assert "Input should" not in err

@@ -217,8 +217,8 @@ def format_validation_error(err: ValidationError) -> list[str]:
             allowed = sorted(parent.model_fields) if parent else []
             last = str(e["loc"][-1])
             close = difflib.get_close_matches(last, allowed, n=1)
-            hint = f"did you mean {close[0]!r}? " if close else ""
-            lines.append(f"{key}: unknown key; {hint}allowed here: {', '.join(allowed)}")
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            lines.append(f"{key}: unknown key; allowed here: {', '.join(allowed)}{hint}")
             continue
         if e["type"] == "missing":
             lines.append(f"{key}: required key is missing")
