@@ -126,6 +126,7 @@ def _set_threads(n: int | None) -> None:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    from mpsfem.coupler.errors import CouplingError
     from mpsfem.scenario.loader import load_scenario
     from mpsfem.simulation import RunFailed
 
@@ -133,6 +134,18 @@ def _cmd_run(args: argparse.Namespace) -> int:
     sc = loaded.scenario
     if args.end_time is not None and not (math.isfinite(args.end_time) and args.end_time > 0):
         raise ScenarioError([f"--end-time = {args.end_time}: must be a finite number > 0"])
+    if args.end_time is not None and sc.structure is not None:
+        from mpsfem.scenario.limits import MAX_STRUCTURE_STEPS
+
+        steps = args.end_time / sc.structure.time.dt
+        if steps > MAX_STRUCTURE_STEPS:
+            raise ScenarioError(
+                [
+                    f"--end-time = {args.end_time}: with structure.time.dt = "
+                    f"{sc.structure.time.dt} makes {steps:.3g} structure steps; at most "
+                    f"{MAX_STRUCTURE_STEPS:.0e} allowed"
+                ]
+            )
     out = args.out or Path.cwd() / f"{loaded.stem}.h5"
     problem = output_problem(out, args.restart)
     if problem:
@@ -165,7 +178,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             summary = _launch(args, loaded, out, progress, coupled)
         if summary is None:  # this process was the structure participant
             return 0
-    except RunFailed as exc:
+    except (RunFailed, CouplingError) as exc:  # CouplingError: the peer never came, or left
         print(f"error: {exc}", file=sys.stderr)
         return 1
     except ValueError as exc:  # bad launch options (roles, ranks), caught before any compute

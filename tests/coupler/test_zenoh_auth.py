@@ -216,3 +216,31 @@ def test_forged_messages_of_a_third_process_are_dropped(env, tmp_path):
     assert rc_a == 0 and json.loads(out_a)["bit_exact"], err_a + srv[2]
     assert "failed authentication" in err_a + srv[2]
     assert os.environ.get("MPSFEM_COUPLING_TOKEN") != TOKEN  # nothing leaked into this process
+
+
+def test_one_command_run_whose_structure_cannot_start_stops_within_seconds(env, tmp_path):
+    """The structure it starts cannot listen (the port is taken): the fluid stops at once with
+    a message (it waited startup_timeout_s, and an exception kept its zenoh session open)."""
+    import socket
+    from pathlib import Path
+
+    scene = Path(__file__).resolve().parents[2] / "scenarios" / "green_water_elastic_2d.toml"
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        ep = f"tcp/127.0.0.1:{taken.getsockname()[1]}"
+        t0 = time.monotonic()
+        proc = subprocess.run(
+            [PY, "-m", "mpsfem", "run", str(scene), "--transport", "zenoh", "--no-progress"]
+            + ["--set", f'coupling.transport={{kind = "zenoh", endpoint = "{ep}"}}']
+            + ["--out", str(tmp_path / "gw.h5")],
+            capture_output=True,
+            text=True,
+            env=env,
+            timeout=120,
+        )
+        wall = time.monotonic() - t0
+    assert proc.returncode == 1, proc.stderr[-3000:]
+    assert "exited with code" in proc.stderr and "before connecting" in proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert wall < 60

@@ -76,6 +76,8 @@ def _float_literal(x: float) -> str:
 
 
 scalar_values = st.one_of(
+    st.floats(-10.0, 10.0).map(repr),  # often valid: reaches the checks behind the schema
+    st.integers(0, 50).map(str),
     st.sampled_from(EXTREME_FLOATS),
     st.sampled_from(EXTREME_INTS),
     st.sampled_from(NAMES),
@@ -102,7 +104,7 @@ def override_lists(keys: list[str]):
         st.tuples(key, values).map(lambda kv: f"{kv[0]}={kv[1]}"),
         st.text(max_size=30),  # no '=' at all, or garbage
     )
-    return st.lists(item, min_size=1, max_size=4)
+    return st.lists(item, min_size=1, max_size=3)
 
 
 def _mutate(base: bytes, cut: int, insert: bytes) -> bytes:
@@ -145,6 +147,35 @@ def outcome(argv: list[str]) -> str:
     if rc == 2 and text.startswith("error: ") and "Traceback" not in text:
         return "error"
     return f"exit {rc}: {text[-2000:]}"
+
+
+def checkpoint_outcome(path: Path) -> str:
+    """'ok', 'error' (CheckpointError) or a traceback of reading the checkpoint at ``path``."""
+    from mpsfem.results.checkpoint import CheckpointError, read_checkpoint
+
+    try:
+        read_checkpoint(path)
+    except CheckpointError:
+        return "error"
+    except BaseException:  # noqa: BLE001 - what the fuzz test is looking for
+        return traceback.format_exc()
+    return "ok"
+
+
+def checkpoint_bytes(good: bytes):
+    """A good checkpoint's bytes with a few bytes overwritten, or cut short."""
+    flip = st.tuples(st.integers(0, len(good) - 1), st.binary(min_size=1, max_size=8))
+
+    def overwrite(edits: list[tuple[int, bytes]]) -> bytes:
+        out = bytearray(good)
+        for at, data in edits:
+            out[at : at + len(data)] = data
+        return bytes(out[: len(good)])
+
+    return st.one_of(
+        st.lists(flip, min_size=1, max_size=6).map(overwrite),
+        st.integers(0, len(good)).map(lambda n: good[:n]),
+    )
 
 
 def validate_argv(path: Path, overrides: list[str]) -> list[str]:

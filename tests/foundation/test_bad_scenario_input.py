@@ -147,3 +147,17 @@ def test_huge_direction_is_normalised():
 def test_zero_direction_is_refused(capsys):
     err = refused(capsys, SOLITARY, "fluid.walls.1.motion.direction=[0.0, 0.0]")
     assert "fluid.walls[1].motion.direction = [0.0, 0.0]: must not be the zero vector" in err
+
+
+def test_end_time_option_is_held_to_the_structure_step_limit(capsys, tmp_path):
+    coupled = SCENARIOS / "green_water_elastic_2d.toml"
+    argv = ["run", str(coupled), "--end-time", "1e300", "--out", str(tmp_path / "r.h5")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--end-time = 1e+300: with structure.time.dt =" in err and "structure steps" in err
+    assert not (tmp_path / "r.h5").exists()
+
+
+def test_huge_domain_coordinates_are_refused_by_key(capsys):
+    err = refused(capsys, DAM, "fluid.domain_upper=[1e67, 1e67]")
+    assert "fluid.domain_upper[0] = 1e+67: must be <= 1000000.0" in err

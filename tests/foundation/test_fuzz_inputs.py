@@ -1,7 +1,8 @@
 """Fuzzing ``mpsfem validate`` (issue 22): no input, file or ``--set`` ends in a traceback or a
 hang, only in ``error: ...`` (exit 2) or a valid scenario (exit 0).
 
-* the CI set: in process, fixed seed, a few seconds;
+* the CI set: in process, fixed seed, a few seconds; also damaged bytes of a real checkpoint
+  (``read_checkpoint`` raises CheckpointError or reads it);
 * the slow set (``-m slow``): at least 2,000 inputs through a worker subprocess that is timed per
   input (a hang) and watched for dying (a crash); it prints tries, clear errors, tracebacks and
   hangs.
@@ -20,7 +21,16 @@ from collections import Counter
 from pathlib import Path
 
 import pytest
-from fuzz_inputs import BASES, file_bytes, outcome, override_lists, schema_keys, validate_argv
+from fuzz_inputs import (
+    BASES,
+    checkpoint_bytes,
+    checkpoint_outcome,
+    file_bytes,
+    outcome,
+    override_lists,
+    schema_keys,
+    validate_argv,
+)
 from hypothesis import HealthCheck, given, seed, settings
 from hypothesis import strategies as st
 
@@ -33,6 +43,17 @@ CI = settings(
     database=None,
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
 )
+
+
+@pytest.fixture(scope="module")
+def good_checkpoint(tmp_path_factory) -> bytes:
+    """The bytes of a real checkpoint (three dam-break steps, with an AMG hierarchy)."""
+    from mpsfem.cli import main
+
+    out = tmp_path_factory.mktemp("fuzz") / "d.h5"
+    dam = str(BASES[0])
+    assert main(["run", dam, "--end-time", "0.003", "--out", str(out), "--no-progress"]) == 0
+    return out.with_name("d.ckpt.h5").read_bytes()
 
 
 def test_schema_keys_cover_the_schema():
@@ -56,6 +77,17 @@ def test_file_bytes_give_a_clear_error_or_a_scenario(data):
         path = Path(folder) / "fuzz.toml"
         path.write_bytes(data)
         result = outcome(["validate", str(path)])
+    assert result in ("ok", "error"), result
+
+
+@CI
+@given(data=st.data())
+def test_damaged_checkpoint_bytes_give_a_checkpoint_error_or_a_checkpoint(good_checkpoint, data):
+    damaged = data.draw(checkpoint_bytes(good_checkpoint))
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "fuzz.ckpt.h5"
+        path.write_bytes(damaged)
+        result = checkpoint_outcome(path)
     assert result in ("ok", "error"), result
 
 
@@ -83,10 +115,13 @@ class Worker:
             env=self.env,
         )
 
-    def ask(self, argv: list[str], data: bytes | None) -> str:
+    def ask(self, argv: list[str] | None, data: bytes | None) -> str:
+        """The outcome of ``argv`` (with ``data`` as the scenario file), or of reading ``data``
+        as a checkpoint where ``argv`` is None."""
         if self.proc is None or self.proc.poll() is not None:
             self.proc = self._start()
-        req = {"argv": argv, "file": None if data is None else base64.b64encode(data).decode()}
+        b64 = None if data is None else base64.b64encode(data).decode()
+        req = {"argv": argv, "file": b64} if argv is not None else {"checkpoint": b64}
         self.proc.stdin.write(json.dumps(req) + "\n")
         self.proc.stdin.flush()
         ready, _, _ = select.select([self.proc.stdout], [], [], PER_INPUT_TIMEOUT_S)
@@ -108,7 +143,7 @@ class Worker:
 
 
 @pytest.mark.slow
-def test_fuzz_in_a_subprocess_no_traceback_no_hang():
+def test_fuzz_in_a_subprocess_no_traceback_no_hang(good_checkpoint):
     worker = Worker()
     tally: Counter[str] = Counter()
     bad: list[tuple[list[str], str]] = []
@@ -118,6 +153,7 @@ def test_fuzz_in_a_subprocess_no_traceback_no_hang():
             lambda t: (validate_argv(t[0], t[1]), None)
         ),
         file_bytes.map(lambda b: (["validate", "{file}"], b)),
+        checkpoint_bytes(good_checkpoint).map(lambda b: (None, b)),
     )
 
     @seed(FUZZ_SEED)
@@ -134,7 +170,7 @@ def test_fuzz_in_a_subprocess_no_traceback_no_hang():
         kind = result if result in ("ok", "error", "hang") else "traceback"
         tally[kind] += 1
         if kind in ("traceback", "hang"):
-            bad.append((argv, result))
+            bad.append((argv or "checkpoint", result))
 
     try:
         one()

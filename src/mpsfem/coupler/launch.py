@@ -90,9 +90,29 @@ def participant_role(kind: str, participant: str | None) -> str | None:
     return None
 
 
+#: the structure process this process started (:func:`spawn_structure`), watched while the fluid
+#: waits for it: if it exits first (its port taken, a crash) the wait ends at once
+_spawned: list[subprocess.Popen] = []
+
+
+def _spawned_structure_exited() -> str | None:
+    child = _spawned[-1] if _spawned else None
+    if child is None or child.poll() is None:
+        return None
+    return (
+        f"the structure process this run started (pid {child.pid}) exited with code "
+        f"{child.returncode} before connecting (its messages above say why)"
+    )
+
+
 def connect_structure(config) -> tuple[RemoteParticipant, Transport]:
     """Fluid side: open ``config.transport`` and return the structure as a remote participant."""
-    t = open_transport(config.transport, "fluid")
+    from mpsfem.coupler.transport import TRANSPORTS
+
+    t = TRANSPORTS.get(config.transport.kind).from_config("fluid", config.transport)
+    if hasattr(t, "watch"):
+        t.watch = _spawned_structure_exited
+    t.connect()
     return RemoteParticipant(t), t
 
 
@@ -162,4 +182,6 @@ def spawn_structure(argv: Sequence[str], module: str | None = None) -> subproces
     if not os.environ.get(TOKEN_ENV) and not os.environ.get(TOKEN_FILE_ENV):
         os.environ[TOKEN_ENV] = new_run_token()
     cmd = [sys.executable, "-m", module, *argv] if module else [*argv]
-    return subprocess.Popen([*cmd, "--participant", "structure"], env=dict(os.environ))
+    child = subprocess.Popen([*cmd, "--participant", "structure"], env=dict(os.environ))
+    _spawned.append(child)
+    return child

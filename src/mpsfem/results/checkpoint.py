@@ -9,9 +9,11 @@ killed while writing leaves the previous checkpoint intact.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
+from collections.abc import Iterator
 from pathlib import Path
 
 import h5py
@@ -292,12 +294,24 @@ def check_checkpoint(
             raise CheckpointError(f"{path}: meta {key} is missing")
 
 
+@contextlib.contextmanager
+def _damage_as_error(path: Path) -> Iterator[None]:
+    """What the HDF5 library raises on a damaged file (OSError, KeyError, ...) as a
+    :class:`CheckpointError` naming the file."""
+    try:
+        yield
+    except CheckpointError:
+        raise
+    except (OSError, KeyError, RuntimeError, TypeError, ValueError, UnicodeError) as exc:
+        raise CheckpointError(f"{path}: damaged or not a checkpoint ({exc})") from None
+
+
 def read_checkpoint(path: str | Path) -> tuple[dict[str, dict[str, np.ndarray]], dict, str]:
     """Read a checkpoint: (arrays, meta, scenario text), every array and number checked first
     (:func:`check_checkpoint`); a file that fails a check raises :class:`CheckpointError`."""
     path = Path(path)
     budget = path.stat().st_size
-    with _open(path) as h5:
+    with _damage_as_error(path), _open(path) as h5:
         meta = _attr_json(h5, "meta", path)
         resolved = _attr_json(h5, "scenario_resolved", path, required=False)
         text = h5.attrs.get("scenario", "")
@@ -330,7 +344,7 @@ def read_checkpoint_scenario(path: str | Path) -> tuple[dict | None, str, list[s
 
     None where the checkpoint predates storing it."""
     path = Path(path)
-    with _open(path) as h5:
+    with _damage_as_error(path), _open(path) as h5:
         resolved = _attr_json(h5, "scenario_resolved", path, required=False)
         overrides = _attr_json(h5, "overrides", path, required=False)
         text = h5.attrs.get("scenario", "")

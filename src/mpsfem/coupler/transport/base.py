@@ -206,7 +206,22 @@ class Transport(ABC):
 
     # ------------------------------------------------------------------ public API
     def connect(self) -> None:
-        """Open the link, exchange hellos (roles must differ), start heartbeats."""
+        """Open the link, exchange hellos (roles must differ), start heartbeats. A failure
+        releases what was opened (an open Zenoh session kept the process from exiting)."""
+        try:
+            self._handshake()
+        except BaseException:
+            self._stop_heartbeats()
+            self.closed = True
+            self._shutdown()  # not abort(): under MPI that would end the job before its message
+            raise
+        self.connected = True
+        self._hb_thread = threading.Thread(
+            target=self._heartbeats, name=f"mpsfem-{self.kind}-heartbeat", daemon=True
+        )
+        self._hb_thread.start()
+
+    def _handshake(self) -> None:
         self._open()
         self._last_seen = time.monotonic()
         self._send(Message(HELLO, {"role": self.role, "protocol": PROTOCOL}))
@@ -217,11 +232,6 @@ class Transport(ABC):
                 f"{self.peer} on the other side, but got {msg.meta.get('role')!r} (protocol "
                 f"{msg.meta.get('protocol')}); give the two processes different --participant"
             )
-        self.connected = True
-        self._hb_thread = threading.Thread(
-            target=self._heartbeats, name=f"mpsfem-{self.kind}-heartbeat", daemon=True
-        )
-        self._hb_thread.start()
 
     def send(self, msg: Message) -> None:
         """Send a message (arrays are copied or serialised before this returns)."""

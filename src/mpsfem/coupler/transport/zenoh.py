@@ -36,6 +36,7 @@ import struct
 import sys
 import threading
 import time
+from collections.abc import Callable
 from typing import Literal
 
 from pydantic import Field, field_validator
@@ -101,6 +102,9 @@ class ZenohTransport(Transport):
         #: frames dropped: failed authentication, another session, replayed
         self.rejected = {"forged": 0, "foreign": 0, "replayed": 0}
         self._warned = False
+        #: where set, says why the peer can no longer come (e.g. the structure process this
+        #: run started has exited), checked while waiting for it
+        self.watch: Callable[[], str | None] | None = None
 
     @classmethod
     def from_config(cls, role, config) -> ZenohTransport:
@@ -189,6 +193,9 @@ class ZenohTransport(Transport):
         )
         deadline = time.monotonic() + self.startup_timeout_s
         while not (self._alive.is_set() and self._pub.matching_status.matching):
+            gone = self.watch() if self.watch is not None else None
+            if gone is not None:
+                raise PeerLostError(f"{self.describe()}: {gone}")
             if time.monotonic() > deadline:
                 raise PeerLostError(
                     f"{self.describe()}: the {self.peer} participant did not appear within "
@@ -214,6 +221,10 @@ class ZenohTransport(Transport):
     def _peer_gone(self) -> str | None:
         if self._lost:
             return "has gone: its zenoh session ended (process exited, crashed or lost the link)"
+        if not self.connected and self.watch is not None:
+            gone = self.watch()
+            if gone is not None:
+                return f"will not come: {gone}"
         return None
 
     def _send_bytes(self, data: bytes) -> None:
