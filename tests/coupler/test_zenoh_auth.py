@@ -54,9 +54,9 @@ def first_stderr_line(p: subprocess.Popen, within: float) -> str:
 def test_sealed_frames_authenticate_and_refuse_forgery_replay_and_other_tokens():
     fluid = FrameSealer(TOKEN, "fluid", "structure")
     structure = FrameSealer(TOKEN, "structure", "fluid")
-    frame = fluid.seal(b"payload")
-    nonce, seq, payload = structure.open(frame)
-    assert (nonce, seq, payload) == (fluid.nonce, 1, b"payload")
+    frame = fluid.seal(b"payload", to=structure.nonce)
+    nonce, to, seq, payload = structure.open(frame)
+    assert (nonce, to, seq, payload) == (fluid.nonce, structure.nonce, 1, b"payload")
     forged = frame[:-1] + b"X"
     assert structure.open(forged) is None
     other = FrameSealer("another-token-of-enough-length", "fluid", "structure")
@@ -203,7 +203,7 @@ def test_forged_messages_of_a_third_process_are_dropped(env, tmp_path):
             "time.sleep(5)\n"
             "for _ in range(20):\n"
             "    for key in ('mpsfem/coupling/fluid', 'mpsfem/coupling/structure'):\n"
-            "        s.put(key, b'MPSFEMA1' + bytes(56) + b'forged forces')\n"
+            "        s.put(key, b'MPSFEMA2' + bytes(72) + b'forged forces')\n"
             "    time.sleep(0.05)\n"
             "s.close()\n",
         ]
@@ -244,3 +244,23 @@ def test_one_command_run_whose_structure_cannot_start_stops_within_seconds(env, 
     assert "exited with code" in proc.stderr and "before connecting" in proc.stderr
     assert "Traceback" not in proc.stderr
     assert wall < 60
+
+
+def test_two_fluids_starting_together_one_is_coupled_the_other_stops(env):
+    """Both fluids see the structure's hello; its answers are addressed to the session it
+    accepted, so the other fluid learns at once that the structure is taken."""
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    s = launch(env, "structure", ep, "--wait", "12")
+    try:
+        time.sleep(2.0)
+        fluids = [launch(env, "fluid", ep, "--wait", "12") for _ in range(2)]
+        results = [reap(f, timeout=90) for f in fluids]
+    finally:
+        srv = reap(s, timeout=30)
+    codes = sorted(rc for rc, _, _ in results)
+    assert codes == [0, 4], results
+    winner = next(r for r in results if r[0] == 0)
+    loser = next(r for r in results if r[0] == 4)
+    assert json.loads(winner[1])["bit_exact"]
+    assert "already coupled to another fluid participant" in loser[2], loser[2]
+    assert srv[0] == 0, srv[2]

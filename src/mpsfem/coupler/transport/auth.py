@@ -2,13 +2,15 @@
 
 Every message on the wire is sealed as::
 
-    b"MPSFEMA1" | session nonce (16 B) | sequence number (uint64 LE) | HMAC-SHA256 (32 B) | payload
+    b"MPSFEMA2" | sender's session nonce (16 B) | addressee's session nonce (16 B, zeros before
+    the handshake) | sequence number (uint64 LE) | HMAC-SHA256 (32 B) | payload
 
-The HMAC covers the sender's role, its session nonce, the sequence number and the payload, keyed
-by SHA-256 of the coupling token. A receiver drops a frame whose HMAC fails (a forged message, or
-one of another run with another token), whose nonce is not its peer's session (another process
+The HMAC covers the sender's role, both nonces, the sequence number and the payload, keyed by
+SHA-256 of the coupling token. A receiver drops a frame whose HMAC fails (a forged message, or
+one of another run with another token), whose sender is not its peer's session (another process
 on the same endpoint, or a recorded earlier session), or whose sequence number does not grow (a
-replayed frame). The payload itself is not encrypted.
+replayed frame); a frame of its peer addressed to another session means the peer is coupled to
+someone else. The payload itself is not encrypted.
 
 The token, in this order:
 
@@ -35,10 +37,12 @@ from pathlib import Path
 TOKEN_ENV = "MPSFEM_COUPLING_TOKEN"
 TOKEN_FILE_ENV = "MPSFEM_COUPLING_TOKEN_FILE"
 MIN_TOKEN_CHARS = 16
-FRAME_MAGIC = b"MPSFEMA1"
+FRAME_MAGIC = b"MPSFEMA2"
 NONCE_BYTES = 16
 MAC_BYTES = 32
-HEAD = len(FRAME_MAGIC) + NONCE_BYTES + 8 + MAC_BYTES
+HEAD = len(FRAME_MAGIC) + 2 * NONCE_BYTES + 8 + MAC_BYTES
+#: the addressee of a frame sent before the peer's session is known
+ANYONE = bytes(NONCE_BYTES)
 
 
 class TokenError(ValueError):
@@ -129,27 +133,28 @@ class FrameSealer:
         self.nonce = secrets.token_bytes(NONCE_BYTES)
         self._seq = 0
 
-    def _mac(self, role: str, nonce: bytes, seq: bytes, payload: bytes | memoryview) -> bytes:
+    def _mac(self, role: str, head: bytes, payload: bytes | memoryview) -> bytes:
         h = hmac.new(self._key, digestmod=hashlib.sha256)
-        h.update(role.encode() + b"\0" + nonce + seq)
+        h.update(role.encode() + b"\0" + head)
         h.update(payload)
         return h.digest()
 
-    def seal(self, payload: bytes) -> bytes:
+    def seal(self, payload: bytes, to: bytes = ANYONE) -> bytes:
+        """``payload`` as a frame of this side, addressed to the session ``to``."""
         self._seq += 1
-        seq = struct.pack("<Q", self._seq)
-        mac = self._mac(self.role, self.nonce, seq, payload)
-        return b"".join([FRAME_MAGIC, self.nonce, seq, mac, payload])
+        head = self.nonce + to + struct.pack("<Q", self._seq)
+        return b"".join([FRAME_MAGIC, head, self._mac(self.role, head, payload), payload])
 
-    def open(self, frame: bytes) -> tuple[bytes, int, bytes] | None:
-        """(nonce, sequence number, payload) of an authentic frame of the peer, else None."""
+    def open(self, frame: bytes) -> tuple[bytes, bytes, int, bytes] | None:
+        """(sender nonce, addressee nonce, sequence number, payload) of an authentic frame of
+        the peer's role, else None."""
         if len(frame) < HEAD or not frame.startswith(FRAME_MAGIC):
             return None
         i = len(FRAME_MAGIC)
-        nonce = frame[i : i + NONCE_BYTES]
-        seq_b = frame[i + NONCE_BYTES : i + NONCE_BYTES + 8]
-        mac = frame[i + NONCE_BYTES + 8 : HEAD]
+        head = frame[i : i + 2 * NONCE_BYTES + 8]
+        mac = frame[i + len(head) : HEAD]
         payload = frame[HEAD:]
-        if not hmac.compare_digest(mac, self._mac(self.peer, nonce, seq_b, payload)):
+        if not hmac.compare_digest(mac, self._mac(self.peer, head, payload)):
             return None
-        return nonce, struct.unpack("<Q", seq_b)[0], payload
+        sender, to = head[:NONCE_BYTES], head[NONCE_BYTES : 2 * NONCE_BYTES]
+        return sender, to, struct.unpack("<Q", head[2 * NONCE_BYTES :])[0], payload

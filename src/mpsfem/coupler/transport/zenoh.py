@@ -42,7 +42,7 @@ from typing import Literal
 from pydantic import Field, field_validator
 
 from mpsfem.coupler.errors import PeerLostError
-from mpsfem.coupler.transport.auth import TOKEN_ENV, FrameSealer, coupling_token
+from mpsfem.coupler.transport.auth import ANYONE, TOKEN_ENV, FrameSealer, coupling_token
 from mpsfem.coupler.transport.base import HELLO, MAGIC, Transport, TransportParams
 
 PREFIX = "mpsfem/coupling"
@@ -228,7 +228,7 @@ class ZenohTransport(Transport):
         return None
 
     def _send_bytes(self, data: bytes) -> None:
-        self._pub.put(self._sealer.seal(data))
+        self._pub.put(self._sealer.seal(data, to=self._peer_nonce or ANYONE))
 
     def _receive_bytes(self, max_wait: float) -> bytes | None:
         deadline = time.monotonic() + max_wait
@@ -257,14 +257,15 @@ class ZenohTransport(Transport):
                 )
             self._warn("failed authentication (forged, or of another run)")
             return None
-        nonce, seq, payload = opened
+        nonce, to, seq, payload = opened
+        taken = (
+            f"{self.describe()}: the {self.peer} participant on {self.endpoint} is already "
+            f"coupled to another {self.role} participant: another run uses this endpoint; give "
+            "each concurrent run its own coupling.transport.endpoint"
+        )
         if self._peer_nonce is None:
-            if _tag_of(payload) != HELLO:
-                raise PeerLostError(
-                    f"{self.describe()}: the {self.peer} participant on {self.endpoint} is "
-                    f"already coupled to another {self.role} participant: another run uses this "
-                    "endpoint; give each concurrent run its own coupling.transport.endpoint"
-                )
+            if _tag_of(payload) != HELLO or to not in (ANYONE, self._sealer.nonce):
+                raise PeerLostError(taken)
             self._peer_nonce, self._peer_seq = nonce, seq
             return payload
         if nonce != self._peer_nonce:
@@ -275,6 +276,8 @@ class ZenohTransport(Transport):
             self.rejected["replayed"] += 1
             self._warn("repeated an earlier sequence number (replayed)")
             return None
+        if to not in (ANYONE, self._sealer.nonce):
+            raise PeerLostError(taken)  # our peer talks to another session: it is not ours
         self._peer_seq = seq
         return payload
 
