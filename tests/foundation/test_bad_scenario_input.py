@@ -161,3 +161,30 @@ def test_end_time_option_is_held_to_the_structure_step_limit(capsys, tmp_path):
 def test_huge_domain_coordinates_are_refused_by_key(capsys):
     err = refused(capsys, DAM, "fluid.domain_upper=[1e67, 1e67]")
     assert "fluid.domain_upper[0] = 1e+67: must be <= 1000000.0" in err
+
+
+@pytest.mark.parametrize(
+    "override, expect",
+    [
+        ("fluid.gravity=[0.0, -1e300]", "fluid.gravity[1] = -1e+300: must be >= -1000.0"),
+        (
+            "fluid.blocks.0.velocity=[1e300, 0.0]",
+            "fluid.blocks[0].velocity[0] = 1e+300: must be <=",
+        ),
+        ("fluid.density=1e300", "fluid.density = 1e+300: must be <= 100000.0"),
+        ("fluid.density=5e-324", "fluid.density = 5e-324: must be >= 0.001"),
+    ],
+)
+def test_physics_that_overflowed_at_the_first_step_is_refused(capsys, override, expect):
+    """Each ran into 'float division by zero', a NaN residual or NaN positions at t = 0."""
+    assert expect in refused(capsys, DAM, override)
+
+
+def test_motion_period_and_amplitude_are_bounded(capsys):
+    err = refused(
+        capsys,
+        SOLITARY,
+        'fluid.walls.1.motion={kind = "harmonic", amplitude = 1e300, period = 5e-324}',
+    )
+    assert "fluid.walls[1].motion.amplitude = 1e+300: must be <= 1000000.0" in err
+    assert "fluid.walls[1].motion.period = 5e-324: must be >= 1e-06" in err

@@ -169,6 +169,7 @@ def test_fuzz_in_a_subprocess_no_traceback_no_hang(good_checkpoint):
         result = worker.ask(argv, data)
         kind = result if result in ("ok", "error", "hang") else "traceback"
         tally[kind] += 1
+        tally[f"{kind} ({'checkpoint' if argv is None else 'validate'})"] += 1
         if kind in ("traceback", "hang"):
             bad.append((argv or "checkpoint", result))
 
@@ -176,10 +177,11 @@ def test_fuzz_in_a_subprocess_no_traceback_no_hang(good_checkpoint):
         one()
     finally:
         worker.stop()
-    tries = sum(tally.values())
+    tries = sum(n for k, n in tally.items() if "(" not in k)
     print(
         f"\nfuzz: {tries} tries, {tally['ok']} valid, {tally['error']} clear errors, "
-        f"{tally['traceback']} tracebacks, {tally['hang']} hangs"
+        f"{tally['traceback']} tracebacks, {tally['hang']} hangs; by input: "
+        + ", ".join(f"{k}: {n}" for k, n in sorted(tally.items()) if "(" in k)
     )
     assert tries >= SLOW_EXAMPLES
     assert not bad, bad[:3]

@@ -7,7 +7,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from mpsfem.scenario.base import InvalidValue, Point, Section
+from mpsfem.scenario.base import COORDINATE_LIMIT, InvalidValue, Point, Section
 
 Vector = list[float]
 
@@ -17,6 +17,17 @@ MIN_SPACING = 1e-6
 MAX_SPACING = 1e3
 #: smallest Courant and viscous numbers (smaller ones make dt = 0: a division by zero)
 MIN_STEP_NUMBER = 1e-4
+#: bounds of the fluid's physics: beyond them a run overflowed or divided by zero at its first
+#: step (gravity 1e300, density 1e300, velocity 1e300) instead of being refused
+MAX_ACCELERATION = 1e3  # m/s^2 per component (about 100 g)
+MAX_SPEED = 1e3  # m/s per component (incompressible flow ends far below)
+DENSITY_RANGE = (1e-3, 1e5)  # kg/m^3
+MIN_PERIOD = 1e-6  # s
+
+#: a gravity vector, m/s^2
+Acceleration = list[Annotated[float, Field(ge=-MAX_ACCELERATION, le=MAX_ACCELERATION)]]
+#: a velocity, m/s
+Velocity = list[Annotated[float, Field(ge=-MAX_SPEED, le=MAX_SPEED)]]
 
 
 class KernelSection(Section):
@@ -221,7 +232,9 @@ class FluidBlock(Section):
     shape: Literal["box"] = Field("box", description="geometry primitive")
     lower: Point = Field(description="lower corner, m")
     upper: Point = Field(description="upper corner, m")
-    velocity: Vector | None = Field(None, description="initial velocity, m/s (default 0)")
+    velocity: Velocity | None = Field(
+        None, description=f"initial velocity, m/s (default 0; components within +-{MAX_SPEED:g})"
+    )
 
     @model_validator(mode="after")
     def _check(self) -> FluidBlock:
@@ -259,11 +272,13 @@ class WallMotion(Section):
     )
     amplitude: float = Field(
         0.0,
+        ge=-COORDINATE_LIMIT,
+        le=COORDINATE_LIMIT,
         description="'harmonic': displacement amplitude, m; 'solitary': wave amplitude A (crest "
         "above still water), m, with 0 < A/depth < 0.78",
     )
-    period: float = Field(1.0, gt=0.0, description="'harmonic', 'regular': period, s")
-    phase: float = Field(0.0, description="'harmonic': phase, rad")
+    period: float = Field(1.0, ge=MIN_PERIOD, description="'harmonic', 'regular': period, s")
+    phase: float = Field(0.0, ge=-1e6, le=1e6, description="'harmonic': phase, rad")
     file: str | None = Field(None, description="'table': CSV file of (time s, displacement m) rows")
     depth: float | None = Field(
         None, gt=0.0, description="'solitary', 'regular': still-water depth d at the paddle, m"
@@ -400,9 +415,14 @@ class FluidSection(Section):
     spacing: Annotated[float, Field(ge=MIN_SPACING, le=MAX_SPACING)] = Field(
         description=f"initial particle spacing l0, m ({MIN_SPACING:g} .. {MAX_SPACING:g})"
     )
-    density: float = Field(1000.0, gt=0.0, description="density rho, kg/m^3")
+    density: float = Field(
+        1000.0,
+        ge=DENSITY_RANGE[0],
+        le=DENSITY_RANGE[1],
+        description=f"density rho, kg/m^3 ({DENSITY_RANGE[0]:g} .. {DENSITY_RANGE[1]:g})",
+    )
     viscosity: float = Field(1e-6, ge=0.0, description="kinematic viscosity nu, m^2/s (0 = off)")
-    gravity: Vector = Field(
+    gravity: Acceleration = Field(
         [0.0, -9.81],
         description=(
             "gravitational acceleration, m/s^2 (default [0, -9.81] in 2D, [0, 0, -9.81] in 3D)"
