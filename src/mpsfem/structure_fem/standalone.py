@@ -249,7 +249,7 @@ def cli_main(args) -> int:
     try:
         if args.command == "modes":
             print(format_modes(modal_analysis(loaded, getattr(args, "count", 6))))
-            print(DRY_MODES_NOTE)
+            print(f"note: {DRY_MODES_NOTE}", file=sys.stderr)
             return 0
         out = getattr(args, "out", None) or Path.cwd() / f"{loaded.stem}.h5"
         summary = run_structure(loaded, out, progress=not getattr(args, "no_progress", False))
