@@ -151,17 +151,9 @@ def _gib(b: float) -> str:
 
 
 def check_coordinates(scenario: Scenario) -> None:
-    """Every corner, position and member end lies within +-COORDINATE_LIMIT m."""
+    """Probe positions and member ends lie within +-COORDINATE_LIMIT m (the fluid's corners are
+    bounded by their type, :data:`mpsfem.scenario.base.Point`)."""
     points: list[tuple[str, list[float]]] = []
-    fluid = scenario.fluid
-    if fluid is not None:
-        for i, b in enumerate(fluid.blocks):
-            points += [(f"fluid.blocks[{i}].lower", b.lower), (f"fluid.blocks[{i}].upper", b.upper)]
-        for i, w in enumerate(fluid.walls):
-            points += [(f"fluid.walls[{i}].lower", w.lower), (f"fluid.walls[{i}].upper", w.upper)]
-        for key in ("domain_lower", "domain_upper"):
-            if getattr(fluid, key) is not None:
-                points.append((f"fluid.{key}", getattr(fluid, key)))
     for i, p in enumerate(scenario.probes):
         pos = getattr(p, "position", None)
         if pos is not None:

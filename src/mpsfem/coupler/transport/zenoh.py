@@ -96,7 +96,8 @@ class ZenohTransport(Transport):
         self._alive = threading.Event()
         self._lost = False
         self.session = None
-        self._sealer = FrameSealer(token or coupling_token(), self.role, self.peer)
+        self._token = token  # None: coupling_token() when the link opens
+        self._sealer: FrameSealer | None = None
         self._peer_nonce: bytes | None = None
         self._peer_seq = 0
         #: frames dropped: failed authentication, another session, replayed
@@ -155,6 +156,7 @@ class ZenohTransport(Transport):
     def _open(self) -> None:
         import zenoh
 
+        self._sealer = FrameSealer(self._token or coupling_token(), self.role, self.peer)
         if not self._loopback():
             how = "listens on" if self.listen else "connects to"
             self._say(
