@@ -87,10 +87,6 @@ CASES = {
     "indptr scaled": (_indptr_scaled, "L0_P_indptr: must start at 0, never decrease and end"),
     "t nan": (lambda h5: set_meta(h5, lambda m: m["fluid"].update(t=float("nan"))), "fluid.t"),
     "t negative": (lambda h5: set_meta(h5, lambda m: m["fluid"].update(t=-1.0)), "fluid.t = -1"),
-    "t past the end": (
-        lambda h5: set_meta(h5, lambda m: m["fluid"].update(t=99.0)),
-        "lies past the end of the run",
-    ),
     "huge declared shape": (_huge_declared, "fluid/p declares shape (10000000000,)"),
     "external link": (_external_link, "fluid/vel is a ExternalLink"),
     "nan position": (_nan_position, "fluid/pos holds a non-finite value at index [3, 1]"),
@@ -116,6 +112,13 @@ def test_crafted_checkpoint_is_refused_by_name(good, tmp_path, case):
     with pytest.raises(CheckpointError) as info:
         read_checkpoint(ckpt)
     assert expect in str(info.value)
+
+
+def test_time_past_the_end_of_this_run_is_refused(good, tmp_path):
+    _, ckpt = crafted(good, tmp_path, lambda h5: set_meta(h5, lambda m: m["fluid"].update(t=99.0)))
+    with pytest.raises(CheckpointError, match="fluid.t = 99.0 lies past the end of this run"):
+        read_checkpoint(ckpt, end_time=1.0)
+    read_checkpoint(ckpt)  # continuing further (--end-time) is the caller's to say
 
 
 def test_good_checkpoint_reads(good):

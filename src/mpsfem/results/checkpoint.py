@@ -157,8 +157,7 @@ def _check_time(value, where: str, path: Path, end_time: float | None) -> None:
     t = _number(value, where, path, low=0.0)
     if end_time is not None and t > end_time * (1.0 + 1e-9) + 1e-12:
         raise CheckpointError(
-            f"{path}: {where} = {t!r} lies past the end of the run it belongs to (run.end_time "
-            f"= {end_time}); refused"
+            f"{path}: {where} = {t!r} lies past the end of this run (t = {end_time} s); refused"
         )
 
 
@@ -251,7 +250,7 @@ def _check_fluid(arrays: dict, path: Path) -> int | None:
 
 
 def check_checkpoint(
-    arrays: dict[str, dict[str, np.ndarray]], meta, path: Path, end_time: float | None
+    arrays: dict[str, dict[str, np.ndarray]], meta, path: Path, end_time: float | None = None
 ) -> None:
     """Everything a restart reads is consistent before any of it is used (CheckpointError)."""
     if not isinstance(meta, dict):
@@ -306,14 +305,19 @@ def _damage_as_error(path: Path) -> Iterator[None]:
         raise CheckpointError(f"{path}: damaged or not a checkpoint ({exc})") from None
 
 
-def read_checkpoint(path: str | Path) -> tuple[dict[str, dict[str, np.ndarray]], dict, str]:
+def read_checkpoint(
+    path: str | Path, end_time: float | None = None
+) -> tuple[dict[str, dict[str, np.ndarray]], dict, str]:
     """Read a checkpoint: (arrays, meta, scenario text), every array and number checked first
-    (:func:`check_checkpoint`); a file that fails a check raises :class:`CheckpointError`."""
+    (:func:`check_checkpoint`); a file that fails a check raises :class:`CheckpointError`.
+
+    ``end_time``: the end of the run that continues from it; a checkpoint time past it is
+    refused. (Not the stored ``run.end_time``: a run continued with ``--end-time`` writes
+    checkpoints past it.)"""
     path = Path(path)
     budget = path.stat().st_size
     with _damage_as_error(path), _open(path) as h5:
         meta = _attr_json(h5, "meta", path)
-        resolved = _attr_json(h5, "scenario_resolved", path, required=False)
         text = h5.attrs.get("scenario", "")
         text = text.decode("utf-8", errors="replace") if isinstance(text, bytes) else str(text)
         arrays: dict[str, dict[str, np.ndarray]] = {}
@@ -331,10 +335,6 @@ def read_checkpoint(path: str | Path) -> tuple[dict[str, dict[str, np.ndarray]],
                         f"{path}: {g}/{k} is no array, or there are more than {MAX_DATASETS}"
                     )
                 arrays[g][k] = _read_dataset(ds, path, budget)
-    end_time = None
-    if isinstance(resolved, dict) and isinstance(resolved.get("run"), dict):
-        end = resolved["run"].get("end_time")
-        end_time = float(end) if isinstance(end, int | float) and math.isfinite(end) else None
     check_checkpoint(arrays, meta, path, end_time)
     return arrays, meta, text
 
