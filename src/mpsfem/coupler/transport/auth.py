@@ -5,6 +5,10 @@ Every message on the wire is sealed as::
     b"MPSFEMA2" | sender's session nonce (16 B) | addressee's session nonce (16 B, zeros before
     the handshake) | sequence number (uint64 LE) | HMAC-SHA256 (32 B) | payload
 
+The link itself is also closed to processes without the token: the listening participant admits
+only peers that present a password derived from it (zenoh's user/password authentication), so
+another user's process can neither read the interface nor write to it.
+
 The HMAC covers the sender's role, both nonces, the sequence number and the payload, keyed by
 SHA-256 of the coupling token. A receiver drops a frame whose HMAC fails (a forged message, or
 one of another run with another token), whose sender is not its peer's session (another process
@@ -132,6 +136,11 @@ class FrameSealer:
         self.role, self.peer = role, peer
         self.nonce = secrets.token_bytes(NONCE_BYTES)
         self._seq = 0
+
+    def link_password(self) -> str:
+        """The password of the link itself (zenoh user/password authentication), derived from
+        the token: a process without it cannot open a link to the listening participant."""
+        return hmac.new(self._key, b"mpsfem zenoh link", hashlib.sha256).hexdigest()
 
     def _mac(self, role: str, head: bytes, payload: bytes | memoryview) -> bytes:
         h = hmac.new(self._key, digestmod=hashlib.sha256)

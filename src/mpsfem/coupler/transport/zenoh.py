@@ -30,10 +30,13 @@ from __future__ import annotations
 
 import ipaddress
 import json
+import os
 import queue
 import re
+import shutil
 import struct
 import sys
+import tempfile
 import threading
 import time
 from collections.abc import Callable
@@ -46,6 +49,8 @@ from mpsfem.coupler.transport.auth import ANYONE, TOKEN_ENV, FrameSealer, coupli
 from mpsfem.coupler.transport.base import HELLO, MAGIC, Transport, TransportParams
 
 PREFIX = "mpsfem/coupling"
+#: the user name of zenoh's user/password link authentication (the password comes from the token)
+LINK_USER = "mpsfem"
 ENDPOINT_RE = re.compile(r"^tcp/(\[[0-9a-fA-F:]+\]|[A-Za-z0-9.\-]+):([0-9]{1,5})$")
 
 
@@ -120,7 +125,8 @@ class ZenohTransport(Transport):
         how = "listening on" if self.listen else "connected to"
         return f"zenoh transport ({self.role}, {how} {self.endpoint})"
 
-    def _config(self):
+    def _config(self, dictionary: str | None = None):
+        """The session's configuration; ``dictionary``: the listener's user/password file."""
         import zenoh
 
         conf = zenoh.Config()
@@ -135,6 +141,10 @@ class ZenohTransport(Transport):
             conf.insert_json5("connect/endpoints", json.dumps([self.endpoint]))
             conf.insert_json5("connect/retry", "{period_init_ms: 50, period_max_ms: 500}")
             conf.insert_json5("listen/endpoints", "[]")  # the fluid opens no port
+        auth = {"user": LINK_USER, "password": self._sealer.link_password()}
+        if dictionary is not None:
+            auth["dictionary_file"] = dictionary
+        conf.insert_json5("transport/auth/usrpwd", json.dumps(auth))
         return conf
 
     def _host(self) -> str:
@@ -165,14 +175,24 @@ class ZenohTransport(Transport):
                 f"the coupling token ({TOKEN_ENV}) but not encrypted (docs/coupler.md, threat "
                 "model)"
             )
+        folder = tempfile.mkdtemp(prefix="mpsfem-zenoh-") if self.listen else None  # mode 0700
         try:
-            self.session = s = zenoh.open(self._config())
+            dictionary = None
+            if folder is not None:  # who may connect: read at open, removed right after
+                dictionary = os.path.join(folder, "users")
+                fd = os.open(dictionary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+                with os.fdopen(fd, "w") as f:
+                    f.write(f"{LINK_USER}:{self._sealer.link_password()}\n")
+            self.session = s = zenoh.open(self._config(dictionary))
         except Exception as exc:  # noqa: BLE001 - zenoh raises ZError
             what = "listen on" if self.listen else "connect to"
             raise PeerLostError(
                 f"{self.describe()}: cannot {what} {self.endpoint}: {exc} (is the port in use by "
                 "another run? set coupling.transport.endpoint)"
             ) from exc
+        finally:
+            if folder is not None:
+                shutil.rmtree(folder, ignore_errors=True)
         q = self._q
         self._sub = s.declare_subscriber(
             f"{PREFIX}/{self.peer}", lambda sample: q.put(sample.payload.to_bytes())
@@ -202,7 +222,8 @@ class ZenohTransport(Transport):
                 raise PeerLostError(
                     f"{self.describe()}: the {self.peer} participant did not appear within "
                     f"{self.startup_timeout_s:g} s (startup_timeout_s); start it with the same "
-                    "endpoint"
+                    "endpoint and the same coupling token (a participant with another token "
+                    f"cannot connect: {TOKEN_ENV}, docs/coupler.md)"
                 )
             self._alive.wait(0.01)
 
