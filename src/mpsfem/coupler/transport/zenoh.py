@@ -13,13 +13,14 @@ Messages are byte strings put reliably with congestion control BLOCK (never drop
 samples go from Zenoh's callback into a queue; the receiver blocks on it (no spinning).
 
 Authentication and run isolation (:mod:`~mpsfem.coupler.transport.auth`, threat model in
-docs/coupler.md): every message is sealed with an HMAC keyed by the run's coupling token and
-carries the sender's random session nonce and a growing sequence number. The first authentic
-hello fixes the peer's session; frames that fail the HMAC, come from another session or repeat a
-sequence number are dropped, and a liveliness token of another session (``alive/<role>/<nonce>``)
-is not taken for the peer's. A participant that meets, before its handshake, a peer of another
-token or a peer already coupled to another process (a second run on the same endpoint) stops at
-once with a message instead of waiting.
+docs/coupler.md): the listener admits only links presenting a password derived from the run's
+coupling token (zenoh user/password), and every message is sealed with an HMAC keyed by the token,
+carrying the sender's random session nonce, its addressee's and a growing sequence number. The
+first authentic hello fixes the peer's session; frames that fail the HMAC, come from another
+session or repeat a sequence number are dropped, and a liveliness token of another session
+(``alive/<role>/<nonce>``) is not taken for the peer's. A participant that meets, before its
+handshake, a peer already coupled to another process (a second run on the same endpoint) stops
+at once with a message instead of waiting.
 
 Launch: ``mpsfem run S.toml --transport zenoh --participant structure`` and
 ``... --participant fluid`` in two shells (any order), or ``mpsfem run S.toml --transport zenoh``
