@@ -23,8 +23,12 @@ import os
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy is imported anywhere
 
 import argparse  # noqa: E402
+import contextlib  # noqa: E402
 import math  # noqa: E402
+import signal  # noqa: E402
 import sys  # noqa: E402
+import threading  # noqa: E402
+from collections.abc import Iterator  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 from mpsfem import __version__  # noqa: E402
@@ -89,7 +93,9 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--out", type=Path, help="results file (default: <scenario stem>.h5)")
     st.add_argument("--no-progress", action="store_true", help="no progress bar")
 
-    modes = sub.add_parser("modes", help="natural frequencies of the structure members")
+    modes = sub.add_parser(
+        "modes", help="natural frequencies of the structure members, dry (in vacuo: no fluid)"
+    )
     _scenario_args(modes)
     modes.add_argument("--count", type=_positive_int, default=6, help="number of modes (>= 1)")
 
@@ -97,7 +103,13 @@ def build_parser() -> argparse.ArgumentParser:
     _scenario_args(val)
 
     docs = sub.add_parser("docs", help="write docs/scenarios.md from the scenario schema")
-    docs.add_argument("--out", type=Path, default=Path("docs/scenarios.md"))
+    docs.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="file to write (default: docs/scenarios.md of the mpsfem source checkout this "
+        "program runs from; elsewhere --out is needed)",
+    )
 
     from mpsfem.tools.commands import add_tool_parsers
 
@@ -114,13 +126,26 @@ def _set_threads(n: int | None) -> None:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    from mpsfem.coupler.errors import CouplingError
     from mpsfem.scenario.loader import load_scenario
-    from mpsfem.simulation import RunFailed, run_coupled, run_fluid
+    from mpsfem.simulation import RunFailed
 
     loaded = load_scenario(args.scenario, args.overrides)
     sc = loaded.scenario
     if args.end_time is not None and not (math.isfinite(args.end_time) and args.end_time > 0):
         raise ScenarioError([f"--end-time = {args.end_time}: must be a finite number > 0"])
+    if args.end_time is not None and sc.structure is not None:
+        from mpsfem.scenario.limits import MAX_STRUCTURE_STEPS
+
+        steps = args.end_time / sc.structure.time.dt
+        if steps > MAX_STRUCTURE_STEPS:
+            raise ScenarioError(
+                [
+                    f"--end-time = {args.end_time}: with structure.time.dt = "
+                    f"{sc.structure.time.dt} makes {steps:.3g} structure steps; at most "
+                    f"{MAX_STRUCTURE_STEPS:.0e} allowed"
+                ]
+            )
     out = args.out or Path.cwd() / f"{loaded.stem}.h5"
     problem = output_problem(out, args.restart)
     if problem:
@@ -149,25 +174,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
             print(f"error: {problem}", file=sys.stderr)
             return 2
     try:
-        if coupled:
-            child = ["run", str(args.scenario), "--transport", "zenoh", "--no-progress"]
-            for item in args.overrides:
-                child += ["--set", item]
-            summary = run_coupled(
-                loaded,
-                out,
-                args.end_time,
-                args.restart,
-                progress=progress,
-                transport=args.transport,
-                participant=args.participant,
-                child_argv=child,
-            )
-            if summary is None:  # this process was the structure participant
-                return 0
-        else:
-            summary = run_fluid(loaded, out, args.end_time, args.restart, progress=progress)
-    except RunFailed as exc:
+        with interrupt_as_stop_request():
+            summary = _launch(args, loaded, out, progress, coupled)
+        if summary is None:  # this process was the structure participant
+            return 0
+    except (RunFailed, CouplingError) as exc:  # CouplingError: the peer never came, or left
         print(f"error: {exc}", file=sys.stderr)
         return 1
     except ValueError as exc:  # bad launch options (roles, ranks), caught before any compute
@@ -178,6 +189,64 @@ def _cmd_run(args: argparse.Namespace) -> int:
         f"results {summary.results}, checkpoint {summary.checkpoint}"
     )
     return 0
+
+
+#: the status reason of a run stopped by Ctrl-C (``failed: interrupted (SIGINT)``)
+INTERRUPTED = "interrupted (SIGINT)"
+
+
+@contextlib.contextmanager
+def interrupt_as_stop_request() -> Iterator[None]:
+    """Within the block, a first SIGINT (Ctrl-C) asks the run to stop at the end of its current
+    step or window, as SIGTERM does: it checkpoints the last good state and leaves the status
+    ``failed: interrupted (SIGINT)``. Raised as KeyboardInterrupt at once, it surfaced inside a
+    numba call as ``SystemError: CPUDispatcher(...)`` and left ``failed: `` with no reason. A
+    second SIGINT restores the previous handler and interrupts at once (a stuck run)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    from mpsfem import simulation
+
+    previous = signal.getsignal(signal.SIGINT)
+
+    def on_sigint(signum, frame) -> None:  # noqa: ARG001
+        if simulation._stop_request:  # the second Ctrl-C: stop now
+            signal.signal(signal.SIGINT, previous)
+            raise KeyboardInterrupt
+        simulation._stop_request.append(INTERRUPTED)
+        print(
+            "\nSIGINT: stopping at the end of this step (checkpoint, results closed); press "
+            "Ctrl-C again to stop at once",
+            file=sys.stderr,
+            flush=True,
+        )
+
+    signal.signal(signal.SIGINT, on_sigint)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _launch(args: argparse.Namespace, loaded, out: Path, progress, coupled: bool):
+    """Run the fluid-only or coupled scenario; None where this process served the structure."""
+    from mpsfem.simulation import run_coupled, run_fluid
+
+    if not coupled:
+        return run_fluid(loaded, out, args.end_time, args.restart, progress=progress)
+    child = ["run", str(args.scenario), "--transport", "zenoh", "--no-progress"]
+    for item in args.overrides:
+        child += ["--set", item]
+    return run_coupled(
+        loaded,
+        out,
+        args.end_time,
+        args.restart,
+        progress=progress,
+        transport=args.transport,
+        participant=args.participant,
+        child_argv=child,
+    )
 
 
 def single_process_problem(what: str) -> str | None:
@@ -235,10 +304,27 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     return 0
 
 
+def source_docs_path() -> Path | None:
+    """docs/scenarios.md of the source checkout this package runs from, or None (installed)."""
+    path = Path(__file__).resolve().parents[2] / "docs" / "scenarios.md"
+    return path if path.is_file() else None
+
+
 def _cmd_docs(args: argparse.Namespace) -> int:
     from mpsfem.scenario.docs import write_scenario_docs
 
-    path = write_scenario_docs(args.out)
+    out = args.out if args.out is not None else source_docs_path()
+    if out is None:
+        print(
+            "error: mpsfem runs from an installed package, not a source checkout, so there is no "
+            "docs/scenarios.md to regenerate; give the file to write with --out PATH",
+            file=sys.stderr,
+        )
+        return 2
+    if not out.parent.is_dir():
+        print(f"error: --out {out}: the folder {out.parent} does not exist", file=sys.stderr)
+        return 2
+    path = write_scenario_docs(out)
     print(f"wrote {path}")
     return 0
 

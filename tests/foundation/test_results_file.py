@@ -67,10 +67,15 @@ def test_truncate_after_for_restart(tmp_path):
 
 def test_checkpoint_roundtrip(tmp_path):
     arrays = {"fluid": {"pos": np.random.default_rng(0).random((5, 2))}}
-    path = write_checkpoint(tmp_path / "c.ckpt.h5", arrays, {"t": 1.5}, "text")
-    got, meta, text = read_checkpoint(path)
+    meta = {
+        "fluid": {"t": 1.5, "step": 3, "dt_next": 1e-3},
+        "next_snapshot": 1.6,
+        "next_checkpoint": float("inf"),
+    }
+    path = write_checkpoint(tmp_path / "c.ckpt.h5", arrays, meta, "text")
+    got, got_meta, text = read_checkpoint(path)
     np.testing.assert_array_equal(got["fluid"]["pos"], arrays["fluid"]["pos"])
-    assert meta == {"t": 1.5} and text == "text"
+    assert got_meta == meta and text == "text"
 
 
 def test_xdmf_lists_snapshots(tmp_path):

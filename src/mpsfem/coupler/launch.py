@@ -23,6 +23,7 @@ from collections.abc import Callable, Iterator, Sequence
 
 from mpsfem.coupler.remote import RemoteParticipant, serve
 from mpsfem.coupler.transport import Transport, open_transport
+from mpsfem.coupler.transport.auth import TOKEN_ENV, TOKEN_FILE_ENV, new_run_token
 
 __all__ = [
     "connect_structure",
@@ -89,9 +90,29 @@ def participant_role(kind: str, participant: str | None) -> str | None:
     return None
 
 
+#: the structure process this process started (:func:`spawn_structure`), watched while the fluid
+#: waits for it: if it exits first (its port taken, a crash) the wait ends at once
+_spawned: list[subprocess.Popen] = []
+
+
+def _spawned_structure_exited() -> str | None:
+    child = _spawned[-1] if _spawned else None
+    if child is None or child.poll() is None:
+        return None
+    return (
+        f"the structure process this run started (pid {child.pid}) exited with code "
+        f"{child.returncode} before connecting (its messages above say why)"
+    )
+
+
 def connect_structure(config) -> tuple[RemoteParticipant, Transport]:
     """Fluid side: open ``config.transport`` and return the structure as a remote participant."""
-    t = open_transport(config.transport, "fluid")
+    from mpsfem.coupler.transport import TRANSPORTS
+
+    t = TRANSPORTS.get(config.transport.kind).from_config("fluid", config.transport)
+    if hasattr(t, "watch"):
+        t.watch = _spawned_structure_exited
+    t.connect()
     return RemoteParticipant(t), t
 
 
@@ -152,6 +173,15 @@ def deferred_signals(
 
 def spawn_structure(argv: Sequence[str], module: str | None = None) -> subprocess.Popen:
     """Start this program again as the structure participant (``--participant structure``
-    appended to ``argv``); ``module`` runs ``python -m module`` instead of ``argv[0]``."""
+    appended to ``argv``); ``module`` runs ``python -m module`` instead of ``argv[0]``.
+
+    Unless a coupling token is given (``MPSFEM_COUPLING_TOKEN`` or ``..._FILE``), this run gets a
+    fresh random one, set in this process's environment (its fluid side) and passed to the child
+    in its environment (never on a command line, which other users can list): the two processes
+    of this run accept only each other, and a second run on the same endpoint is told at once."""
+    if not os.environ.get(TOKEN_ENV) and not os.environ.get(TOKEN_FILE_ENV):
+        os.environ[TOKEN_ENV] = new_run_token()
     cmd = [sys.executable, "-m", module, *argv] if module else [*argv]
-    return subprocess.Popen([*cmd, "--participant", "structure"], env=dict(os.environ))
+    child = subprocess.Popen([*cmd, "--participant", "structure"], env=dict(os.environ))
+    _spawned.append(child)
+    return child

@@ -8,9 +8,18 @@ values are re-validated when assigned, so ``--set`` overrides go through the sam
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, Field
+
+#: every coordinate of a scene, m, lies within +-this (a wider scene is no particle scene; wider
+#: values overflowed the lattice arithmetic)
+COORDINATE_LIMIT = 1e6
+
+#: a coordinate, m
+Coordinate = Annotated[float, Field(ge=-COORDINATE_LIMIT, le=COORDINATE_LIMIT)]
+#: a point of the scene, m
+Point = list[Coordinate]
 
 
 class Section(BaseModel):

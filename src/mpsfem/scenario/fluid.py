@@ -2,13 +2,32 @@
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
-from mpsfem.scenario.base import InvalidValue, Section
+from mpsfem.scenario.base import COORDINATE_LIMIT, InvalidValue, Point, Section
 
 Vector = list[float]
+
+#: particle spacing bounds, m (a finer or coarser lattice is no MPS scene; 5e-324 overflowed
+#: the lattice arithmetic)
+MIN_SPACING = 1e-6
+MAX_SPACING = 1e3
+#: smallest Courant and viscous numbers (smaller ones make dt = 0: a division by zero)
+MIN_STEP_NUMBER = 1e-4
+#: bounds of the fluid's physics: beyond them a run overflowed or divided by zero at its first
+#: step (gravity 1e300, density 1e300, velocity 1e300) instead of being refused
+MAX_ACCELERATION = 1e3  # m/s^2 per component (about 100 g)
+MAX_SPEED = 1e3  # m/s per component (incompressible flow ends far below)
+DENSITY_RANGE = (1e-3, 1e5)  # kg/m^3
+MIN_PERIOD = 1e-6  # s
+
+#: a gravity vector, m/s^2
+Acceleration = list[Annotated[float, Field(ge=-MAX_ACCELERATION, le=MAX_ACCELERATION)]]
+#: a velocity, m/s
+Velocity = list[Annotated[float, Field(ge=-MAX_SPEED, le=MAX_SPEED)]]
 
 
 class KernelSection(Section):
@@ -141,9 +160,11 @@ class SurfaceSection(Section):
 class TimeStepSection(Section):
     """Adaptive time step of the fluid."""
 
-    courant: float = Field(0.2, gt=0.0, le=1.0, description="Courant number u_max dt / l0")
+    courant: float = Field(
+        0.2, ge=MIN_STEP_NUMBER, le=1.0, description="Courant number u_max dt / l0"
+    )
     viscous_number: float = Field(
-        0.2, gt=0.0, le=0.5, description="viscous limit nu dt / l0^2 <= value"
+        0.2, ge=MIN_STEP_NUMBER, le=0.5, description="viscous limit nu dt / l0^2 <= value"
     )
     dt_max: float = Field(1e-3, gt=0.0, description="largest time step, s")
     dt_min: float = Field(
@@ -211,9 +232,11 @@ class FluidBlock(Section):
     """A region filled with fluid particles on the square lattice of spacing l0."""
 
     shape: Literal["box"] = Field("box", description="geometry primitive")
-    lower: Vector = Field(description="lower corner, m")
-    upper: Vector = Field(description="upper corner, m")
-    velocity: Vector | None = Field(None, description="initial velocity, m/s (default 0)")
+    lower: Point = Field(description="lower corner, m")
+    upper: Point = Field(description="upper corner, m")
+    velocity: Velocity | None = Field(
+        None, description=f"initial velocity, m/s (default 0; components within +-{MAX_SPEED:g})"
+    )
 
     @model_validator(mode="after")
     def _check(self) -> FluidBlock:
@@ -251,11 +274,13 @@ class WallMotion(Section):
     )
     amplitude: float = Field(
         0.0,
+        ge=-COORDINATE_LIMIT,
+        le=COORDINATE_LIMIT,
         description="'harmonic': displacement amplitude, m; 'solitary': wave amplitude A (crest "
         "above still water), m, with 0 < A/depth < 0.78",
     )
-    period: float = Field(1.0, gt=0.0, description="'harmonic', 'regular': period, s")
-    phase: float = Field(0.0, description="'harmonic': phase, rad")
+    period: float = Field(1.0, ge=MIN_PERIOD, description="'harmonic', 'regular': period, s")
+    phase: float = Field(0.0, ge=-1e6, le=1e6, description="'harmonic': phase, rad")
     file: str | None = Field(None, description="'table': CSV file of (time s, displacement m) rows")
     depth: float | None = Field(
         None, gt=0.0, description="'solitary', 'regular': still-water depth d at the paddle, m"
@@ -279,6 +304,19 @@ class WallMotion(Section):
         "then moves through its stroke S = sqrt(16 A d / 3) in T = 2 (3.8 + A/d) / (k c) "
         "(crest at the paddle's mid-stroke at start_time + T/2) and stops",
     )
+
+    @field_validator("direction")
+    @classmethod
+    def _unit_direction(cls, v: Vector | None) -> Vector | None:
+        """Normalised without overflow (scaled by its largest entry first): [1e200, 0] is +x."""
+        if v is None:
+            return v
+        big = max((abs(x) for x in v), default=0.0)
+        if big == 0.0:
+            raise ValueError("must not be the zero vector (the motion needs a direction)")
+        scaled = [x / big for x in v]
+        norm = math.sqrt(sum(x * x for x in scaled))
+        return [x / norm for x in scaled]
 
     @model_validator(mode="after")
     def _check(self) -> WallMotion:
@@ -331,8 +369,8 @@ class Wall(Section):
         description="'tank': walls on the floor and both sides (and the ends in 3D) of the "
         "box lower..upper, fluid inside, top open; 'box': a solid obstacle, fluid outside"
     )
-    lower: Vector = Field(description="lower corner of the fluid-side face box, m")
-    upper: Vector = Field(description="upper corner of the fluid-side face box, m")
+    lower: Point = Field(description="lower corner of the fluid-side face box, m")
+    upper: Point = Field(description="upper corner of the fluid-side face box, m")
     name: str | None = Field(None, description="patch name, for force probes")
     motion: WallMotion = Field(default_factory=WallMotion, description="prescribed motion")
 
@@ -376,10 +414,17 @@ class FluidSection(Section):
     """The MPS fluid: material, numerics and initial geometry."""
 
     dim: Literal[2, 3] = Field(2, description="space dimension")
-    spacing: Annotated[float, Field(gt=0.0)] = Field(description="initial particle spacing l0, m")
-    density: float = Field(1000.0, gt=0.0, description="density rho, kg/m^3")
+    spacing: Annotated[float, Field(ge=MIN_SPACING, le=MAX_SPACING)] = Field(
+        description=f"initial particle spacing l0, m ({MIN_SPACING:g} .. {MAX_SPACING:g})"
+    )
+    density: float = Field(
+        1000.0,
+        ge=DENSITY_RANGE[0],
+        le=DENSITY_RANGE[1],
+        description=f"density rho, kg/m^3 ({DENSITY_RANGE[0]:g} .. {DENSITY_RANGE[1]:g})",
+    )
     viscosity: float = Field(1e-6, ge=0.0, description="kinematic viscosity nu, m^2/s (0 = off)")
-    gravity: Vector = Field(
+    gravity: Acceleration = Field(
         [0.0, -9.81],
         description=(
             "gravitational acceleration, m/s^2 (default [0, -9.81] in 2D, [0, 0, -9.81] in 3D)"
@@ -413,12 +458,12 @@ class FluidSection(Section):
         description="dummy wall layers behind the pressure layer (default: enough to fill the "
         "largest kernel radius)",
     )
-    domain_lower: Vector | None = Field(
+    domain_lower: Point | None = Field(
         None,
         description="lower corner of the domain, m; a fluid particle leaving it stops the run "
         "(default: the walls' bounding box grown by 10 l0 sideways and 1 m upwards)",
     )
-    domain_upper: Vector | None = Field(None, description="upper corner of the domain, m")
+    domain_upper: Point | None = Field(None, description="upper corner of the domain, m")
     kernel: KernelSection = Field(default_factory=KernelSection, description="kernel")
     pressure: PressureSection = Field(default_factory=PressureSection, description="pressure")
     surface: SurfaceSection = Field(default_factory=SurfaceSection, description="free surface")
@@ -537,6 +582,17 @@ class FluidSection(Section):
         for i, z in enumerate(self.sponges):
             if z.axis >= d:
                 raise InvalidValue(f"sponges[{i}].axis", f"must be below dim = {d}", z.axis)
+        ts = self.time_step
+        if self.viscosity > 0.0:
+            viscous_dt = ts.viscous_number * self.spacing**2 / self.viscosity
+            if not viscous_dt >= ts.dt_min:
+                raise InvalidValue(
+                    "viscosity",
+                    f"limits the time step to time_step.viscous_number x spacing^2 / viscosity "
+                    f"= {viscous_dt:.3g} s, below time_step.dt_min = {ts.dt_min} s: the run "
+                    "could not take a step (lower the viscosity or dt_min, or coarsen spacing)",
+                    self.viscosity,
+                )
         rate = sum(z.coefficient for z in self.sponges)
         if rate * self.time_step.dt_max > 1.0:
             raise InvalidValue(

@@ -6,6 +6,7 @@ allowed>``; unknown keys list the keys that are allowed at that place.
 
 from __future__ import annotations
 
+import difflib
 import re
 import tomllib
 from collections.abc import Sequence
@@ -72,6 +73,10 @@ def parse_override(item: str, bare_words: bool = False) -> tuple[str, Any]:
     raw = raw.strip()
     try:
         value = tomllib.loads(f"v = {raw}")["v"]
+    except RecursionError:
+        raise ScenarioError(
+            [f"--set {key}: the value is nested too deep (at most {MAX_NESTING} levels)"]
+        ) from None
     except tomllib.TOMLDecodeError:
         if bare_words and BARE_WORD.fullmatch(raw):
             return key, raw
@@ -210,7 +215,10 @@ def format_validation_error(err: ValidationError) -> list[str]:
         if e["type"] == "extra_forbidden":
             parent = _model_at(list(e["loc"])[:-1])
             allowed = sorted(parent.model_fields) if parent else []
-            lines.append(f"{key}: unknown key; allowed here: {', '.join(allowed)}")
+            last = str(e["loc"][-1])
+            close = difflib.get_close_matches(last, allowed, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            lines.append(f"{key}: unknown key; allowed here: {', '.join(allowed)}{hint}")
             continue
         if e["type"] == "missing":
             lines.append(f"{key}: required key is missing")
@@ -224,12 +232,52 @@ def format_validation_error(err: ValidationError) -> list[str]:
                 lines.append(f"{key}: {cause.message}")
             continue
         given = e.get("input")
-        msg = msg.removeprefix("Value error, ")
+        msg = _our_wording(e["type"], e.get("ctx") or {}, msg.removeprefix("Value error, "))
         if _is_table(given):
             lines.append(f"{key}: {msg}")  # a whole table's check: no dump of the table
         else:
             lines.append(f"{key} = {given!r}: {msg}")
     return lines
+
+
+def _our_wording(kind: str, ctx: dict, msg: str) -> str:
+    """What is allowed, in our words (``must be > 0``) rather than pydantic's."""
+    bounds = {
+        "greater_than": ("gt", ">"),
+        "greater_than_equal": ("ge", ">="),
+        "less_than": ("lt", "<"),
+        "less_than_equal": ("le", "<="),
+    }
+    if kind in bounds:
+        name, op = bounds[kind]
+        return f"must be {op} {ctx.get(name)}"
+    if kind == "literal_error":
+        return f"must be one of {ctx.get('expected')}"
+    if kind == "too_short":
+        return f"must have at least {ctx.get('min_length')} item(s)"
+    if kind == "too_long":
+        return f"must have at most {ctx.get('max_length')} item(s)"
+    if kind == "string_too_long":
+        return f"must be at most {ctx.get('max_length')} characters long"
+    if kind == "string_too_short":
+        return f"must be at least {ctx.get('min_length')} character(s) long"
+    if kind == "string_pattern_mismatch":
+        return f"must match the pattern {ctx.get('pattern')}"
+    plain = {
+        "float_type": "must be a number",
+        "float_parsing": "must be a number",
+        "int_type": "must be a whole number",
+        "int_parsing": "must be a whole number",
+        "int_from_float": "must be a whole number",
+        "bool_type": "must be true or false",
+        "string_type": "must be a string (in quotes)",
+        "list_type": "must be a list [ ... ]",
+        "dict_type": "must be a table",
+        "model_type": "must be a table",
+        "model_attributes_type": "must be a table",
+        "finite_number": "must be a finite number (not inf or nan)",
+    }
+    return plain.get(kind, msg)
 
 
 def _is_table(value: Any) -> bool:
@@ -254,13 +302,75 @@ def validate(data: dict, source: str | None = None) -> Scenario:
         raise ScenarioError(format_validation_error(err), source) from None
 
 
+#: a scenario file is a few kB; a larger one is refused before it is read
+MAX_SCENARIO_BYTES = 4 * 1024 * 1024
+#: tables and arrays nested deeper than this are refused (the schema nests about 6 deep)
+MAX_NESTING = 32
+
+
+def decode_scenario_bytes(raw: bytes, source: str | None = None) -> str:
+    """``raw`` as UTF-8 text; a byte that is no UTF-8 is reported with its line and column."""
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        column = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
+        bad = raw[exc.start : exc.start + 1]
+        raise ScenarioError(
+            [
+                f"byte {bad!r} at line {line}, column {column} is not UTF-8: a scenario file "
+                "must be UTF-8 text (TOML)"
+            ],
+            source,
+        ) from None
+
+
 def load_scenario(path: str | Path, overrides: Sequence[str] = ()) -> LoadedScenario:
     """Read, override and validate the scenario at ``path``."""
     path = Path(path)
     if not path.is_file():
         raise ScenarioError([f"scenario file {str(path)!r} does not exist"])
-    text = path.read_text(encoding="utf-8")
+    try:
+        size = path.stat().st_size
+        if size > MAX_SCENARIO_BYTES:
+            raise ScenarioError(
+                [
+                    f"scenario file {str(path)!r} is {size} bytes; a scenario file may have at "
+                    f"most {MAX_SCENARIO_BYTES} bytes"
+                ]
+            )
+        with path.open("rb") as f:
+            raw = f.read(MAX_SCENARIO_BYTES + 1)
+    except OSError as exc:
+        raise ScenarioError([f"scenario file {str(path)!r} cannot be read: {exc}"]) from None
+    text = decode_scenario_bytes(raw, str(path))
     return load_scenario_text(text, overrides, path)
+
+
+def _too_deep(data: Any, limit: int = MAX_NESTING) -> str | None:
+    """The dotted key of the first value nested deeper than ``limit``, or None (iterative)."""
+    stack: list[tuple[Any, list[str | int]]] = [(data, [])]
+    while stack:
+        node, loc = stack.pop()
+        if len(loc) > limit:
+            return _dotted(loc[: limit + 1])
+        if isinstance(node, dict):
+            stack.extend((v, [*loc, str(k)]) for k, v in node.items())
+        elif isinstance(node, list):
+            stack.extend((v, [*loc, i]) for i, v in enumerate(node))
+    return None
+
+
+def _parse_toml(text: str, src: str | None) -> dict:
+    """``tomllib.loads`` with its errors (deep nesting included) as :class:`ScenarioError`."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError([f"not valid TOML: {exc}"], src) from None
+    except RecursionError:
+        raise ScenarioError(
+            [f"tables or arrays nested too deep; at most {MAX_NESTING} levels are allowed"], src
+        ) from None
 
 
 def load_scenario_text(
@@ -268,12 +378,20 @@ def load_scenario_text(
 ) -> LoadedScenario:
     """Validate scenario TOML ``text`` with ``overrides`` applied."""
     src = str(path) if path else None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError([f"not valid TOML: {exc}"], src) from None
+    if len(text) > MAX_SCENARIO_BYTES:
+        raise ScenarioError(
+            [f"scenario text has {len(text)} characters; at most {MAX_SCENARIO_BYTES} allowed"],
+            src,
+        )
+    data = _parse_toml(text, src)
     for item in overrides:
         key, value = parse_override(item, bare_words=True)
         apply_override(data, key, value)
+    deep = _too_deep(data)
+    if deep is not None:
+        raise ScenarioError(
+            [f"{deep}: nested more than {MAX_NESTING} levels deep; at most {MAX_NESTING} allowed"],
+            src,
+        )
     scenario = validate(data, src)
     return LoadedScenario(scenario=scenario, text=text, overrides=list(overrides), path=path)

@@ -36,3 +36,10 @@ class RunSection(Section):
         "for the same thread count",
     )
     progress: bool = Field(True, description="progress bar when the output is a terminal")
+    memory_limit_gib: float | None = Field(
+        None,
+        gt=0.0,
+        description="largest estimated memory of the scene, GiB; a larger scene is refused "
+        "before any compute, naming the keys that set its size (default: the environment "
+        "variable MPSFEM_MEMORY_LIMIT_GIB, else half of the machine's physical memory)",
+    )

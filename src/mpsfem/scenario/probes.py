@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from mpsfem.scenario.base import InvalidValue, Section
 
@@ -17,11 +17,22 @@ Vector = list[float]
 
 class _Probe(Section):
     name: str = Field(
-        min_length=1, pattern=r"^[A-Za-z0-9_.-]+$", description="probe name (HDF5 group)"
+        min_length=1,
+        max_length=64,
+        pattern=r"^[A-Za-z0-9_.-]+$",
+        description="probe name (HDF5 group): letters, digits, '_', '.', '-'; not '.' or '..'",
     )
     interval: float | None = Field(
         None, ge=0.0, description="sampling interval, s (default: output.probe_interval)"
     )
+
+    @field_validator("name")
+    @classmethod
+    def _hdf5_name(cls, v: str) -> str:
+        """'.' and '..' are no HDF5 group names (they name the group itself and its parent)."""
+        if v.strip(".") == "":
+            raise ValueError("must not be only dots ('.' and '..' are no HDF5 group names)")
+        return v
 
 
 class PressureProbe(_Probe):

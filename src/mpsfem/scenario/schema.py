@@ -7,6 +7,7 @@ from pydantic import Field, model_validator
 from mpsfem.scenario.base import InvalidValue, Section
 from mpsfem.scenario.coupling import CouplingSection
 from mpsfem.scenario.fluid import FluidSection
+from mpsfem.scenario.limits import check_limits
 from mpsfem.scenario.output import OutputSection, RunSection
 from mpsfem.scenario.probes import Probe
 from mpsfem.scenario.structure import StructureSection, distance_to_member
@@ -33,6 +34,7 @@ class Scenario(Section):
 
     @model_validator(mode="after")
     def _check(self) -> Scenario:
+        check_limits(self)  # first: coordinates and sizes the other checks compute with
         seen: dict[str, int] = {}
         for i, p in enumerate(self.probes):
             if p.name in seen:

@@ -34,6 +34,11 @@ from .participant import StructureParticipant
 __all__ = ["StructureRunSummary", "run_structure", "modal_analysis", "cli_main"]
 
 DISPLACEMENT_COMPONENTS = ("ux", "uy", "uz")
+#: printed under ``mpsfem modes``: what the frequencies are (and are not)
+DRY_MODES_NOTE = (
+    "dry (in vacuo) frequencies: the structure alone, without the fluid's added mass; a wetted "
+    "member vibrates at lower frequencies"
+)
 
 
 @dataclass
@@ -268,6 +273,7 @@ def cli_main(args) -> int:
     try:
         if args.command == "modes":
             print(format_modes(modal_analysis(loaded, getattr(args, "count", 6))))
+            print(f"note: {DRY_MODES_NOTE}", file=sys.stderr)
             return 0
         out = getattr(args, "out", None) or Path.cwd() / f"{loaded.stem}.h5"
         summary = run_structure(loaded, out, progress=not getattr(args, "no_progress", False))

@@ -102,21 +102,40 @@ def encode(msg: Message) -> bytes:
 
 
 def decode(buf: bytes | bytearray | memoryview) -> Message:
-    """Inverse of :func:`encode`; arrays are fresh writable copies."""
+    """Inverse of :func:`encode`; arrays are fresh writable copies. A message that is not one
+    (bad magic, a header that is no JSON table, arrays of non-numeric types or running past the
+    end of the buffer) raises ValueError before anything is allocated for it."""
     mv = memoryview(buf)
-    if bytes(mv[:8]) != MAGIC:
+    if len(mv) < 16 or bytes(mv[:8]) != MAGIC:
         raise ValueError("not an mpsfem coupler message (bad magic bytes)")
     (n,) = struct.unpack("<Q", mv[8:16])
-    header = json.loads(bytes(mv[16 : 16 + n]))
+    if n > len(mv) - 16:
+        raise ValueError("coupler message: header longer than the message")
+    try:
+        header = json.loads(bytes(mv[16 : 16 + n]))
+        tag, meta, specs = header["tag"], header["meta"], header["arrays"]
+    except (ValueError, KeyError, TypeError, RecursionError) as exc:
+        raise ValueError(f"coupler message: bad header ({exc})") from None
+    if not (isinstance(tag, str) and isinstance(meta, dict) and isinstance(specs, list)):
+        raise ValueError("coupler message: bad header (tag, meta, arrays)")
     off = 16 + n
     arrays = {}
-    for name, dt, shape in header["arrays"]:
-        dtype = np.dtype(dt)
-        count = int(np.prod(shape, dtype=np.int64))
+    for spec in specs:
+        try:
+            name, dt, shape = spec
+            dtype = np.dtype(dt)
+            shape = tuple(int(k) for k in shape)
+        except (ValueError, TypeError) as exc:
+            raise ValueError(f"coupler message: bad array entry {spec!r} ({exc})") from None
+        if dtype.kind not in "biufc" or any(k < 0 for k in shape):
+            raise ValueError(f"coupler message: array {name!r} of {dtype} {shape} refused")
+        count = int(np.prod(shape, dtype=np.float64))
+        if off + count * dtype.itemsize > len(mv):
+            raise ValueError(f"coupler message: array {name!r} runs past the message's end")
         a = np.frombuffer(mv, dtype=dtype, count=count, offset=off).reshape(shape).copy()
         arrays[name] = a
         off += count * dtype.itemsize
-    return Message(header["tag"], header["meta"], arrays)
+    return Message(tag, meta, arrays)
 
 
 class Transport(ABC):
@@ -178,11 +197,31 @@ class Transport(ABC):
         if data is None:
             return None
         self.stats["bytes_received"] += len(data)
-        return decode(data)
+        try:
+            return decode(data)
+        except ValueError as exc:
+            raise PeerLostError(
+                f"{self.describe()}: the {self.peer} participant sent a malformed message ({exc})"
+            ) from None
 
     # ------------------------------------------------------------------ public API
     def connect(self) -> None:
-        """Open the link, exchange hellos (roles must differ), start heartbeats."""
+        """Open the link, exchange hellos (roles must differ), start heartbeats. A failure
+        releases what was opened (an open Zenoh session kept the process from exiting)."""
+        try:
+            self._handshake()
+        except BaseException:
+            self._stop_heartbeats()
+            self.closed = True
+            self._shutdown()  # not abort(): under MPI that would end the job before its message
+            raise
+        self.connected = True
+        self._hb_thread = threading.Thread(
+            target=self._heartbeats, name=f"mpsfem-{self.kind}-heartbeat", daemon=True
+        )
+        self._hb_thread.start()
+
+    def _handshake(self) -> None:
         self._open()
         self._last_seen = time.monotonic()
         self._send(Message(HELLO, {"role": self.role, "protocol": PROTOCOL}))
@@ -193,11 +232,6 @@ class Transport(ABC):
                 f"{self.peer} on the other side, but got {msg.meta.get('role')!r} (protocol "
                 f"{msg.meta.get('protocol')}); give the two processes different --participant"
             )
-        self.connected = True
-        self._hb_thread = threading.Thread(
-            target=self._heartbeats, name=f"mpsfem-{self.kind}-heartbeat", daemon=True
-        )
-        self._hb_thread.start()
 
     def send(self, msg: Message) -> None:
         """Send a message (arrays are copied or serialised before this returns)."""
