@@ -127,6 +127,7 @@ def _set_threads(n: int | None) -> None:
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from mpsfem.coupler.errors import CouplingError
+    from mpsfem.results.disk_space import DiskFullError
     from mpsfem.scenario.loader import load_scenario
     from mpsfem.simulation import RunFailed
 
@@ -178,7 +179,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
             summary = _launch(args, loaded, out, progress, coupled)
         if summary is None:  # this process was the structure participant
             return 0
-    except (RunFailed, CouplingError) as exc:  # CouplingError: the peer never came, or left
+    except (RunFailed, CouplingError, DiskFullError) as exc:  # CouplingError: the peer never
+        # came, or left; DiskFullError: no room for the results file before the first step
         print(f"error: {exc}", file=sys.stderr)
         return 1
     except ValueError as exc:  # bad launch options (roles, ranks), caught before any compute

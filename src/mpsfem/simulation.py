@@ -156,7 +156,7 @@ def run_fluid(
 
     restart_t = -math.inf
     if restart is not None:
-        arrays, meta, _ = read_checkpoint(restart)
+        arrays, meta, _ = read_checkpoint(restart, end_time=t_end)
         solver.restore(arrays["fluid"], meta["fluid"])
         solver.load_preconditioner_arrays(
             arrays.get("fluid_preconditioner", {}), meta.get("fluid_preconditioner")
@@ -272,26 +272,51 @@ def run_fluid(
         # dropped on restart (truncate_after), so the resumed run must take them again
         next_probe.update(good_probe)
         next_snap, next_ckpt = good_snap, good_ckpt
-        ckpt = checkpoint()
-        results.close(status=f"failed: {exc}")
+        saved = _failure_checkpoint(checkpoint, ckpt_path, solver.t)
+        _close_failed(results, f"failed: {exc}")
         for s, h in old_handlers.items():
             signal.signal(s, h)
         raise RunFailed(
             f"run stopped at t = {failed_at:.6g} s: {exc}\n"
-            f"  results (readable, up to the failure): {out}\n"
-            f"  checkpoint of the last good state (t = {solver.t:.6g} s): {ckpt}"
+            f"  results (readable, up to the failure): {out}\n  {saved}"
         ) from exc
     bar.close()
     for s, h in old_handlers.items():
         signal.signal(s, h)
-    if solver.t > restart_t:  # the final state at end_time, whatever the grid
-        results.mark_end_samples(solver.t, sample(force=True))
-    ckpt = checkpoint()
+    try:
+        if solver.t > restart_t:  # the final state at end_time, whatever the grid
+            results.mark_end_samples(solver.t, sample(force=True))
+        ckpt = checkpoint()
+    except OSError as exc:  # a full disk at the very end: the run's data are on disk
+        _close_failed(results, f"failed: {exc}")
+        raise RunFailed(
+            f"run reached t = {solver.t:.6g} s but its final outputs failed: {exc}\n"
+            f"  results (readable, up to the last flush): {out}"
+        ) from exc
     results.h5.attrs["steps"] = solver.step_count
     results.h5.attrs["stage_times"] = str(solver.times.as_dict())
     wall = time.perf_counter() - t_wall
     results.close(status="finished")
     return RunSummary(out, ckpt, solver.t, solver.step_count, wall)
+
+
+def _close_failed(results: ResultsFile, status: str) -> None:
+    """Close the results file of a failed run with ``status``; a full disk cannot stop that
+    (the file is closed anyway, readable up to its last flush)."""
+    try:
+        results.close(status=status)
+    except OSError:
+        pass
+
+
+def _failure_checkpoint(write: Callable[[], Path], path: Path, t: float) -> str:
+    """Write the checkpoint of the last good state after a failure; the line that says where
+    it is, or, where that write failed too (a full disk), why and which earlier one stays."""
+    try:
+        return f"checkpoint of the last good state (t = {t:.6g} s): {write()}"
+    except OSError as exc:
+        kept = f"the earlier checkpoint {path} stays" if path.is_file() else "none was written"
+        return f"no checkpoint of the last good state ({exc}); {kept}"
 
 
 def _declare_budget(results: ResultsFile, solver: FluidSolver) -> None:
@@ -557,7 +582,7 @@ def _fluid_side(
     last_ckpt: Path | None = None
 
     if restart is not None:
-        arrays, meta, _ = read_checkpoint(restart)
+        arrays, meta, _ = read_checkpoint(restart, end_time=t_end)
         if meta.get("kind") != "coupled":
             raise ValueError(f"{restart} is not a checkpoint of a coupled run")
         fluid.load_state(_join_state(arrays["fluid"], meta["fluid"]))
@@ -736,10 +761,10 @@ def _fluid_side(
                 sched.update(good_sched)
                 last_ckpt = write_ckpt()
                 where = "a checkpoint of the last good window"
-            except (CouplingError, RuntimeError) as exc2:
+            except (CouplingError, RuntimeError, OSError) as exc2:
                 log(f"no new checkpoint: {type(exc2).__name__}: {exc2}")
                 peer_alive = peer_alive and not isinstance(exc2, CouplingError)
-        results.close(status=f"failed: {type(exc).__name__}: {exc}")
+        _close_failed(results, f"failed: {type(exc).__name__}: {exc}")
         msg = (
             f"coupled run stopped at t = {failed_at:.6g} s: {type(exc).__name__}: {exc}\n"
             f"  results (readable, up to the failure): {out}\n"
@@ -752,9 +777,18 @@ def _fluid_side(
     bar.close()
     for s, h in old_handlers.items():
         signal.signal(s, h)
-    if scheme.t > t_start:  # the final state at end_time, whatever the grid
-        results.mark_end_samples(scheme.t, sample(force=True))
-    ckpt = write_ckpt()
+    try:
+        if scheme.t > t_start:  # the final state at end_time, whatever the grid
+            results.mark_end_samples(scheme.t, sample(force=True))
+        ckpt = write_ckpt()
+    except OSError as exc:  # a full disk at the very end: the run's data are on disk
+        _close_failed(results, f"failed: {exc}")
+        if remote is not None:
+            _end_peer(remote, link, failed=False)
+        raise RunFailed(
+            f"coupled run reached t = {scheme.t:.6g} s but its final outputs failed: {exc}\n"
+            f"  results (readable, up to the last flush): {out}"
+        ) from exc
     results.h5.attrs["steps"] = solver.step_count
     results.h5.attrs["windows"] = scheme.index
     results.h5.attrs["stage_times"] = str(solver.times.as_dict())

@@ -20,6 +20,7 @@ import h5py
 import numpy as np
 
 from mpsfem import __version__
+from mpsfem.results import disk_space
 
 FORMAT = 1
 
@@ -42,6 +43,18 @@ def write_checkpoint(
     the scenario (TOML text, and where given the validated scenario and the ``--set`` list)."""
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
+    size = sum(np.asarray(a).nbytes for items in arrays.values() for a in items.values())
+    disk_space.require(path, size + len(scenario_text) + 2**16, f"the checkpoint {path.name}")
+    try:
+        _write_file(tmp, arrays, meta, scenario_text, scenario_resolved, overrides)
+    except BaseException:
+        tmp.unlink(missing_ok=True)  # the previous checkpoint stays as it was
+        raise
+    os.replace(tmp, path)
+    return path
+
+
+def _write_file(tmp, arrays, meta, scenario_text, scenario_resolved, overrides) -> None:
     with h5py.File(tmp, "w") as h5:
         h5.attrs["format"] = FORMAT
         h5.attrs["version"] = __version__
@@ -55,8 +68,6 @@ def write_checkpoint(
             g = h5.create_group(group)
             for name, arr in items.items():
                 g.create_dataset(name, data=np.asarray(arr))
-    os.replace(tmp, path)
-    return path
 
 
 class CheckpointError(ValueError):

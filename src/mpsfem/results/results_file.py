@@ -34,6 +34,7 @@ import h5py
 import numpy as np
 
 from mpsfem import __version__
+from mpsfem.results import disk_space
 from mpsfem.results.xdmf import write_xdmf
 
 SNAPSHOT_DIGITS = 6
@@ -280,6 +281,8 @@ class ResultsFile:
         step started from or reached), with the reason as attribute ``failure``. It is for
         diagnosis: the XDMF sidecar leaves it out and a restart deletes it."""
         key = f"{self._n_snapshots:0{SNAPSHOT_DIGITS}d}"
+        size = pos.nbytes + vel.nbytes + p.nbytes + kind.nbytes
+        disk_space.require(self.path, size, f"snapshot {key} of the results file")
         g = self._h5["particles"].create_group(key)
         g.attrs["time"] = float(t)
         if failure is not None:
@@ -393,6 +396,10 @@ class ResultsFile:
     def flush(self) -> None:
         """Write buffered samples, update the wall time, push everything to disk and then bring
         the XDMF sidecar in step with the snapshots now on disk."""
+        pending = sum(len(v[0]) for v in self._pending.values()) + len(self._budget_rows)
+        disk_space.require(
+            self.path, 2**8 * pending, "the buffered samples", disk_space.SMALL_MARGIN_BYTES
+        )
         self._flush_series()
         self._flush_budget()
         self._h5.attrs["wall_time"] = self._wall_offset + time.perf_counter() - self._t_start
@@ -410,12 +417,21 @@ class ResultsFile:
         self._xdmf_snapshots = self._n_snapshots
 
     def close(self, status: str | None = None) -> None:
+        """Set ``status``, flush and close. On a full disk (:class:`~mpsfem.results.disk_space.
+        DiskFullError` from the flush) the status is still set and the file closed, readable
+        up to its last flush; the buffered samples are dropped and the error re-raised."""
         if not self._h5.id.valid:
             return
-        if status is not None:
-            self.set_status(status)
-        self.flush()
-        self._h5.close()
+        try:
+            if status is not None:
+                self.set_status(status)
+            self.flush()
+        except disk_space.DiskFullError:
+            self._pending.clear()
+            self._budget_rows.clear()
+            raise
+        finally:
+            self._h5.close()
 
     def __enter__(self) -> ResultsFile:
         return self
