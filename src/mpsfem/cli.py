@@ -128,6 +128,7 @@ def _set_threads(n: int | None) -> None:
 def _cmd_run(args: argparse.Namespace) -> int:
     from mpsfem.coupler.errors import CouplingError
     from mpsfem.results.disk_space import DiskFullError
+    from mpsfem.results.xdmf import xdmf_path
     from mpsfem.scenario.loader import load_scenario
     from mpsfem.simulation import RunFailed
 
@@ -186,9 +187,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
     except ValueError as exc:  # bad launch options (roles, ranks), caught before any compute
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    sidecar = xdmf_path(summary.results)
     print(
         f"finished t = {summary.t:.6g} s in {summary.steps} steps, {summary.wall_time:.1f} s wall; "
-        f"results {summary.results}, checkpoint {summary.checkpoint}"
+        f"results {summary.results}"
+        + (f" (ParaView: {sidecar})" if sidecar.is_file() else "")
+        + f", checkpoint {summary.checkpoint}\n"
+        f"plot the probes with: mpsfem plot {summary.results}"
     )
     return 0
 

@@ -63,6 +63,18 @@ def _append_rows(ds: h5py.Dataset, rows: np.ndarray) -> None:
     ds[n:] = rows
 
 
+def _rows_up_to(times: np.ndarray, t: float) -> int:
+    """How many leading rows a restart at ``t`` keeps: those with time <= t, up to the first
+    that is not later than its predecessor (a row a killed append left unwritten reads time 0:
+    searching a series that is no longer sorted kept it, and everything after it)."""
+    n = len(times)
+    if n == 0:
+        return 0
+    bad = np.flatnonzero(np.diff(times) <= 0.0)
+    ordered = int(bad[0]) + 1 if len(bad) else n
+    return int(np.searchsorted(times[:ordered], t, side="right"))
+
+
 def _series(group: h5py.Group, name: str, tail: tuple[int, ...], dtype=np.float64) -> h5py.Dataset:
     """Create an empty resizable time series with trailing shape ``tail``."""
     chunk_rows = max(1, min(1024, (1 << 16) // max(1, int(np.prod(tail, dtype=np.int64)) * 8)))
@@ -178,7 +190,7 @@ class ResultsFile:
             for g in self._h5[top].values():
                 if "time" not in g:
                     continue
-                keep = int(np.searchsorted(g["time"][:], t, side="right"))
+                keep = _rows_up_to(g["time"][:], t)
                 for ds in g.values():
                     if ds.name.endswith("/nodes"):
                         continue
@@ -187,7 +199,7 @@ class ResultsFile:
             if top not in self._h5:
                 continue
             g = self._h5[top]
-            keep = int(np.searchsorted(g["time"][:], t, side="right"))
+            keep = _rows_up_to(g["time"][:], t)
             for ds in g.values():
                 ds.resize(keep, axis=0)
         for key in list(self._h5["particles"].keys()):

@@ -49,12 +49,17 @@ class Series:
 
 
 def open_results(path: str | Path) -> h5py.File:
-    """Open a results file read-only, with a clear error for a missing or non-HDF5 file."""
+    """Open a results file read-only, with a clear error for a missing or non-HDF5 file.
+
+    A file a run is still writing opens too: without HDF5's file lock, which the writer holds,
+    the reader sees what the writer's last flush put on disk (docs/results.md, "Reading a
+    running file"). SWMR would make that safe for concurrent appends, but forbids the new
+    groups every snapshot adds, so the writer flushes whole blocks instead."""
     path = Path(path)
     if not path.is_file():
         raise ToolError(f"results file {str(path)!r} does not exist")
     try:
-        return h5py.File(path, "r")
+        return h5py.File(path, "r", locking=False)
     except OSError as exc:
         if "lock" in str(exc):
             raise ToolError(
