@@ -99,8 +99,15 @@ def build_parser() -> argparse.ArgumentParser:
     _scenario_args(modes)
     modes.add_argument("--count", type=_positive_int, default=6, help="number of modes (>= 1)")
 
-    val = sub.add_parser("validate", help="check a scenario file and print the resolved values")
+    val = sub.add_parser(
+        "validate",
+        help="check a scenario; print particle counts, memory and time estimates, contact "
+        "problems and a verdict (--full: every resolved value too)",
+    )
     _scenario_args(val)
+    val.add_argument(
+        "--full", action="store_true", help="print every resolved value (JSON) before the summary"
+    )
 
     docs = sub.add_parser("docs", help="write docs/scenarios.md from the scenario schema")
     docs.add_argument(
@@ -302,12 +309,19 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     loaded = load_scenario(args.scenario, args.overrides)
     import json
 
-    print(json.dumps(loaded.scenario.model_dump(mode="json"), indent=2))
+    from mpsfem.scenario_report import report
+
+    if args.full:
+        print(json.dumps(loaded.scenario.model_dump(mode="json"), indent=2))
     if loaded.scenario.fluid is not None:
         from mpsfem.fluid_mps.geometry import lattice_notes
 
         for note in lattice_notes(loaded.scenario.fluid):
             print(f"note: {note}", file=sys.stderr)
+    summary = report(loaded.scenario, loaded.scenario.title)
+    for line in summary.lines:
+        print(line)
+    print(summary.verdict)
     return 0
 
 
