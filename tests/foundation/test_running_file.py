@@ -6,6 +6,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import h5py
 import numpy as np
 
 from mpsfem.results.results_file import ResultsFile, _rows_up_to
@@ -44,3 +45,22 @@ def test_truncation_stops_at_an_unwritten_row():
     assert _rows_up_to(times, 0.25) == 2
     assert _rows_up_to(np.array([0.1, 0.2, 0.3]), 0.2) == 2
     assert _rows_up_to(np.array([]), 1.0) == 0
+
+
+def test_restart_drops_a_half_appended_coupling_row(tmp_path):
+    """Fault injection: an append resized /coupling and was stopped before its write (the
+    Ctrl-C'd zenoh run of issue 22), leaving a zero row; a restart at the checkpoint time keeps
+    the rows up to it and no zero row (searchsorted on the unsorted times kept the zero row)."""
+    path = tmp_path / "c.h5"
+    f = ResultsFile.create(path, "title = 'x'")
+    for k in range(1, 5):
+        f.append_coupling(k / 10, 2, 1e-4)
+    for ds in f.h5["coupling"].values():  # the interrupted append: resized, never written
+        ds.resize(ds.shape[0] + 1, axis=0)
+    f.close("failed: interrupted (SIGINT)")
+    f = ResultsFile.open_append(path, truncate_after=0.3)
+    f.append_coupling(0.4, 2, 1e-4)
+    f.close("finished")
+    with h5py.File(path, "r") as h5:
+        np.testing.assert_allclose(h5["coupling/time"][:], [0.1, 0.2, 0.3, 0.4])
+        assert (h5["coupling/iterations"][:] == 2).all()
