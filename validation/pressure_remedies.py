@@ -1,0 +1,152 @@
+"""Dam break far-wall gauges with the established MPS remedies for pressure noise (issue 20, part 3).
+
+The set-up of validation/dam_break_wall_gauge.py (scenarios/dam_break_2d.toml to t = 0.4 s: the
+surge reaches the far wall at t ~ 0.25 s, so about 0.15 s after the impact; 1 ms samples; its
+noise metric, :func:`dam_break_wall_gauge.gauge_statistics`: RMS about an 11 ms Savitzky-Golay
+fit from arrival + 20 ms to the end, relative to the fit's mean there) at its coarsest resolution
+used for the Courant and compressibility rows, l0 = L/40, Courant 0.2, once per variant of
+``[fluid.pressure]`` (:data:`VARIANTS`):
+
+* ``thesis``: the default (mixed source term, thesis eq. 2-23; standard Laplacian, eq. 2-16);
+* ``compressibility``: artificial compressibility kappa = 1e-6 1/Pa (sound speed 31.6 m/s);
+* ``HS``: Khayyer & Gotoh (2009)'s higher-order source term (``source_term = "higher_order"``);
+* ``HS+ECS``: with their error-compensating source term (2011; ``error_compensation = true``);
+* ``HL``: their higher-order Laplacian (2010; ``laplacian = "higher_order"``);
+* ``HS+ECS+HL``: all three.
+
+A second gauge sits on the same wall 0.06 m above the floor (the study's gauge is at 0.02 m): the
+runs use a copy of the scenario with that probe appended (results/pressure_remedies_dam_break.toml,
+written by this script). Each case is an ``mpsfem run`` subprocess, resumable like every study in
+validation/ (run them one at a time: ``--threads 1`` on a shared machine). Writes
+validation/results/pressure_remedies.csv (per variant and gauge: arrival, peaks, mean after the
+impact, noise in Pa and relative; the run's wall time) and prints
+the table (docs/validation.md, "Pressure-noise remedies").
+
+    python validation/pressure_remedies.py [--threads 1] [--analyse-only] [--retry-failed]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import case_runner  # noqa: E402 - validation/case_runner.py: resumable runs of one case
+from dam_break import RESULTS_DIR, SCENARIO, L  # noqa: E402
+from dam_break_wall_gauge import gauge_statistics  # noqa: E402
+from dam_break_wall_gauge import overrides as gauge_overrides  # noqa: E402
+from results_csv import write_csv  # noqa: E402
+
+RESOLUTION = 40  # L / l0
+COURANT = 0.2
+KAPPA = 1e-6  # 1/Pa, the compressibility variant
+#: gauges on the far wall (x = 4L = 0.584 m): probe name -> height above the floor (m)
+GAUGES = {"right_wall_p": 0.02, "right_wall_p_high": 0.06}
+EXTRA_PROBE = """
+# added by validation/pressure_remedies.py: a second far-wall gauge, 0.06 m above the floor
+[[probes]]
+name = "right_wall_p_high"
+kind = "pressure"
+position = [0.584, 0.06]
+radius = 0.0055
+"""
+#: variant name -> its [fluid.pressure] overrides
+VARIANTS: dict[str, list[str]] = {
+    "thesis": [],
+    "compressibility": [f"fluid.pressure.compressibility={KAPPA!r}"],
+    "HS": ["fluid.pressure.source_term=higher_order"],
+    "HS+ECS": [
+        "fluid.pressure.source_term=higher_order",
+        "fluid.pressure.error_compensation=true",
+    ],
+    "HL": ["fluid.pressure.laplacian=higher_order"],
+    "HS+ECS+HL": [
+        "fluid.pressure.source_term=higher_order",
+        "fluid.pressure.error_compensation=true",
+        "fluid.pressure.laplacian=higher_order",
+    ],
+}
+
+
+def scenario_copy() -> Path:
+    """The dam-break scenario with the second gauge appended (rewritten only when it changes)."""
+    path = RESULTS_DIR / "pressure_remedies_dam_break.toml"
+    text = SCENARIO.read_text() + EXTRA_PROBE
+    if not path.is_file() or path.read_text() != text:
+        path.write_text(text)
+    return path
+
+
+def case_path(name: str) -> Path:
+    return RESULTS_DIR / f"pressure_remedies_L{RESOLUTION}_{name.replace('+', '_')}.h5"
+
+
+def case_overrides(name: str) -> list[str]:
+    return gauge_overrides(RESOLUTION, COURANT) + VARIANTS[name]
+
+
+def read_probe(path: Path, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """(t, p) of a pressure probe (s, Pa); a dry gauge (NaN) reads 0."""
+    with h5py.File(path, "r") as h5:
+        t = h5[f"probes/{name}/time"][:]
+        p = h5[f"probes/{name}/value"][:]
+    return t, np.nan_to_num(p, nan=0.0)
+
+
+def wall_time(path: Path) -> float:
+    """The run's wall time (s) as its results file records it."""
+    with h5py.File(path, "r") as h5:
+        return float(h5.attrs.get("wall_time", np.nan))
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    case_runner.add_run_options(ap)
+    ap.add_argument("--only", nargs="*", default=None, help="variants to run (default: all)")
+    args = ap.parse_args(argv)
+    RESULTS_DIR.mkdir(parents=True, exist_ok=True)
+    scenario = scenario_copy()
+    names = list(VARIANTS) if not args.only else [n for n in VARIANTS if n in args.only]
+    cases = {n: (case_path(n), case_overrides(n), f"[{n}]") for n in names}
+    paths = case_runner.finished_cases(
+        scenario, cases, args.threads, args.analyse_only, args.retry_failed
+    )
+    if not paths:
+        print("nothing to analyse")
+        return 1
+    rows = []
+    for name, path in paths.items():
+        wall = wall_time(path)
+        for gauge, height in GAUGES.items():
+            stats = gauge_statistics(*read_probe(path, gauge))
+            rows.append(
+                {"variant": name, "gauge": gauge, "gauge_height_m": height}
+                | {k: round(v, 6) if isinstance(v, float) else v for k, v in vars(stats).items()}
+                | {"wall_time_s": round(wall, 1)}
+            )
+    comment = (
+        "dam break far-wall gauges with the MPS pressure-noise remedies "
+        f"(validation/pressure_remedies.py): l0 = L/{RESOLUTION} = {L / RESOLUTION:.5f} m, Courant "
+        f"{COURANT}, to t = 0.4 s; per variant and gauge the arrival, impact peak, smoothed peak, "
+        "mean of the smoothed signal after the impact, noise = RMS of raw - smoothed (11 ms "
+        "Savitzky-Golay) from arrival + 20 ms, in Pa and relative to that mean; run wall time (s, "
+        "one numba thread on a shared machine)"
+    )
+    write_csv(rows, RESULTS_DIR / "pressure_remedies.csv", comment=comment)
+    print("variant           gauge (m)  arrival  peak (Pa)  mean after  noise rms           wall")
+    for r in rows:
+        print(
+            f"{r['variant']:<16}  {r['gauge_height_m']:9.2f}  {r['arrival_s']:.3f} s  "
+            f"{r['peak_pa']:8.0f}  {r['mean_after_impact_pa']:9.0f}  "
+            f"{r['noise_rms_pa']:5.0f} Pa ({100 * r['noise_relative']:5.1f} %)  "
+            f"{r['wall_time_s']:6.0f} s"
+        )
+    return 0 if len(paths) == len(cases) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
