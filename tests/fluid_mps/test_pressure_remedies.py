@@ -45,39 +45,47 @@ def test_hl_pair_function_numba_matches_numpy_and_is_positive(kernel, dim):
         np.testing.assert_allclose(got[r < re], (5 - dim) * re / r[r < re] ** 3, rtol=1e-13)
 
 
-@pytest.mark.parametrize("wall_model", ["pressure_layer", "neumann"])
-def test_hl_matrix_gives_exact_laplacian_of_a_quadratic_field(wall_model):
+@pytest.mark.parametrize(
+    ("dim", "wall_model"), [(2, "pressure_layer"), (2, "neumann"), (3, "neumann")]
+)
+def test_hl_matrix_gives_exact_laplacian_of_a_quadratic_field(dim, wall_model):
     """Rows of the assembled matrix whose neighbours are all unknowns, on the regular lattice:
-    -(A phi)_i = lap phi = 2 + 4 for phi = x^2 + 2 y^2 (the lattice normalisation makes the
-    quadratic exact, as lambda0 does for eq. 2-16); the standard Laplacian likewise."""
-    pos, kind = tank((30, 30), L0, layers=4, air_rows=3)
-    nb = NeighbourSearch(2, 4.01 * L0).build(pos)
+    -(A phi)_i = lap phi = 2 (1 + 2 + 3) for phi = x^2 + 2 y^2 (+ 3 z^2) (the lattice
+    normalisation makes the quadratic exact, as lambda0 does for eq. 2-16); the standard
+    Laplacian likewise. 3D on the 3.1 l0 radius (a smaller test lattice)."""
+    size, re = (30, 4.01) if dim == 2 else (13, 3.1)
+    pos, kind = tank((size,) * dim, L0, layers=4, air_rows=3)
+    nb = NeighbourSearch(dim, re * L0).build(pos)
     n = np.empty(len(pos))
     ops.number_density(pos, nb.indptr, nb.indices, RE_N, 0, n)
     fs = np.zeros(len(pos), np.int8)
-    make_surface_detector("density_asymmetry", dim=2, l0=L0, re=RE_N).detect(pos, kind, n, nb, fs)
+    det = make_surface_detector("density_asymmetry", dim=dim, l0=L0, re=RE_N)
+    det.detect(pos, kind, n, nb, fs)
     vel = np.zeros_like(pos)
-    phi = pos[:, 0] ** 2 + 2.0 * pos[:, 1] ** 2
-    inner = (kind == FLUID) & interior_mask(pos, [0, 0], [29 * L0, 29 * L0], 5 * L0)
-    assert inner.sum() > 100
+    coef = np.arange(1, dim + 1, dtype=float)
+    phi = (pos**2) @ coef
+    margin = np.ceil(re) + 1
+    inner = (kind == FLUID) & interior_mask(pos, [0] * dim, [(size - 1) * L0] * dim, margin * L0)
+    assert inner.sum() >= (27 if dim == 3 else 100)
+    g = np.zeros(dim)
+    g[-1] = -G
     for lap in ("standard", "higher_order"):
         s = make_pressure_solver(
-            "direct",
-            dim=2,
+            "pcg_jacobi",
+            dim=dim,
             l0=L0,
-            re=4.01 * L0,
+            re=re * L0,
             re_density=RE_N,
             gamma=0.0,
             laplacian=lap,
             wall_model=wall_model,
-            gravity=[0.0, -G],
+            gravity=g,
         )
         A, _, m = s.assemble(pos, vel, kind, n, fs, nb, DT)
         x = np.zeros(m)
-        rows = s.row_of[s.unknown == 1]
-        x[rows] = phi[s.unknown == 1]
+        x[s.row_of[s.unknown == 1]] = phi[s.unknown == 1]
         lap_phi = -(A @ x)[s.row_of[inner]]
-        np.testing.assert_allclose(lap_phi, 6.0, rtol=1e-9)
+        np.testing.assert_allclose(lap_phi, 2.0 * coef.sum(), rtol=1e-9)
 
 
 @pytest.mark.parametrize("kernel", ["improved", "original"])
