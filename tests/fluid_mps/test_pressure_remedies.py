@@ -296,3 +296,42 @@ def test_still_water_stays_hydrostatic_with_each_switch(request, switches):
         f"{switches}: gauge {mean:.1f} Pa vs {expected:.1f} ({(mean / expected - 1) * 100:+.2f} %)"
     )
     assert abs(mean / expected - 1.0) < 0.02
+
+
+@pytest.mark.parametrize(
+    "switches",
+    [
+        ["fluid.pressure.laplacian=higher_order"],
+        ["fluid.pressure.source_term=higher_order", "fluid.pressure.error_compensation=true"],
+    ],
+    ids=["HL", "HS+ECS"],
+)
+def test_still_water_3d_stays_hydrostatic_with_each_switch(request, tmp_path, switches):
+    """The 3D path (HL's 3D pair function w'', Khayyer & Gotoh 2012): the CI still-water box of
+    tests/scenarios/test_hydrostatic_3d.py (8 x 8 x 10 particles, 0.2 s), gauge mean over
+    0.05-0.2 s within its 2 % of rho g (H - z). Measured: HL +0.03 %, HS+ECS -1.1 % (default
+    +0.07 %)."""
+    import h5py
+
+    from mpsfem.scenario.loader import load_scenario
+    from mpsfem.simulation import run_fluid
+
+    loaded = load_scenario(
+        request.config.rootpath / "scenarios" / "hydrostatic_3d.toml",
+        [
+            "fluid.blocks.0.upper=[0.08, 0.08, 0.1]",
+            "fluid.walls.0.upper=[0.08, 0.08, 0.16]",
+            "probes.0.position=[0.04, 0.04, 0.03]",
+            "output.snapshot_interval=0",
+            *switches,
+        ],
+    )
+    out = tmp_path / "still3d.h5"
+    run_fluid(loaded, out, end_time=0.2, progress=False)
+    with h5py.File(out, "r") as h5:
+        t = h5["probes/gauge/time"][:]
+        p = h5["probes/gauge/value"][:]
+    mean = p[t >= 0.05].mean()
+    exact = RHO * G * (0.1 - 0.03)
+    print(f"3D {switches}: gauge {mean:.1f} Pa against {exact:.1f} Pa")
+    assert abs(mean / exact - 1.0) < 0.02
