@@ -45,7 +45,7 @@ HIGHER_ORDER = 1
 LAPLACIANS: dict[str, int] = {"standard": STANDARD, "higher_order": HIGHER_ORDER}
 
 
-def laplacian_code(name) -> int:
+def laplacian_code(name: str) -> int:
     """Integer code of a PPE Laplacian given by name."""
     try:
         return LAPLACIANS[name]
@@ -57,9 +57,8 @@ def laplacian_code(name) -> int:
 
 @njit(cache=True, inline="always")
 def hl_shape(r, re, wcode, dim):
-    """f(r) = w''(r) + (d - 3) w'(r) / r (1/m^2 for a dimensionless w), 0 for r >= re.
-
-    # Khayyer & Gotoh 2010 (2D: w'' - w'/r) and 2012 (3D: w''), HL pair function"""
+    """f(r) = w''(r) + (d - 3) w'(r) / r (1/m^2 for a dimensionless w and r, re in m), 0 for
+    r >= re; r is floored at 1e-6 re as in kernels.weight."""
     if r >= re:
         return 0.0
     rr = r if r > 1e-6 * re else 1e-6 * re
@@ -70,7 +69,7 @@ def hl_shape(r, re, wcode, dim):
     else:  # Koshizuka's kernel w = re / r - 1
         d1 = -re / (rr * rr)
         d2 = 2.0 * re / (rr * rr * rr)
-    return d2 + (dim - 3.0) * d1 / rr
+    return d2 + (dim - 3.0) * d1 / rr  # Khayyer & Gotoh 2010 (2D) / 2012 (3D), HL pair weight
 
 
 @njit(cache=True, inline="always")

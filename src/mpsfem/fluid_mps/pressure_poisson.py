@@ -31,6 +31,15 @@ with that radius' n0. Multiplying by -1 gives ``A p = b`` with A symmetric posit
   4.5e-10 1/Pa, water's 1/(rho c^2)) when ``compressibility`` is smaller: a regularisation of the
   singular set (its bias kappa p / gamma is 1e-4 at 2 kPa), without the p^n part.
 
+Khayyer & Gotoh's remedies for pressure noise, each behind its own switch (off by default, where
+the assembly is the one above, bit for bit): ``source_term="higher_order"`` puts their higher-order
+source (HS, 2009) in place of the divergence, ``error_compensation=True`` adds their
+error-compensating source (ECS, 2011), both in source_terms.py; ``laplacian="higher_order"`` puts
+their higher-order Laplacian (HL, 2010 / 2012) in the matrix (and the preconditioner's), pair
+weight f(r) instead of w(r), in higher_order_laplacian.py. With the Neumann wall model the caller's
+ghost and surface-value terms on the right-hand side come in the standard forms; HS and HL take
+those back out and put their own in, so still water stays hydrostatic (docs/fluid.md).
+
 Index space: the matrix has one row per pressure-carrying particle (FLUID, WALL, STRUCTURE), in
 particle order, whether or not it is an unknown this step; rows that are not unknowns are decoupled
 identity-like rows (``A_ii = c n0``, ``b_i = 0``, solution 0). Its size therefore stays fixed while

@@ -53,16 +53,14 @@ SOURCE_TERMS = ("thesis_mixed", "higher_order")
 
 @njit(cache=True, inline="always")
 def kernel_slope_over_r(r, re, wcode):
-    """w'(r) / r (1/m^2 for re in m), 0 for r >= re.
-
-    # Khayyer & Gotoh 2009, HS pair factor (Koshizuka kernel: -re / r^3)"""
+    """w'(r) / r (1/m^2 for r, re in m), 0 for r >= re; r floored at 1e-6 re."""
     if r >= re:
         return 0.0
     rr = r if r > 1e-6 * re else 1e-6 * re
     if wcode == 0:  # improved kernel, thesis eq. 2-4
         s = 0.85 * rr + 0.15 * re
         return -0.85 * re / (s * s * rr)
-    return -re / (rr * rr * rr)
+    return -re / (rr * rr * rr)  # Khayyer & Gotoh 2009, HS pair factor -re / r^3
 
 
 def rate_constant(dim: int, l0: float, re: float, weight_name: str = "improved") -> float:
@@ -190,7 +188,8 @@ def hs_source(
             rate += kernel_slope_over_r(r, re, wcode) * dot  # Khayyer & Gotoh 2009, HS (Dn/Dt)
             if boundary:
                 wall += dot / r2 * weight(r, re, wcode)  # thesis eq. 2-15 (the caller's part)
-        div_hs = -rate / nu0
+        div_hs = -rate / nu0  # HS divergence, normalised on the lattice (module docstring)
+        # thesis eq. 2-23 with HS in the velocity part, less the caller's standard wall flux
         out[i] = a_div * (div_hs - c_std * wall) - c_den * (number_density[i] - n0)
     return out
 
@@ -198,10 +197,7 @@ def hs_source(
 @njit(cache=True, parallel=True)
 def add_error_compensation(n_k, rate_k, kind, rho, dt, n0, out):
     """out_i += ECS_i (Pa/m^2) on non-dummy particles, from the number density n_k and its rate
-    rate_k (1/s) at the start of the step.
-
-    # Khayyer & Gotoh 2011, ECS with dynamic coefficients alpha = |n^k - n0|/n0,
-    # beta = |dt/n0 (Dn/Dt)^k|"""
+    rate_k (1/s) at the start of the step (module docstring)."""
     e1 = rho / (n0 * dt)
     e2 = rho / (dt * dt)
     for i in prange(kind.shape[0]):
@@ -211,5 +207,6 @@ def add_error_compensation(n_k, rate_k, kind, rho, dt, n0, out):
         strain = (n_k[i] - n0) / n0
         alpha = abs(strain)
         beta = abs(dt * rate_k[i] / n0)
+        # Khayyer & Gotoh 2011, ECS: -alpha rho/(n0 dt) (Dn/Dt)^k - beta rho/dt^2 (n^k - n0)/n0
         out[i] += -alpha * e1 * rate_k[i] - beta * e2 * strain
     return out
