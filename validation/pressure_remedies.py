@@ -30,6 +30,7 @@ assembly and solve parts, CG iterations per step).
 
     python validation/pressure_remedies.py [--threads 1] [--analyse-only] [--retry-failed]
     python validation/pressure_remedies.py --cost [--threads 1] [--repeats 3]
+    python validation/pressure_remedies.py --fine [--threads 1]   (L/80, one run per variant)
 """
 
 from __future__ import annotations
@@ -93,14 +94,21 @@ def scenario_copy() -> Path:
     return path
 
 
-def case_path(name: str, tol: float = TOLERANCES[0]) -> Path:
+#: ``--fine``: variants run once (default tolerance) at l0 = L / FINE_RESOLUTION
+FINE_RESOLUTION = 80
+FINE_VARIANTS = ("thesis", "HS+ECS", "HL")
+
+
+def case_path(name: str, tol: float = TOLERANCES[0], resolution: int = RESOLUTION) -> Path:
     tail = "" if tol == TOLERANCES[0] else f"_tol{tol:g}"
-    return RESULTS_DIR / f"pressure_remedies_L{RESOLUTION}_{name.replace('+', '_')}{tail}.h5"
+    return RESULTS_DIR / f"pressure_remedies_L{resolution}_{name.replace('+', '_')}{tail}.h5"
 
 
-def case_overrides(name: str, tol: float = TOLERANCES[0]) -> list[str]:
+def case_overrides(
+    name: str, tol: float = TOLERANCES[0], resolution: int = RESOLUTION
+) -> list[str]:
     extra = [] if tol == TOLERANCES[0] else [f"fluid.pressure.tol={tol!r}"]
-    return gauge_overrides(RESOLUTION, COURANT) + VARIANTS[name] + extra
+    return gauge_overrides(resolution, COURANT) + VARIANTS[name] + extra
 
 
 def read_probe(path: Path, name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -193,15 +201,28 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", nargs="*", default=None, help="variants to run (default: all)")
     ap.add_argument("--cost", action="store_true", help="measure the cost of one step instead")
     ap.add_argument("--repeats", type=int, default=3, help="--cost: repetitions per variant")
+    ap.add_argument(
+        "--fine",
+        action="store_true",
+        help=f"run {', '.join(FINE_VARIANTS)} once at L/{FINE_RESOLUTION} instead",
+    )
     args = ap.parse_args(argv)
     if args.cost:
         return cost_main(args.threads, args.repeats)
     RESULTS_DIR.mkdir(parents=True, exist_ok=True)
     scenario = scenario_copy()
-    names = list(VARIANTS) if not args.only else [n for n in VARIANTS if n in args.only]
+    resolution = FINE_RESOLUTION if args.fine else RESOLUTION
+    tols = TOLERANCES[:1] if args.fine else TOLERANCES
+    names = list(FINE_VARIANTS) if args.fine else list(VARIANTS)
+    if args.only:
+        names = [n for n in names if n in args.only]
     cases = {
-        (n, tol): (case_path(n, tol), case_overrides(n, tol), f"[{n}, CG tol {tol:g}]")
-        for tol in TOLERANCES
+        (n, tol): (
+            case_path(n, tol, resolution),
+            case_overrides(n, tol, resolution),
+            f"[{n}, CG tol {tol:g}, L/{resolution}]",
+        )
+        for tol in tols
         for n in names
     }
     paths = case_runner.finished_cases(
@@ -222,13 +243,14 @@ def main(argv: list[str] | None = None) -> int:
             )
     comment = (
         "dam break far-wall gauges with the MPS pressure-noise remedies "
-        f"(validation/pressure_remedies.py): l0 = L/{RESOLUTION} = {L / RESOLUTION:.5f} m, Courant "
+        f"(validation/pressure_remedies.py): l0 = L/{resolution} = {L / resolution:.5f} m, Courant "
         f"{COURANT}, to t = 0.4 s; per variant and gauge the arrival, impact peak, smoothed peak, "
         "mean of the smoothed signal after the impact, noise = RMS of raw - smoothed (11 ms "
         "Savitzky-Golay) from arrival + 20 ms, in Pa and relative to that mean; run wall time (s, "
         "one numba thread on a shared machine)"
     )
-    write_csv(rows, RESULTS_DIR / "pressure_remedies.csv", comment=comment)
+    name = "pressure_remedies_L80.csv" if args.fine else "pressure_remedies.csv"
+    write_csv(rows, RESULTS_DIR / name, comment=comment)
     print(
         "variant          CG tol  gauge (m)  arrival  peak (Pa)  mean after  noise rms"
         "           wall"
