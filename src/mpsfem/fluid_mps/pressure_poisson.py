@@ -31,6 +31,15 @@ with that radius' n0. Multiplying by -1 gives ``A p = b`` with A symmetric posit
   4.5e-10 1/Pa, water's 1/(rho c^2)) when ``compressibility`` is smaller: a regularisation of the
   singular set (its bias kappa p / gamma is 1e-4 at 2 kPa), without the p^n part.
 
+Khayyer & Gotoh's remedies for pressure noise, each behind its own switch (off by default, where
+the assembly is the one above, bit for bit): ``source_term="higher_order"`` puts their higher-order
+source (HS, 2009) in place of the divergence, ``error_compensation=True`` adds their
+error-compensating source (ECS, 2011), both in source_terms.py; ``laplacian="higher_order"`` puts
+their higher-order Laplacian (HL, 2010 / 2012) in the matrix (and the preconditioner's), pair
+weight f(r) instead of w(r), in higher_order_laplacian.py. With the Neumann wall model the caller's
+ghost and surface-value terms on the right-hand side come in the standard forms; HS and HL take
+those back out and put their own in, so still water stays hydrostatic (docs/fluid.md).
+
 Index space: the matrix has one row per pressure-carrying particle (FLUID, WALL, STRUCTURE), in
 particle order, whether or not it is an unknown this step; rows that are not unknowns are decoupled
 identity-like rows (``A_ii = c n0``, ``b_i = 0``, solution 0). Its size therefore stays fixed while
@@ -66,10 +75,23 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit, prange
 
-from .kernels import weight, weight_code
+from .higher_order_laplacian import (
+    hl_constants,
+    known_neighbour_correction,
+    laplacian_code,
+    pair_coefficient,
+)
+from .kernels import weight_code
 from .lattice import lattice_constants
 from .operators import divergence
 from .particle_kinds import is_dummy
+from .source_terms import (
+    SOURCE_TERMS,
+    add_error_compensation,
+    hs_source,
+    number_density_rate,
+    rate_constant,
+)
 
 WATER_COMPRESSIBILITY = 4.5e-10  # 1/Pa, 1 / (rho c^2) for water
 WALL_MODELS = ("pressure_layer", "neumann")
@@ -232,6 +254,7 @@ def _fill(
     indices,
     re,
     wcode,
+    lap_code,
     coef,
     shift,
     decoupled,
@@ -252,7 +275,8 @@ def _fill(
     """Second pass: the CSR rows (columns ascending, diagonal in place) of the PPE matrix and,
     when ``re_pre > 0``, of the preconditioner's matrix on radius re_pre, in one sweep over the
     neighbours; the right-hand side; whether each row touches a Dirichlet (free-surface)
-    neighbour."""
+    neighbour. ``lap_code``: the pair weight of the Laplacian, 0 the kernel (eq. 2-16), 1 the
+    higher-order Laplacian's (higher_order_laplacian.py); ``coef`` its normalisation."""
     n, dim = pos.shape
     re2 = re * re
     re2p = re_pre * re_pre if re_pre > 0.0 else -1.0
@@ -294,11 +318,11 @@ def _fill(
             if r2 >= re2:
                 continue
             rr = np.sqrt(r2)
-            w = coef * weight(rr, re, wcode)
+            w = coef * pair_coefficient(rr, re, wcode, lap_code, dim)
             diag += w
             inner = r2 < re2p
             if inner:
-                wp = coef_pre * weight(rr, re_pre, wcode)
+                wp = coef_pre * pair_coefficient(rr, re_pre, wcode, lap_code, dim)
                 diag_p += wp
             if uj:
                 if dpos < 0 and j > i:
@@ -595,6 +619,12 @@ class PressureSolver:
     tol : relative residual. max_iter : CG iteration limit.
     compressibility : artificial compressibility kappa (1/Pa) on every unknown's diagonal (0 = off).
     floating_compressibility : kappa given to unknown sets with no free-surface contact.
+    source_term : "thesis_mixed" (eq. 2-23 with the divergence of eq. 2-15) or "higher_order"
+        (Khayyer & Gotoh 2009's HS replaces the divergence; source_terms.py).
+    error_compensation : add Khayyer & Gotoh 2011's error-compensating source (source_terms.py).
+    laplacian : "standard" (eq. 2-16) or "higher_order" (Khayyer & Gotoh 2010 / 2012's HL, in the
+        matrix and its known neighbours; higher_order_laplacian.py).
+    gravity : (dim,) m/s^2, needed by the Neumann wall model's ghosts in HS, ECS and HL.
     """
 
     name = "base"
@@ -616,6 +646,10 @@ class PressureSolver:
         floating_compressibility=WATER_COMPRESSIBILITY,
         precond_re=None,
         wall_model="pressure_layer",
+        source_term="thesis_mixed",
+        error_compensation=False,
+        laplacian="standard",
+        gravity=None,
         **_ignored,
     ):
         if wall_model not in WALL_MODELS:
@@ -647,11 +681,27 @@ class PressureSolver:
         self.max_iter = int(max_iter)
         self.compressibility = float(compressibility)
         self.floating_compressibility = float(floating_compressibility)
+        if source_term not in SOURCE_TERMS:
+            raise ValueError(
+                f"unknown source term {source_term!r}; allowed: {', '.join(SOURCE_TERMS)}"
+            )
+        self.source_term = source_term
+        self.error_compensation = bool(error_compensation)
+        self.laplacian = laplacian
+        self.lap_code = laplacian_code(laplacian)
+        self.gravity = np.zeros(dim) if gravity is None else np.asarray(gravity, np.float64)
+        if self.gravity.shape != (dim,):
+            raise ValueError(f"gravity must have {dim} components, got {gravity!r}")
         n0, lam = lattice_constants(dim, l0, re, weight)
         self.n0_ppe, self.lambda0 = n0, lam
         self.coef = 2.0 * dim / (lam * n0)
         self.n0_density, _ = lattice_constants(dim, l0, re_density, weight)
         self.decoupled = self.coef * n0  # diagonal of rows that are not unknowns
+        self.coef_std = self.coef  # the standard Laplacian's, for known-neighbour corrections
+        if self.lap_code:
+            self.coef, f0 = hl_constants(dim, l0, re, weight)
+            self.decoupled = self.coef * f0
+        self.nu0 = rate_constant(dim, l0, re_density, weight)  # HS divergence normalisation
         # radius of the (cheaper) matrix the preconditioner is built from; see AMGPCG
         pre = self.re_density if precond_re is None else float(precond_re)
         if not pre > 0:
@@ -662,6 +712,9 @@ class PressureSolver:
             n0p, lamp = lattice_constants(dim, l0, self.precond_re, weight)
             self.coef_pre = 2.0 * dim / (lamp * n0p)
             self.decoupled_pre = self.coef_pre * n0p
+            if self.lap_code:
+                self.coef_pre, f0p = hl_constants(dim, l0, self.precond_re, weight)
+                self.decoupled_pre = self.coef_pre * f0p
         self._n = -1
         self._main = _Matrix()
         self._pre = _Matrix()
@@ -681,6 +734,12 @@ class PressureSolver:
             self.queue = np.empty(n, np.int64)
             self.work = np.empty((5, n))
             self.part = np.empty(_NCHUNK)
+            if self.error_compensation:  # number density and its rate at the step's start
+                self.n_k = np.empty(n)
+                self.rate_k = np.empty(n)
+            if self.lap_code:  # HL correction of the known neighbours' right-hand side
+                self.known = np.empty(n)
+                self.no_surface_values = np.zeros(n)
             self._n = n
 
     def _matrices(self, pos, kind, free_surface, nb, m, shift):
@@ -723,6 +782,7 @@ class PressureSolver:
             nb.indices,
             self.re,
             self.wcode,
+            self.lap_code,
             self.coef,
             shift,
             self.decoupled,
@@ -770,8 +830,13 @@ class PressureSolver:
         extra_rhs=None,
         p_prev=None,
         density_nb=None,
+        surface_values=None,
     ):
         """Build A (scipy CSR wrapping internal buffers, valid until the next call) and b.
+
+        ``surface_values``: the Dirichlet values (Pa) of free-surface particles that the caller
+        put on the right-hand side (surface_pressure.py), None when they are 0; the
+        higher-order Laplacian needs them to re-weigh those known neighbours.
 
         ``p_prev``: the previous step's pressure (Pa), needed by the artificial compressibility
         (None: taken as 0). Returns (A, b, m) with m the number of rows. ``nb`` is the shared
@@ -791,23 +856,85 @@ class PressureSolver:
             )
         n = pos.shape[0]
         self._buffers(n)
-        divergence(
-            pos,
-            vel,
-            kind,
-            near.indptr,
-            near.indices,
-            self.re_density,
-            self.wcode,
-            self.n0_density,
-            self.div,
-            self.wall_model == "neumann",
-        )
-        mixed_source_term(
-            self.div, number_density, kind, self.rho, dt, self.gamma, self.n0_density, self.src
-        )
+        neumann = self.wall_model == "neumann"
+        if self.source_term == "higher_order":
+            hs_source(
+                pos,
+                vel,
+                kind,
+                free_surface,
+                near.indptr,
+                near.indices,
+                self.re_density,
+                self.wcode,
+                neumann,
+                self.gravity,
+                dt,
+                self.nu0,
+                self.n0_density,
+                number_density,
+                self.rho,
+                self.gamma,
+                self.src,
+            )
+        else:
+            divergence(
+                pos,
+                vel,
+                kind,
+                near.indptr,
+                near.indices,
+                self.re_density,
+                self.wcode,
+                self.n0_density,
+                self.div,
+                neumann,
+            )
+            mixed_source_term(
+                self.div, number_density, kind, self.rho, dt, self.gamma, self.n0_density, self.src
+            )
+        if self.error_compensation:
+            # the step's start is up to a step's displacement away: the PPE's longer list
+            number_density_rate(
+                pos,
+                vel,
+                kind,
+                free_surface,
+                nb.indptr,
+                nb.indices,
+                self.re_density,
+                self.wcode,
+                neumann,
+                self.gravity,
+                dt,
+                1.0,
+                self.n_k,
+                self.rate_k,
+            )
+            add_error_compensation(
+                self.n_k, self.rate_k, kind, self.rho, dt, self.n0_density, self.src
+            )
         if extra_rhs is not None:  # b = -src, so b += extra_rhs
             np.subtract(self.src, extra_rhs, out=self.src)
+        if self.lap_code and neumann:  # the known neighbours with the HL weight
+            self.known[:] = 0.0
+            known_neighbour_correction(
+                pos,
+                kind,
+                free_surface,
+                self.no_surface_values if surface_values is None else surface_values,
+                nb.indptr,
+                nb.indices,
+                self.re,
+                self.wcode,
+                self.dim,
+                self.coef_std,
+                self.coef,
+                self.rho,
+                self.gravity,
+                self.known,
+            )
+            np.subtract(self.src, self.known, out=self.src)
         if self.compressibility > 0.0 and p_prev is not None:
             coef = (1.0 - self.gamma) * self.rho * self.compressibility / (dt * dt)
             subtract_compressibility_source(p_prev, kind, coef, self.src)
@@ -849,10 +976,11 @@ class PressureSolver:
         p,
         extra_rhs=None,
         density_nb=None,
+        surface_values=None,
     ) -> SolveInfo:
         """Solve the PPE for the pressure ``p`` (N,), updated in place and used as warm start.
 
-        ``density_nb``: see :meth:`assemble`. On return p = 0 on every particle that is not an
+        ``density_nb``, ``surface_values``: see :meth:`assemble`. On return p = 0 on every particle that is not an
         unknown (free surface, dummies, walls away from the fluid). Raises PressureSolveError if
         the tolerance is not reached."""
         t0 = time.perf_counter()
@@ -867,6 +995,7 @@ class PressureSolver:
             extra_rhs,
             p_prev=p,
             density_nb=density_nb,
+            surface_values=surface_values,
         )
         x = self.x[:m]
         _gather(p, self.row_of, self.unknown, x)

@@ -195,6 +195,10 @@ class FluidSolver:
             rebuild_factor=spec.pressure.amg_rebuild_factor,
             compressibility=spec.pressure.compressibility,
             wall_model=spec.pressure.wall_model,
+            source_term=spec.pressure.source_term,
+            error_compensation=spec.pressure.error_compensation,
+            laplacian=spec.pressure.laplacian,
+            gravity=self.gravity,
         )
         self.neumann = spec.pressure.wall_model == "neumann"
         n0_ppe, lam_ppe = lattice_constants(self.dim, l0, self.re_ppe, k.weight)
@@ -524,6 +528,7 @@ class FluidSolver:
             self.p,
             self.ghost_rhs if self.neumann else None,
             density_nb=near,
+            surface_values=self.p_surface if self.surface_offset else None,
         )
         tm.assembly += info.assembly_time
         tm.solve += info.solve_time

@@ -103,6 +103,25 @@ class PressureSection(Section):
         "Dp/Dt and still water is compressed by kappa p (sound speed 1 / sqrt(rho kappa): 1e-6 "
         "gives 31.6 m/s; docs/fluid.md); 0 = incompressible",
     )
+    source_term: Literal["thesis_mixed", "higher_order"] = Field(
+        "thesis_mixed",
+        description="velocity part of the source term: 'thesis_mixed', the divergence of u* "
+        "(eq. 2-15) in the mixed source term of eq. 2-23; 'higher_order', Khayyer & Gotoh "
+        "(2009)'s HS, the number density's time derivative written from the kernel derivative "
+        "and the pair velocities, in its place (the gamma part stays; docs/fluid.md)",
+    )
+    error_compensation: bool = Field(
+        False,
+        description="add Khayyer & Gotoh (2011)'s error-compensating source term (ECS): the "
+        "number density's error and its rate at the start of the step, each with its dynamic "
+        "coefficient |error| (docs/fluid.md)",
+    )
+    laplacian: Literal["standard", "higher_order"] = Field(
+        "standard",
+        description="Laplacian of the pressure equation: 'standard', eq. 2-16; 'higher_order', "
+        "Khayyer & Gotoh's HL (2D: 2010, 3D: 2012), pair weight w'' + (d - 3) w'/r normalised "
+        "on the initial lattice (docs/fluid.md)",
+    )
 
 
 class SurfaceSection(Section):
