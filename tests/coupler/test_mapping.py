@@ -258,6 +258,11 @@ BEAMS = [c for c in CASES if c[0].startswith("beam")]
 BEAM_IDS = [c[0] for c in BEAMS]
 
 
+def exact(fluid, structure):
+    """The large-rotation shape-function mapping for these meshes."""
+    return build("shape-function", fluid, structure, large_rotation=True)
+
+
 def rotate_2d(x, angle, centre):
     """Points x (n, 2) turned by ``angle`` (rad) about ``centre``."""
     c, s = np.cos(angle), np.sin(angle)
@@ -280,7 +285,7 @@ def test_large_rotation_rigid_motion_exact(case, angle):
     """A rigid turn (90 degrees, 2.5 rad, and past 2 pi) plus a translation moves every fluid
     interface point exactly: the linear rigid link misses by ~angle^2 T/4."""
     _, fluid, structure, _ = case
-    m = build("shape-function", fluid, structure)
+    m = exact(fluid, structure)
     c0, shift = np.array([0.25, 0.05]), np.array([0.03, -0.01])
     d = rotate_2d(structure.points, angle, c0) + shift - structure.points
     want = rotate_2d(fluid.points, angle, c0) + shift - fluid.points
@@ -302,7 +307,7 @@ def test_large_rotation_velocity_is_the_rate_of_the_displacement(case):
     """velocity_to_fluid(v, d) is the derivative of displacement_to_fluid along v: central
     differences with step h agree to O(h^2)."""
     _, fluid, structure, _ = case
-    m = build("shape-function", fluid, structure)
+    m = exact(fluid, structure)
     d = bent(structure, 0.01)
     v = np.random.default_rng(5).standard_normal(d.shape)
     errs = []
@@ -318,7 +323,7 @@ def test_large_rotation_force_and_moment_kept(case):
     """Forces in any direction keep their total and their moment about any point of the current
     configuration, at a large, bent configuration; no spurious work on a virtual motion."""
     _, fluid, structure, _ = case
-    m = build("shape-function", fluid, structure)
+    m = exact(fluid, structure)
     d = bent(structure, 0.01)
     rng = np.random.default_rng(6)
     F = rng.standard_normal(fluid.points.shape)
@@ -336,8 +341,8 @@ def test_large_rotation_agrees_with_linear_to_second_order(case):
     """Small motion: the exact rigid link and the linear one differ by O(theta^2) (halving the
     motion quarters the difference); at zero motion they are identical."""
     _, fluid, structure, _ = case
-    m = build("shape-function", fluid, structure)
-    lin = build("shape-function", fluid, structure, large_rotation=False)
+    m = exact(fluid, structure)
+    lin = build("shape-function", fluid, structure)  # the default: linear
     assert lin._chord is None
     X = structure.points
     s = np.linalg.norm(X - X[0], axis=1)
