@@ -59,7 +59,7 @@ def analyse(path: Path) -> dict:
         c = h5["coupling"]
         it = c["iterations"][:]
         conv = c["converged"][:].astype(bool)
-        n_particles = int(h5["particles/000000/kind"].shape[0]) if "particles" in h5 else -1
+        n_particles = int(h5.attrs.get("particles", -1))
         wall = float(h5.attrs.get("wall_time", np.nan))
         status = str(h5.attrs.get("status", "unknown"))
     i_dx, i_dy = int(np.argmax(tip[:, 0])), int(np.argmin(tip[:, 1]))
