@@ -15,7 +15,7 @@ NUMBA_NUM_THREADS threads (default 1), every case the scenario plus ``--set`` ov
 Resumable (validation/case_runner.py): a finished case is not run again, a killed one resumes
 from its checkpoint, a failed one reruns only with ``--retry-failed``.
 
-    python validation/elastic_gate.py [--spacings 0.003,0.002] [--end-time 0.4] [--threads 1]
+    python validation/elastic_gate.py [--spacings 0.003,0.002,0.0015] [--end-time 0.4] [--threads 1]
                                       [--analyse-only] [--retry-failed]
 """
 
@@ -36,8 +36,8 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = ROOT / "scenarios" / "elastic_gate_2d.toml"
 RESULTS_DIR = ROOT / "validation" / "results"
 FIGURES_DIR = ROOT / "docs" / "figures"
-#: particle spacings (m): the gate's 6 mm gap is 2 and 3 spacings (scenario comment)
-SPACINGS = (0.003, 0.002)
+#: particle spacings (m): the gate's 6 mm gap is 2, 3 and 4 spacings (scenario comment)
+SPACINGS = (0.003, 0.002, 0.0015)
 END_TIME = 0.4  # s
 
 
