@@ -251,3 +251,109 @@ def test_structure_participant_interface_is_accepted():
 def test_default_mapping_from_schema():
     m = create_mapping(CouplingSection().mapping)
     assert m.kind == "shape-function" and m.conservative
+
+
+# ------------------------------------------------------------------ large rotations (2D beams)
+BEAMS = [c for c in CASES if c[0].startswith("beam")]
+BEAM_IDS = [c[0] for c in BEAMS]
+
+
+def exact(fluid, structure):
+    """The large-rotation shape-function mapping for these meshes."""
+    return build("shape-function", fluid, structure, large_rotation=True)
+
+
+def rotate_2d(x, angle, centre):
+    """Points x (n, 2) turned by ``angle`` (rad) about ``centre``."""
+    c, s = np.cos(angle), np.sin(angle)
+    r = x - centre
+    return centre + np.c_[c * r[:, 0] - s * r[:, 1], s * r[:, 0] + c * r[:, 1]]
+
+
+def bent(structure, amplitude):
+    """A large, smooth displacement of a beam: a rigid turn of 1.2 rad about its first node plus
+    a bending wave (m)."""
+    X = structure.points
+    s = np.linalg.norm(X - X[0], axis=1)
+    u = rotate_2d(X, 1.2, X[0]) - X
+    return u + amplitude * np.c_[np.sin(7.0 * s), np.cos(5.0 * s) - 1.0]
+
+
+@pytest.mark.parametrize("angle", [np.pi / 2, 2.5, -np.pi / 2, 7.0])
+@pytest.mark.parametrize("case", BEAMS, ids=BEAM_IDS)
+def test_large_rotation_rigid_motion_exact(case, angle):
+    """A rigid turn (90 degrees, 2.5 rad, and past 2 pi) plus a translation moves every fluid
+    interface point exactly: the linear rigid link misses by ~angle^2 T/4."""
+    _, fluid, structure, _ = case
+    m = exact(fluid, structure)
+    c0, shift = np.array([0.25, 0.05]), np.array([0.03, -0.01])
+    d = rotate_2d(structure.points, angle, c0) + shift - structure.points
+    want = rotate_2d(fluid.points, angle, c0) + shift - fluid.points
+    err = np.abs(m.displacement_to_fluid(d) - want).max()
+    assert err < 1e-12 * (1.0 + abs(angle)), err
+    np.testing.assert_allclose(np.cos(m.rotation_angle(d)), np.cos(angle), rtol=0, atol=1e-13)
+    assert np.abs(m.to_fluid(d) - want).max() > 1e-3  # the linear formula is far off here
+    # rigid spin omega about c0 at that configuration: v = omega z x (x - c0), exact
+    omega = 3.0
+    v = omega * np.c_[-(structure.points + d - c0)[:, 1], (structure.points + d - c0)[:, 0]]
+    xf = fluid.points + want
+    v_want = omega * np.c_[-(xf - c0)[:, 1], (xf - c0)[:, 0]]
+    err_v = np.abs(m.velocity_to_fluid(v, d) - v_want).max()
+    assert err_v < 1e-12 * omega, err_v
+
+
+@pytest.mark.parametrize("case", BEAMS, ids=BEAM_IDS)
+def test_large_rotation_velocity_is_the_rate_of_the_displacement(case):
+    """velocity_to_fluid(v, d) is the derivative of displacement_to_fluid along v: central
+    differences with step h agree to O(h^2)."""
+    _, fluid, structure, _ = case
+    m = exact(fluid, structure)
+    d = bent(structure, 0.01)
+    v = np.random.default_rng(5).standard_normal(d.shape)
+    errs = []
+    for h in (1e-5, 5e-6):
+        fd = (m.displacement_to_fluid(d + h * v) - m.displacement_to_fluid(d - h * v)) / (2 * h)
+        errs.append(np.abs(fd - m.velocity_to_fluid(v, d)).max())
+    assert errs[0] < 1e-5, errs  # h^2 |v / element length|^3 T / 12 ~ 1e-6
+    assert 3.0 < errs[0] / errs[1] < 5.0, errs  # second order
+
+
+@pytest.mark.parametrize("case", BEAMS, ids=BEAM_IDS)
+def test_large_rotation_force_and_moment_kept(case):
+    """Forces in any direction keep their total and their moment about any point of the current
+    configuration, at a large, bent configuration; no spurious work on a virtual motion."""
+    _, fluid, structure, _ = case
+    m = exact(fluid, structure)
+    d = bent(structure, 0.01)
+    rng = np.random.default_rng(6)
+    F = rng.standard_normal(fluid.points.shape)
+    Fs = m.forces_to_structure(F, d)
+    np.testing.assert_allclose(Fs.sum(axis=0), F.sum(axis=0), rtol=1e-13, atol=1e-13)
+    xs, xf = structure.points + d, fluid.points + m.displacement_to_fluid(d)
+    for x0 in (np.zeros(2), xs[3], np.array([-1.0, 2.0])):
+        np.testing.assert_allclose(moment(xs - x0, Fs), moment(xf - x0, F), rtol=1e-12, atol=1e-12)
+    du = rng.standard_normal(d.shape)
+    assert np.isclose(np.vdot(F, m.velocity_to_fluid(du, d)), np.vdot(Fs, du), rtol=1e-12)
+
+
+@pytest.mark.parametrize("case", BEAMS, ids=BEAM_IDS)
+def test_large_rotation_agrees_with_linear_to_second_order(case):
+    """Small motion: the exact rigid link and the linear one differ by O(theta^2) (halving the
+    motion quarters the difference); at zero motion they are identical."""
+    _, fluid, structure, _ = case
+    m = exact(fluid, structure)
+    lin = build("shape-function", fluid, structure)  # the default: linear
+    assert lin._chord is None
+    X = structure.points
+    s = np.linalg.norm(X - X[0], axis=1)
+    shape = np.c_[np.sin(4.0 * s), 0.5 * s**2] * 0.05 + np.array([1e-3, 2e-3])
+    diffs = []
+    for a in (1e-2, 5e-3, 2.5e-3):
+        d = a * shape
+        diffs.append(np.abs(m.displacement_to_fluid(d) - lin.displacement_to_fluid(d)).max())
+    assert diffs[0] < 1e-5, diffs
+    assert 3.5 < diffs[0] / diffs[1] < 4.5 and 3.5 < diffs[1] / diffs[2] < 4.5, diffs
+    z = np.zeros_like(X)
+    assert np.array_equal(m.displacement_to_fluid(z), np.zeros_like(fluid.points))
+    F = np.random.default_rng(7).standard_normal(fluid.points.shape)
+    np.testing.assert_allclose(m.forces_to_structure(F, z), lin.to_structure(F), atol=1e-13)

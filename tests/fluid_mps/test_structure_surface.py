@@ -183,3 +183,65 @@ def test_checkpoint_restore_repeats_steps_bit_for_bit(two_levels):
         fp.restore()
     for a, b in zip(*runs, strict=True):
         assert np.array_equal(a, b)
+
+
+def turn(x, angle, c):
+    """Points x (n, 2) turned by ``angle`` (rad) anticlockwise about c."""
+    cs, sn = np.cos(angle), np.sin(angle)
+    r = x - c
+    return c + np.c_[cs * r[:, 0] - sn * r[:, 1], sn * r[:, 0] + cs * r[:, 1]]
+
+
+@pytest.fixture(scope="module")
+def thick_member():
+    """A partition 3 l0 thick (pressure layers at eta = +-l0, dummies up to 4 l0 deep) with
+    water on its left."""
+    fluid = tank_fluid([([0, 0], [0.15, 0.15])])
+    return FluidParticipant(fluid, partition(3 * L0), member_names=["wall"])
+
+
+@pytest.mark.parametrize("angle", [np.pi / 2, np.pi / 3, -2.0, 3.5])
+def test_large_rigid_rotation_moves_particles_and_normals_exactly(thick_member, angle):
+    """A rigid turn (90, 60 degrees, -2 rad, 3.5 rad: past pi, the atan2 branch) plus a
+    translation, written at the interface points, puts every layer and end-cap particle where
+    the rigid body puts it, turns every normal and force by R(angle), and a rigid spin omega
+    gives v = omega z x (x - c) everywhere (to round-off)."""
+    fp = thick_member
+    s, solver = fp.surface, fp.solver
+    c, shift, omega = np.array([0.205, 0.0]), np.array([0.01, -0.02]), 2.0
+    ref_if = fp.interface().points
+    pos_if = turn(ref_if, angle, c) + shift
+    spin = lambda x: omega * np.c_[-(x - c - shift)[:, 1], (x - c - shift)[:, 0]]  # noqa: E731
+    p_ref = np.linspace(50.0, 150.0, solver.n)  # any pressure field (Pa)
+    F0 = s.forces(p_ref)
+    s.place(solver, pos_if - ref_if, spin(pos_if))
+    want = turn(s.ref, angle, c) + shift
+    assert np.abs(solver.pos[s.index] - want).max() < 1e-12
+    assert np.abs(solver.vel[s.index] - spin(want)).max() < 1e-12 * omega
+    n_ref = s.normal_ref
+    assert np.abs(solver.normal[s.index] - turn(n_ref, angle, np.zeros(2))).max() < 1e-12
+    assert np.allclose(np.cos(s.rotation), np.cos(angle), rtol=0, atol=1e-12)
+    F = s.forces(p_ref)
+    assert np.abs(F - turn(F0, angle, np.zeros(2))).max() < 1e-12 * np.abs(F0).max()
+    s.place(solver, 0.0 * ref_if, 0.0 * ref_if)  # back to the reference for the other tests
+    assert np.allclose(solver.pos[s.index], s.ref, rtol=0, atol=1e-15)
+    assert np.array_equal(solver.normal[s.index], n_ref)
+
+
+def test_small_rotation_agrees_with_the_linear_link_to_second_order(thick_member):
+    """A bent member (deflection a sin(pi s / 2 L), s from the floor): the exact link and the
+    linear one differ by O(a^2) (halving a quarters it)."""
+    fp = thick_member
+    s = fp.surface
+    ref_if = fp.interface().points
+    (frame,) = s.frames
+    diffs = []
+    for a in (4e-3, 2e-3, 1e-3):
+        sc, _ = frame.local(ref_if)
+        u_if = a * np.sin(0.5 * np.pi * sc / frame.length)[:, None] * frame.normal
+        lin = np.zeros_like(s.ref)
+        s._rigid_link(u_if, lin)
+        s._rigid_motion(u_if, 0.0 * u_if)
+        diffs.append(np.abs(s._u - lin).max())
+    assert diffs[0] < 1e-5, diffs
+    assert 3.5 < diffs[0] / diffs[1] < 4.5 and 3.5 < diffs[1] / diffs[2] < 4.5, diffs

@@ -187,3 +187,45 @@ def test_without_the_filter_the_scenes_fail(scene):
     f = s.kind == FLUID
     err = near_error(fp, f & (s.pos[:, 1] < 0.08), 0.2 if scene is partition_scene else 0.3)
     assert err > P_TOL
+
+
+@pytest.mark.parametrize("angle", [np.pi / 3, 75 * np.pi / 180, np.pi / 2])
+def test_filter_follows_a_member_turned_far(angle):
+    """The member of the brute-force scene and its fluid cloud turned rigidly by 60-90 degrees
+    about the member's root (the member through the structure surface's large-rotation
+    placement, the fluid by hand): the filter keeps exactly the pairs it keeps in the upright
+    scene (pairs with the tank walls, which do not turn, aside), so the two faces' fluid stay
+    apart; and its crossing rule still holds in the turned scene."""
+    c, L, T = np.array([0.2, 0.1]), 0.1, 0.6 * L0
+    mesh = member(c, c + L * np.array([0.0, 1.0]), 8, T)
+    fluid = fluid_section([([0.1, 0.05], [0.3, 0.25])], [0.41, 0.4])
+    fp = FluidParticipant(fluid, mesh, member_names=["m"])
+    s = fp.solver
+    rng = np.random.default_rng(11)
+    f = np.flatnonzero(s.kind == FLUID)
+    s.pos[f] += rng.uniform(-0.3 * L0, 0.3 * L0, size=(f.size, 2))
+    turned = (s.kind == FLUID) | (fp.surface.member_of >= 0)
+
+    def kept_pairs():
+        raw = NeighbourSearch(2, s.search_radius).build(s.pos)
+        nb = fp.filter(raw, s.pos, s.kind)
+        out = set()
+        for i in np.flatnonzero(turned):
+            for j in nb.indices[nb.indptr[i] : nb.indptr[i + 1]]:
+                if turned[j]:
+                    out.add((int(i), int(j)))
+        return out
+
+    upright = kept_pairs()
+    cs, sn = np.cos(angle), np.sin(angle)
+    rot = lambda x: c + (x - c) @ np.array([[cs, sn], [-sn, cs]])  # noqa: E731
+    ref_if = fp.interface().points
+    fp.surface.place(s, rot(ref_if) - ref_if, 0.0 * ref_if)
+    s.pos[f] = rot(s.pos[f])
+    assert np.abs(s.pos[fp.surface.index] - rot(fp.surface.ref)).max() < 1e-12
+    after = kept_pairs()
+    assert after == upright
+    # the crossing rule directly: no kept fluid pair crosses the turned mid-line
+    a, b = rot(c[None])[0], rot((c + L * np.array([0.0, 1.0]))[None])[0]
+    fluid_pairs = [(i, j) for i, j in after if s.kind[i] == FLUID and s.kind[j] == FLUID]
+    assert fluid_pairs and not any(_cross(s.pos[i], s.pos[j], a, b) for i, j in fluid_pairs)

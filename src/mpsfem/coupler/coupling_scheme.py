@@ -199,7 +199,10 @@ class CouplingScheme:
             else float(self.structure.max_dt())
         )
         self.F_f = self._read_forces()
-        self.F_s = self.mapping.to_structure(self.F_f)
+        # the structure's displacement is not known yet: the reference configuration
+        self.F_s = self.mapping.forces_to_structure(
+            self.F_f, np.zeros_like(self.structure_mesh.points)
+        )
         check_finite("initial data", forces=self.F_s)
         # the initial forces first: the structure rebuilds its start state under them (a static
         # start solves K u0 = F_self + F_fluid), so its displacement is read only afterwards
@@ -210,9 +213,9 @@ class CouplingScheme:
             if a.shape != shape:
                 raise ValueError(f"structure {name} of shape {a.shape}, expected {shape}")
         check_finite("initial data", displacement=self.d, velocity=self.v)
-        self.d_f = self.mapping.to_fluid(self.d)  # where the fluid's interface points are
+        self.d_f = self.mapping.displacement_to_fluid(self.d)  # where the fluid's points are
         self.fluid.write(DISPLACEMENT, self.d_f)
-        self.fluid.write(VELOCITY, self.mapping.to_fluid(self.v))
+        self.fluid.write(VELOCITY, self.mapping.velocity_to_fluid(self.v, self.d))
         self.energy0 = energy_of(self.structure)
         self.detector.reset()
         self.initialized = True
@@ -255,10 +258,10 @@ class CouplingScheme:
         if self.mapping.needs_rebuild(fluid_mesh):
             self.mapping.build(fluid_mesh, self.structure_mesh)
             F_f_prev = d_f_start = None  # data of the old particle set do not fit the new one
-        d_f0 = self.mapping.to_fluid(self.d)
+        d_f0 = self.mapping.displacement_to_fluid(self.d)
         if d_f_start is None:
             d_f_start = d_f0
-        v_f0 = self.mapping.to_fluid(self.v)
+        v_f0 = self.mapping.velocity_to_fluid(self.v, self.d)
         timings["mapping"] += time.perf_counter() - tic
 
         x = self.d + T * self.v  # window-end prediction (consistent for avg-acceleration)
@@ -276,8 +279,8 @@ class CouplingScheme:
                 self.fluid.restore()
                 self.structure.restore()
             tic = time.perf_counter()
-            d_f1 = self.mapping.to_fluid(x)
-            v_f1 = self.mapping.to_fluid(s)
+            d_f1 = self.mapping.displacement_to_fluid(x)
+            v_f1 = self.mapping.velocity_to_fluid(s, x)
             timings["mapping"] += time.perf_counter() - tic
 
             tic = time.perf_counter()
@@ -285,7 +288,7 @@ class CouplingScheme:
             timings["fluid"] += time.perf_counter() - tic
 
             tic = time.perf_counter()
-            F_s1 = self.mapping.to_structure(F_f1)
+            F_s1 = self.mapping.forces_to_structure(F_f1, x)  # the fluid saw the structure at x
             timings["mapping"] += time.perf_counter() - tic
 
             tic = time.perf_counter()
@@ -484,7 +487,9 @@ class CouplingScheme:
         self.d, self.v = np.array(state["d"]), np.array(state["v"])
         self.F_s, self.F_f = np.array(state["F_s"]), np.array(state["F_f"])
         # checkpoints written before d_f was kept: the structure's displacement, mapped
-        self.d_f = np.array(state["d_f"]) if "d_f" in state else self.mapping.to_fluid(self.d)
+        self.d_f = (
+            np.array(state["d_f"]) if "d_f" in state else self.mapping.displacement_to_fluid(self.d)
+        )
         acc = {k[13:]: v for k, v in state.items() if k.startswith("acceleration/")}
         if self.acceleration is not None:
             self.acceleration.load_state_dict(acc)

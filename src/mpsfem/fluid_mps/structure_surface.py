@@ -29,14 +29,20 @@ along the normal n = (-t_y, t_x) of the structure; the faces are at eta = +-T/2)
 The coupler's interface points are the pressure-layer particles (both faces, caps included), in
 patch order, in the reference configuration. Their displacement and velocity are the mapped
 values the coupler writes. Dummies follow rigidly: a dummy at depth offset d eta behind the
-pressure particle of its column moves with it plus the rotation of the cross-section,
-theta (z x d eta n), theta = dw/ds the slope of the mid-line deflection w = u_mid . n, u_mid the
-mean of the two faces' pressure particles of the column (their rigid-link offsets cancel).
+pressure particle of its column moves with it plus the exact rotation of the cross-section,
+(R(theta) - I)(d eta n), where theta is the rotation of the column's current mid-line tangent
+from the reference tangent t (atan2, unwrapped along the member), the mid-line being the column
+mid-points x_mid = mean of the two faces' pressure particles (their rigid-link offsets cancel).
+Velocity: its rate, omega z x R(theta)(d eta n) with omega = (x_mid' x v_mid') / |x_mid'|^2
+(' = d/ds). For small rotations this is the linear link theta (z x d eta n) with theta the
+slope of the mid-line deflection, to O(theta^2).
 
 Force on the structure (fluid on structure, N/m in 2D): F_i = -p_i A_i n_i on every
 pressure-layer particle (thesis eq. 2-51 with A_i = l0^(d-1): here h for a face particle, l0 for
 an end-cap particle, both for a corner particle with the summed area vector); n_i points out of
-the structure into the fluid. Dry particles have p = 0 and give no force.
+the structure into the fluid and turns with its column, n_i = R(theta) n_i^ref (rigid
+cross-sections; the same rotated normals are written to the solver's ``normal`` rows of the
+structure patches, which its force probes use). Dry particles have p = 0 and give no force.
 """
 
 from __future__ import annotations
@@ -152,6 +158,12 @@ def members_from_interface(mesh, names: Sequence[str] | None = None) -> list[tup
         name = names[k] if names is not None else f"member{k}"
         out.append((name, chain, float(m.thickness[chain].max())))
     return out
+
+
+def _rotate(v: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """Vectors v (n, 2) turned anticlockwise by theta (n,) rad: R(theta) v."""
+    c, s = np.cos(theta), np.sin(theta)
+    return np.stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1]], axis=1)
 
 
 def _component(adj: list[list[int]], start: int) -> list[int]:
@@ -392,6 +404,8 @@ class StructureSurface:
             self._dummies.append((sel, self.column[sel], self.offset[sel], self.follow[sel]))
         self._u = np.zeros_like(self.ref)
         self._v = np.zeros_like(self.ref)
+        self._theta = np.zeros(len(self.ref))
+        self.normal_ref = np.concatenate([sl.normal for sl in self.sides])
         self.patch_ranges = [
             (self.patch_name(self.frames[sl.member].name, sl.side), slice(o, o + len(sl.pos)))
             for sl, o in zip(self.sides, offs[:-1], strict=True)
@@ -419,9 +433,10 @@ class StructureSurface:
 
     # ------------------------------------------------------------------ motion
     def _rigid_link(self, vals_if: np.ndarray, out: np.ndarray) -> None:
-        """Fill ``out`` (every structure particle) from interface-point values: pressure
-        particles take them as given, dummies follow their face particle plus the section
-        rotation (slope of the mid-line value's normal component)."""
+        """Linear rigid link (the geometrically linear members of a subclass, 3D plates
+        override it): dummies follow their face particle plus theta (z x d eta n), theta the
+        slope of the mid-line value's normal component. Not used for 2D beams (see
+        :meth:`_rigid_motion`); kept as the small-rotation reference of the tests."""
         out[self.interface_local] = vals_if
         for m, f in enumerate(self.frames):
             mid = 0.5 * (out[self.col_plus[m]] + out[self.col_minus[m]])
@@ -429,24 +444,86 @@ class StructureSurface:
             h = f.length / len(self.col_plus[m])  # column spacing (m)
             theta = np.gradient(w, h) if w.size > 1 else np.zeros_like(w)
             sel, col, off, fol = self._dummies[m]
-            rot = theta[col] * off  # theta * d_eta
             # z x (d_eta n) = d_eta (-n_y, n_x)
-            out[sel] = out[fol] + rot[:, None] * np.array([-f.normal[1], f.normal[0]])
+            out[sel] = out[fol] + (theta[col] * off)[:, None] * np.array(
+                [-f.normal[1], f.normal[0]]
+            )
+
+    def _rigid_motion(self, u_if: np.ndarray, v_if: np.ndarray) -> None:
+        """Fill ``self._u``, ``self._v`` (every structure particle) from the interface points'
+        displacement (m) and velocity (m/s): pressure particles take them as given, dummies turn
+        rigidly with their column (module docstring); ``self._theta`` gets each particle's
+        column rotation (rad)."""
+        u, v = self._u, self._v
+        u[self.interface_local] = u_if
+        v[self.interface_local] = v_if
+        for m, f in enumerate(self.frames):
+            theta, omega = self._column_rotation(m, f)
+            sel, col, off, fol = self._dummies[m]
+            d = off[:, None] * f.normal  # d eta n, reference offset from the face particle
+            Rd = _rotate(d, theta[col])
+            # rigid cross-section: u = u_face + (R(theta) - I) d; v = v_face + omega z x R d
+            u[sel] = u[fol] + Rd - d
+            v[sel] = v[fol] + omega[col][:, None] * np.stack([-Rd[:, 1], Rd[:, 0]], axis=1)
+            mine = self.member_of_local == m
+            self._theta[mine] = theta[self.column[mine]]
+
+    def _column_rotation(self, m: int, f: MemberFrame) -> tuple[np.ndarray, np.ndarray]:
+        """Per column of member m: rotation theta (rad, unwrapped along the member) of the
+        current mid-line from the reference tangent, and its rate omega (rad/s), from
+        ``self._u`` / ``self._v`` at the face pressure particles."""
+        cp, cm = self.col_plus[m], self.col_minus[m]
+        if len(cp) > 1:
+            h = f.length / len(cp)  # column spacing (m)
+            x = 0.5 * (self.ref[cp] + self.ref[cm] + self._u[cp] + self._u[cm])
+            g = np.gradient(x, h, axis=0)  # current tangent dx_mid/ds
+            gd = np.gradient(0.5 * (self._v[cp] + self._v[cm]), h, axis=0)
+            ref = f.tangent
+        else:
+            # one column: the segment from the -1 face particle to the +1 one (a normal fibre)
+            g = self.ref[cp] + self._u[cp] - self.ref[cm] - self._u[cm]
+            gd = self._v[cp] - self._v[cm]
+            ref = self.ref[cp[0]] - self.ref[cm[0]]
+            if np.linalg.norm(ref) < 1e-3 * self.l0:  # faces' particles coincide: no fibre
+                return np.zeros(1), np.zeros(1)
+        cross = ref[0] * g[:, 1] - ref[1] * g[:, 0]
+        # rotation of the tangent (Crisfield 1991, vol. 1, sec. 7.2), continuous along s
+        theta = np.unwrap(np.arctan2(cross, g @ ref))
+        # d/dt atan2: (g x g_dot) / |g|^2
+        omega = (g[:, 0] * gd[:, 1] - g[:, 1] * gd[:, 0]) / np.einsum("kd,kd->k", g, g)
+        return theta, omega
 
     def place(self, solver, displacement: np.ndarray, velocity: np.ndarray) -> None:
         """Put every structure particle at ``ref + u`` with velocity ``v`` for the end of the
-        solver's next step; ``displacement``, ``velocity``: (n_interface, dim) at the interface
-        points (m, m/s)."""
-        self._rigid_link(displacement, self._u)
-        self._rigid_link(velocity, self._v)
+        solver's next step and turn its normal with its column; ``displacement``, ``velocity``:
+        (n_interface, dim) at the interface points (m, m/s)."""
+        if self.ref.shape[1] == 2:
+            self._rigid_motion(displacement, velocity)
+        else:  # plates (a subclass): the linear link, reference normals
+            self._rigid_link(displacement, self._u)
+            self._rigid_link(velocity, self._v)
         pos = self.ref + self._u
         for name, sl in self.patch_ranges:
             solver.set_patch_state(name, pos[sl], self._v[sl])
+        if self.ref.shape[1] == 2:
+            solver.normal[self.index] = _rotate(self.normal_ref, self._theta)
+
+    @property
+    def rotation(self) -> np.ndarray:
+        """Column rotation (rad) of every structure particle at the last :meth:`place`."""
+        return self._theta
+
+    def current_area(self) -> np.ndarray:
+        """Area vectors A_i n_i of the interface points turned with their columns (m in 2D;
+        plates: the reference ones)."""
+        if self.ref.shape[1] != 2:
+            return self.interface_area
+        return _rotate(self.interface_area, self._theta[self.interface_local])
 
     # ------------------------------------------------------------------ forces
     def forces(self, p: np.ndarray) -> np.ndarray:
         """F_i = -p_i A_i n_i at the interface points (N/m in 2D): fluid on structure."""
-        return -p[self.interface_index, None] * self.interface_area
+        return -p[self.interface_index, None] * self.current_area()
 
     def member_force(self, p: np.ndarray, member: str) -> np.ndarray:
         """Total fluid force on a member, both faces summed (N/m in 2D)."""

@@ -124,6 +124,22 @@ class Mapping(ABC):
         self._require()
         return self._apply(self._to_structure, forces, self.fluid, self.structure)
 
+    # Motion-aware directions. A mapping that is linear in the structure's motion (every one but
+    # the large-rotation shape-function mapping) applies its fixed operators; a geometrically
+    # nonlinear one overrides these three. The coupling scheme calls them.
+    def displacement_to_fluid(self, displacement: np.ndarray) -> np.ndarray:
+        """Structure displacement (n_s, dim), m -> fluid interface points (n_f, dim), m."""
+        return self.to_fluid(displacement)
+
+    def velocity_to_fluid(self, velocity: np.ndarray, displacement: np.ndarray) -> np.ndarray:
+        """Structure velocity (n_s, dim), m/s, at ``displacement`` -> fluid points, m/s."""
+        return self.to_fluid(velocity)
+
+    def forces_to_structure(self, forces: np.ndarray, displacement: np.ndarray) -> np.ndarray:
+        """Fluid forces (n_f, dim), N, with the structure at ``displacement`` -> structure
+        nodes (n_s, dim), N."""
+        return self.to_structure(forces)
+
     def _apply(self, op, values, src: InterfaceMesh, dst: InterfaceMesh) -> np.ndarray:
         v = np.asarray(values, dtype=np.float64)
         if v.shape != src.points.shape:
