@@ -131,3 +131,16 @@ def test_integer_accepted_for_float_and_toml_round_trip():
 def test_scheme_names_match_registry():
     for name in SCHEMES:
         assert CouplingSection(scheme=name).scheme == name
+
+
+def test_corotational_members_turn_the_rigid_link_exactly_unless_told():
+    from pathlib import Path
+
+    from mpsfem.scenario.loader import load_scenario
+
+    scene = Path(__file__).resolve().parents[2] / "scenarios" / "dam_break_elastic_obstacle_2d.toml"
+    corot = "structure.members.0.kinematics=corotational"
+    assert not load_scenario(scene).scenario.coupling.mapping.large_rotation
+    assert load_scenario(scene, [corot]).scenario.coupling.mapping.large_rotation
+    told = load_scenario(scene, [corot, "coupling.mapping.large_rotation=false"])
+    assert not told.scenario.coupling.mapping.large_rotation

@@ -32,6 +32,20 @@ class Scenario(Section):
     )
     probes: list[Probe] = Field(default_factory=list, description="measurements")
 
+    def _large_rotation_link(self) -> None:
+        """Co-rotational members turn the shape-function mapping's rigid link exactly
+        (``coupling.mapping.large_rotation``) unless the scenario sets it: the linear link of
+        a member turned 0.65 rad moves its faces' particles by millimetres off the member."""
+        mapping = getattr(self.coupling, "mapping", None) if self.coupling is not None else None
+        if mapping is None or "large_rotation" not in type(mapping).model_fields:
+            return
+        if "large_rotation" in mapping.model_fields_set:
+            return
+        if any(
+            getattr(m, "kinematics", "linear") == "corotational" for m in self.structure.members
+        ):
+            mapping.large_rotation = True
+
     @model_validator(mode="after")
     def _check(self) -> Scenario:
         check_limits(self)  # first: coordinates and sizes the other checks compute with
@@ -68,6 +82,7 @@ class Scenario(Section):
             self._check_inside_domain()
         if self.structure is not None:
             self._check_displacement_probes_on_members()
+            self._large_rotation_link()
         if self.fluid is not None:
             walls = {w.name for w in self.fluid.walls if w.name}
             if self.structure is not None:

@@ -89,10 +89,10 @@ class ShapeFunctionParams(Section):
         description=(
             "2D beams with rotation = true: the rigid link of each segment turns by the exact "
             "rotation R(theta) of its current chord (large rotations exact, forces by the "
-            "transpose at the current configuration); set it with kinematics = "
-            '"corotational" members. false (default): the linear offset theta z x r, the '
-            "operator built once, consistent with geometrically linear members. The two agree "
-            "to O(theta^2)."
+            "transpose at the current configuration); on by default when a member has "
+            'kinematics = "corotational" (unless set here). false (default otherwise): the '
+            "linear offset theta z x r, the operator built once, consistent with geometrically "
+            "linear members. The two agree to O(theta^2)."
         ),
     )
 
