@@ -242,6 +242,9 @@ def test_table_file_errors(tmp_path):
     f.write_text("0.0, 0.0\n0.5, abc\n")
     with pytest.raises(ValueError, match="not a table of numbers"):
         MotionLaw(WallMotion(kind="table", file=str(f)))
+    f.write_text("0.0, 0.0\n0.5, 1e300\n")  # ran and 'finished' with the paddle far away
+    with pytest.raises(ValueError, match=r"data row 2 moves the wall by x = 1e\+300 m"):
+        MotionLaw(WallMotion(kind="table", file=str(f)))
 
 
 # ---------------------------------------------------------------------------- schema

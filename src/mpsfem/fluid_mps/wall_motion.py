@@ -21,7 +21,12 @@ from pathlib import Path
 import numpy as np
 
 from mpsfem.fluid_mps.wavemaker import RegularPaddle, SolitaryPaddle
+from mpsfem.scenario.base import COORDINATE_LIMIT
 from mpsfem.scenario.fluid import WallMotion
+
+#: largest displacement a motion table may give, m (the scenario's coordinate bound,
+#: scenario/limits.py: a paddle moved 1e300 m ran and "finished" with the water untouched)
+MAX_TABLE_DISPLACEMENT = COORDINATE_LIMIT
 
 
 class MotionLaw:
@@ -73,6 +78,13 @@ class MotionLaw:
                 raise ValueError(
                     f"{key}.file = {spec.file!r}: data row {bad[0] + 1} {data[bad[0], :2].tolist()} "
                     "is not finite (nan or inf); every t and x must be a finite number"
+                )
+            far = np.flatnonzero(np.abs(data[:, 1]) > MAX_TABLE_DISPLACEMENT)
+            if far.size:
+                raise ValueError(
+                    f"{key}.file = {spec.file!r}: data row {far[0] + 1} moves the wall by "
+                    f"x = {data[far[0], 1]:.6g} m; allowed |x| <= {MAX_TABLE_DISPLACEMENT:g} m "
+                    "(the scene's coordinate bound): a wall that far leaves the fluid behind"
                 )
             step = np.diff(data[:, 0])
             if np.any(step <= 0):
