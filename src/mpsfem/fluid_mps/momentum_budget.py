@@ -32,6 +32,7 @@ from mpsfem.fluid_mps.kernels import weight
 from mpsfem.fluid_mps.operators import (
     corrected_vector,
     fill_reference_pressures,
+    gradient_kernel,
     neighbour_pressure,
     pair_pressure,
     row_reference_pressure,
@@ -76,72 +77,6 @@ def touches_boundary(kind, indptr, indices, out):
             if kind[np.uint32(indices[k])] != 0:
                 out[i] = 1
                 break
-
-
-@njit(cache=True, parallel=True)
-def pressure_internal(
-    pos, p, kind, indptr, indices, re, wcode, n0, form, skip_dummy, ghost, dry, rho, gravity,
-    pref_all, out,
-):  # fmt: skip
-    """out[i] = the part of <grad p>_i (Pa/m) from FLUID neighbours j, L_i applied as in
-    ``operators.gradient_kernel`` (same pairs, same reference pressure, same L_i); 0 on other
-    particles. Summed over i and times -m dt / rho it is the pressure's internal imbalance."""
-    n, dim = pos.shape
-    c = dim / n0
-    re2 = re * re
-    corrected = form == 2 or form == 3
-    for i in prange(n):
-        for d in range(dim):
-            out[i, d] = 0.0
-        if kind[i] != 0:
-            continue
-        pref = row_reference_pressure(
-            i, pos, p, kind, indptr, indices, re2, form, skip_dummy, ghost
-        )
-        v0 = v1 = v2 = 0.0
-        m00 = m01 = m02 = m11 = m12 = m22 = 0.0
-        for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
-            j = np.uint32(indices[k])
-            kj = kind[j]
-            if skip_dummy and (kj == 2 or kj == 4):
-                continue
-            r2 = 0.0
-            for d in range(dim):
-                dx = pos[j, d] - pos[i, d]
-                r2 += dx * dx
-            if r2 >= re2 or r2 == 0.0:
-                continue
-            pj, counts = neighbour_pressure(i, j, pos, p, kind, ghost, dry, rho, gravity)
-            if not counts:
-                continue
-            w = weight(np.sqrt(r2), re, wcode) / r2
-            x0 = pos[j, 0] - pos[i, 0]
-            x1 = pos[j, 1] - pos[i, 1]
-            x2 = pos[j, 2] - pos[i, 2] if dim == 3 else 0.0
-            if corrected:
-                m00 += w * x0 * x0
-                m01 += w * x0 * x1
-                m02 += w * x0 * x2
-                m11 += w * x1 * x1
-                m12 += w * x1 * x2
-                m22 += w * x2 * x2
-            if kj != 0:
-                continue
-            prj = pref_all[j] if form == 4 else pref
-            a = pair_pressure(form, pj, p[i], pref, prj) * w
-            v0 += a * x0
-            v1 += a * x1
-            v2 += a * x2
-        if corrected:
-            v0, v1, v2 = corrected_vector(m00, m01, m02, m11, m12, m22, v0, v1, v2, dim, c)
-        else:
-            v0 *= c
-            v1 *= c
-            v2 *= c
-        out[i, 0] = v0
-        out[i, 1] = v1
-        if dim == 3:
-            out[i, 2] = v2
 
 
 @njit(cache=True)
@@ -462,9 +397,9 @@ class MomentumBudget:
         pressure_exchange(pos, p, kd, nb.indptr, nb.indices, re, wcode, n0, form, skip, ghost,
                           dry, rho, g, pref_all, self.visit, self.target, self.offset,
                           self.mass / self.rho, self.pressure_force)  # fmt: skip
-        if self.full:
-            pressure_internal(pos, p, kd, nb.indptr, nb.indices, re, wcode, n0, form, skip,
-                              ghost, dry, rho, g, pref_all, scratch)  # fmt: skip
+        if self.full:  # the fluid-fluid share of the gradient, summed: the internal imbalance
+            gradient_kernel(pos, p, kd, nb.indptr, nb.indices, re, wcode, n0, form, skip, ghost,
+                            dry, rho, g, pref_all, scratch, True)  # fmt: skip
             column_sum(scratch, kind, self._vec)  # read by finish()
 
     def viscous(self, pos, vel, kind, nb, re: float, wcode: int, coef: float) -> None:

@@ -283,7 +283,7 @@ def neighbour_pressure(i, j, pos, p, kind, ghost, dry, rho, gravity):
 @njit(cache=True, parallel=True)
 def gradient_kernel(
     pos, p, kind, indptr, indices, re, wcode, n0, form, skip_dummy, ghost, dry, rho, gravity,
-    pref_all, out,
+    pref_all, out, fluid_pairs_only=False,
 ):  # fmt: skip
     """The pressure gradient on FLUID particles (Pa/m) for both wall models.
 
@@ -303,7 +303,11 @@ def gradient_kernel(
     4 ``cmps``: d / n0 sum_j (p_j + p_i - p_min,i - p_min,j) r_ij w_ij / r_ij^2 (Khayyer &
     Gotoh 2008 eq. 9), ``pref_all`` holding every fluid particle's p_min
     (:func:`reference_pressures`; a boundary neighbour takes p_min,i): antisymmetric, so the
-    fluid-fluid pairs conserve momentum (momentum_budget.py). Other forms ignore ``pref_all``."""
+    fluid-fluid pairs conserve momentum (momentum_budget.py). Other forms ignore ``pref_all``.
+
+    ``fluid_pairs_only``: sum the pair terms of FLUID neighbours only, with the same reference
+    pressure and the same C_i (from all neighbours): the fluid-fluid share of the gradient
+    (the momentum budget's internal imbalance)."""
     n, dim = pos.shape
     c = dim / n0
     re2 = re * re
@@ -335,6 +339,8 @@ def gradient_kernel(
             w = weight(np.sqrt(r2), re, wcode) / r2
             prj = pref_all[j] if form == 4 and kj == 0 else pref
             a = pair_pressure(form, pj, p[i], pref, prj) * w
+            if fluid_pairs_only and kj != 0:
+                a = 0.0
             x0 = pos[j, 0] - pos[i, 0]
             x1 = pos[j, 1] - pos[i, 1]
             x2 = pos[j, 2] - pos[i, 2] if dim == 3 else 0.0
