@@ -167,7 +167,9 @@ def test_errors_are_clear(results, tmp_path, capsys):
 
 
 def test_file_held_by_a_writer(results):
-    """A results file another process holds open for writing (a run in progress) is named so."""
+    """A results file another process holds open for writing (a run in progress) opens all the
+    same, read as its writer's last flush left it (issue 22: readers failed with a lock error;
+    docs/results.md, "Reading a running file")."""
     code = "import h5py, sys; f = h5py.File(sys.argv[1], 'a'); print('open', flush=True); input()"
     writer = subprocess.Popen(
         [sys.executable, "-c", code, str(results)],
@@ -177,8 +179,8 @@ def test_file_held_by_a_writer(results):
     )
     try:
         assert writer.stdout.readline().strip() == "open"
-        with pytest.raises(ToolError, match="open for writing by another process"):
-            open_results(results)
+        with open_results(results) as h5:
+            assert "probes" in h5
     finally:
         writer.communicate("\n", timeout=30)
 
