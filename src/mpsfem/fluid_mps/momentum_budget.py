@@ -96,6 +96,8 @@ def pressure_exchange(
     rho,
     gravity,
     pref_all,
+    wall_acc,
+    acc_offset,
     visit,
     target,
     offset,
@@ -130,7 +132,9 @@ def pressure_exchange(
                     r2 += dx * dx
                 if r2 >= re2 or r2 == 0.0:
                     continue
-                _, counts = neighbour_pressure(i, j, pos, p, kind, ghost, dry, rho, gravity)
+                _, counts = neighbour_pressure(
+                    i, j, pos, p, kind, ghost, dry, rho, gravity, wall_acc, acc_offset
+                )
                 if not counts:
                     continue
                 w = weight(np.sqrt(r2), re, wcode) / r2
@@ -154,7 +158,9 @@ def pressure_exchange(
                 r2 += dx * dx
             if r2 >= re2 or r2 == 0.0:
                 continue
-            pj, counts = neighbour_pressure(i, j, pos, p, kind, ghost, dry, rho, gravity)
+            pj, counts = neighbour_pressure(
+                i, j, pos, p, kind, ghost, dry, rho, gravity, wall_acc, acc_offset
+            )
             if not counts:
                 continue
             w = weight(np.sqrt(r2), re, wcode) / r2
@@ -385,21 +391,21 @@ class MomentumBudget:
     def pressure(self, args: tuple, nb, scratch: np.ndarray, kind: np.ndarray) -> None:
         """The pressure gradient's exchange force on each boundary particle, and (full ledger)
         its internal share. ``args``: (pos, p, kind) and the gradient's arguments after the
-        list, as ``operators.gradient_kernel`` takes them without ``out``: (re, wcode, n0,
-        form, skip_dummy, ghost, dry, rho, gravity); ``scratch``: an (N, dim) work array."""
+        list, as ``operators.gradient_kernel`` takes them: (re, wcode, n0, form, skip_dummy,
+        ghost, dry, rho, gravity, pref_all, wall_acc, acc_offset); ``scratch``: an (N, dim) work array."""
         if not self.needs_pressure_pairs:
             return
-        pos, p, kd, re, wcode, n0, form, skip, ghost, dry, rho, g, pref_all = args
+        pos, p, kd, re, wcode, n0, form, skip, ghost, dry, rho, g, pref_all, acc, off = args
         pref_all = fill_reference_pressures(pos, p, kd, nb.indptr, nb.indices, re, form, skip,
                                             ghost, pref_all)  # fmt: skip
         touches_boundary(kind, nb.indptr, nb.indices, self.visit)
         self.pressure_force[:] = 0.0
         pressure_exchange(pos, p, kd, nb.indptr, nb.indices, re, wcode, n0, form, skip, ghost,
-                          dry, rho, g, pref_all, self.visit, self.target, self.offset,
+                          dry, rho, g, pref_all, acc, off, self.visit, self.target, self.offset,
                           self.mass / self.rho, self.pressure_force)  # fmt: skip
         if self.full:  # the fluid-fluid share of the gradient, summed: the internal imbalance
             gradient_kernel(pos, p, kd, nb.indptr, nb.indices, re, wcode, n0, form, skip, ghost,
-                            dry, rho, g, pref_all, scratch, True)  # fmt: skip
+                            dry, rho, g, pref_all, scratch, True, acc, off)  # fmt: skip
             column_sum(scratch, kind, self._vec)  # read by finish()
 
     def viscous(self, pos, vel, kind, nb, re: float, wcode: int, coef: float) -> None:

@@ -176,6 +176,8 @@ def corrected_vector(m00, m01, m02, m11, m12, m22, v0, v1, v2, dim, fallback):
 
 _NO_GRAVITY = np.zeros(3)
 _NO_REFERENCE = np.zeros(0)
+#: the ``wall_acc`` argument of the ghost kernels without wall accelerations (no rows)
+NO_WALL_ACCELERATION = np.zeros((0, 3))
 
 
 def pressure_gradient(
@@ -194,7 +196,7 @@ def pressure_gradient(
     )
     return gradient_kernel(
         pos, p, kind, indptr, indices, re, wcode, n0, form, skip_dummy, False, kind, 0.0,
-        _NO_GRAVITY, pref_all, out,
+        _NO_GRAVITY, pref_all, out, False, NO_WALL_ACCELERATION, 0,
     )  # fmt: skip
 
 
@@ -263,10 +265,11 @@ def fill_reference_pressures(
 
 
 @njit(cache=True, inline="always")
-def neighbour_pressure(i, j, pos, p, kind, ghost, dry, rho, gravity):
+def neighbour_pressure(i, j, pos, p, kind, ghost, dry, rho, gravity, wall_acc, acc_offset):
     """(p_j as fluid particle i's gradient row sees it (Pa), whether j counts at all): with
-    ``ghost`` a wet wall/dummy j is the ghost p_i + rho g . (x_j - x_i), a dry wall particle
-    has 0 and a dry dummy does not count (wall_boundary.py); otherwise j's own p."""
+    ``ghost`` a wet wall/dummy j is the ghost p_i + rho (g - a_j) . (x_j - x_i) (a_j the wall's
+    acceleration, row j - acc_offset of ``wall_acc``, zero when it is empty), a dry wall
+    particle has 0 and a dry dummy does not count (wall_boundary.py); otherwise j's own p."""
     kj = kind[j]
     if not ghost or kj == 0:
         return p[j], True
@@ -276,14 +279,15 @@ def neighbour_pressure(i, j, pos, p, kind, ghost, dry, rho, gravity):
         return 0.0, True
     jump = 0.0
     for d in range(pos.shape[1]):
-        jump += gravity[d] * (pos[j, d] - pos[i, d])
+        field = gravity[d] if wall_acc.shape[0] == 0 else gravity[d] - wall_acc[j - acc_offset, d]
+        jump += field * (pos[j, d] - pos[i, d])
     return p[i] + rho * jump, True
 
 
 @njit(cache=True, parallel=True)
 def gradient_kernel(
     pos, p, kind, indptr, indices, re, wcode, n0, form, skip_dummy, ghost, dry, rho, gravity,
-    pref_all, out, fluid_pairs_only=False,
+    pref_all, out, fluid_pairs_only, wall_acc, acc_offset,
 ):  # fmt: skip
     """The pressure gradient on FLUID particles (Pa/m) for both wall models.
 
@@ -307,7 +311,8 @@ def gradient_kernel(
 
     ``fluid_pairs_only``: sum the pair terms of FLUID neighbours only, with the same reference
     pressure and the same C_i (from all neighbours): the fluid-fluid share of the gradient
-    (the momentum budget's internal imbalance)."""
+    (the momentum budget's internal imbalance). ``wall_acc``, ``acc_offset``: the walls'
+    accelerations in the ghosts (:func:`neighbour_pressure`; empty: none)."""
     n, dim = pos.shape
     c = dim / n0
     re2 = re * re
@@ -333,7 +338,9 @@ def gradient_kernel(
                 r2 += dx * dx
             if r2 >= re2 or r2 == 0.0:
                 continue
-            pj, counts = neighbour_pressure(i, j, pos, p, kind, ghost, dry, rho, gravity)
+            pj, counts = neighbour_pressure(
+                i, j, pos, p, kind, ghost, dry, rho, gravity, wall_acc, acc_offset
+            )
             if not counts:
                 continue
             w = weight(np.sqrt(r2), re, wcode) / r2

@@ -122,7 +122,18 @@ class FluidParticipant:
         p = s.p.copy()
         dry = np.zeros(s.n, dtype=np.int8)
         wall_boundary.wall_pressure(
-            s.pos, p, s.kind, dry, nb.indptr, nb.indices, s.re_n, s.wcode, s.rho, s.gravity
+            s.pos,
+            p,
+            s.kind,
+            dry,
+            nb.indptr,
+            nb.indices,
+            s.re_n,
+            s.wcode,
+            s.rho,
+            s.gravity,
+            s.wall_acc,
+            s.n_fluid,
         )
         idx = self.surface.index
         s.p[idx] = p[idx]

@@ -46,6 +46,7 @@ from mpsfem.fluid_mps.momentum_budget import (
     MomentumBudget,
 )
 from mpsfem.fluid_mps.neighbours import NeighbourSearch, build_neighbours
+from mpsfem.fluid_mps.operators import NO_WALL_ACCELERATION
 from mpsfem.fluid_mps.particle_kinds import dummy_mask
 from mpsfem.fluid_mps.pressure_poisson import make_pressure_solver
 from mpsfem.fluid_mps.sponge import SpongeLayer
@@ -248,6 +249,12 @@ class FluidSolver:
         self.budget.reset((self.vel, self.kind))
         #: per force probe, [time, impulse...] at its last sample (interval means, state)
         self.force_marks: dict[str, list[float]] = {}
+        #: fluid.pressure.wall_acceleration: each boundary particle's acceleration over the step
+        #: (m/s^2) in its ghosts, from its velocity at the end of the previous step (state)
+        self.wall_acceleration = spec.pressure.wall_acceleration
+        nb_rows = n - self.n_fluid if self.wall_acceleration else 0
+        self.wall_acc = np.zeros((nb_rows, self.dim))
+        self.wall_vel_prev = self.vel[self.n_fluid :].copy() if nb_rows else self.wall_acc
         rigid = [pt for pt in self.patches if pt.spec is not None]
         self.moving = [(pt, m) for pt, m in zip(rigid, self.motions, strict=True) if m.moves]
         self.wall_origin = {pt.name: self.pos[pt.start : pt.stop].copy() for pt, _ in self.moving}
@@ -416,6 +423,9 @@ class FluidSolver:
         tm = self.times
         c0 = time.perf_counter()
         self.move_walls(self.t + dt)
+        if self.wall_acceleration:  # over the step: the walls' new velocity against the last
+            np.subtract(self.vel[self.n_fluid :], self.wall_vel_prev, out=self.wall_acc)
+            self.wall_acc /= dt
         if self.nu > 0.0:
             self._ensure_lap_u()  # the first step only: later steps leave it at their end
         c1 = time.perf_counter()
@@ -499,6 +509,8 @@ class FluidSolver:
                 self.rho,
                 dt,
                 self.gravity,
+                self.wall_acc,
+                self.n_fluid,
                 self.ghost_rhs,
             )
         if self.surface_offset:  # p = 0 half a spacing beyond the surface particles
@@ -557,6 +569,8 @@ class FluidSolver:
                 self.gravity,
                 self.grad_p,
                 self.pref_all,
+                self.wall_acc,
+                self.n_fluid,
             )
             wall_boundary.wall_pressure(
                 self.pos,
@@ -569,6 +583,8 @@ class FluidSolver:
                 self.wcode,
                 self.rho,
                 self.gravity,
+                self.wall_acc,
+                self.n_fluid,
             )
         else:
             extrapolate_dummy_pressure(self.pos, self.p, self.dummy_src, self.rho, self.gravity)
@@ -590,6 +606,8 @@ class FluidSolver:
         time_integration.correct(self.pos, self.vel, self.kind, self.grad_p, self.rho, dt)
         budget.stage(PRESSURE, self.vel, self.kind)
         budget.finish(dt, None if self.exchange else self._pressure_integrals())
+        if self.wall_acceleration:
+            self.wall_vel_prev[:] = self.vel[self.n_fluid :]
         self.t += dt
         self.step_count += 1
         self._check()
@@ -604,10 +622,10 @@ class FluidSolver:
         if self.neumann:
             return (self.pos, self.p, self.kind, self.re_grad, self.wcode, self.n0_grad,
                     self.grad_form, False, True, self.free_surface, self.rho,
-                    self.gravity, self.pref_all)  # fmt: skip
+                    self.gravity, self.pref_all, self.wall_acc, self.n_fluid)  # fmt: skip
         return (self.pos, self.p, self.kind, self.re_grad, self.wcode, self.n0_grad,
                 self.grad_form, False, False, self.kind, 0.0, _NO_GRAVITY,
-                self.pref_all)  # fmt: skip
+                self.pref_all, NO_WALL_ACCELERATION, 0)  # fmt: skip
 
     def _pressure_integrals(self) -> np.ndarray:
         """Per patch, the pressure integral force of thesis eq. 2-51 (N; N/m in 2D)."""
@@ -720,6 +738,7 @@ class FluidSolver:
             "exchange_force": self.budget.exchange_force,
             "momentum_ledger": self.budget.ledger,
             "patch_impulse": self.budget.patch_impulse,
+            **({"wall_velocity": self.wall_vel_prev} if self.wall_acceleration else {}),
         }
 
     def meta(self) -> dict:
@@ -743,6 +762,7 @@ class FluidSolver:
             "exchange_force": self.budget.exchange_force,
             "momentum_ledger": self.budget.ledger,
             "patch_impulse": self.budget.patch_impulse,
+            **({"wall_velocity": self.wall_vel_prev} if self.wall_acceleration else {}),
         }
         for name in ("pos", "vel", "p", "grad_p", "lap_u", *budget):
             if name not in ("pos", "vel", "p") and name not in arrays:

@@ -34,16 +34,32 @@ import numpy as np
 from numba import njit, prange
 
 from mpsfem.fluid_mps.kernels import weight
-from mpsfem.fluid_mps.operators import fill_reference_pressures, gradient_kernel
+from mpsfem.fluid_mps.operators import (
+    NO_WALL_ACCELERATION,
+    fill_reference_pressures,
+    gradient_kernel,
+)
 from mpsfem.fluid_mps.particle_kinds import is_dummy
 
 
 @njit(cache=True, inline="always")
-def ghost_jump(i, j, pos, rho, gravity):
-    """D_ij = p_j - p_i = rho g . (x_j - x_i) of a wall/dummy ghost j seen from fluid particle i."""
+def ghost_field(j, a, gravity, wall_acc, acc_offset):
+    """Component a of the field a wall/dummy ghost j's pressure follows, m/s^2: gravity, less
+    the wall's own acceleration a_j where ``wall_acc`` holds one row per boundary particle
+    (``fluid.pressure.wall_acceleration``; dp/dn = rho (g - a_w) . n, the normal momentum of
+    fluid that moves with an accelerating wall); gravity alone when ``wall_acc`` is empty."""
+    if wall_acc.shape[0] == 0:
+        return gravity[a]
+    return gravity[a] - wall_acc[j - acc_offset, a]
+
+
+@njit(cache=True, inline="always")
+def ghost_jump(i, j, pos, rho, gravity, wall_acc, acc_offset):
+    """D_ij = p_j - p_i = rho (g - a_j) . (x_j - x_i) of a wall/dummy ghost j seen from fluid
+    particle i (a_j = 0 without ``wall_acc``: the hydrostatic jump)."""
     acc = 0.0
     for a in range(pos.shape[1]):
-        acc += gravity[a] * (pos[j, a] - pos[i, a])
+        acc += ghost_field(j, a, gravity, wall_acc, acc_offset) * (pos[j, a] - pos[i, a])
     return rho * acc
 
 
@@ -64,15 +80,19 @@ def ghost_rhs(
     rho,
     dt,
     gravity,
+    wall_acc,
+    acc_offset,
     out,
 ):
     """Known part of each fluid row of the pressure equation from its wet boundary neighbours:
 
     out_i = coef sum_j w(r_ij; re) D_ij                      (ghosts in the Laplacian, eq. 2-16)
-            - (1 - gamma) rho / dt d / n0_div sum_j (u_j + g dt - u*_i) . r_ij / r_ij^2
+            - (1 - gamma) rho / dt d / n0_div sum_j (u_j + (g - a_j) dt - u*_i) . r_ij / r_ij^2
               w(r_ij; re_div)                               (wall flux, eqs. 2-15, 2-23)
 
-    (Pa/m^2); 0 on non-fluid particles. The row A p = b of particle i gets b_i += out_i."""
+    (Pa/m^2); 0 on non-fluid particles. The row A p = b of particle i gets b_i += out_i. With
+    ``wall_acc`` the wall's acceleration a_j moves from the flux (u_j - a_j dt is the wall's
+    velocity before the step) into the ghosts' jump (:func:`ghost_jump`)."""
     n, dim = pos.shape
     re2 = re * re
     rd2 = re_div * re_div
@@ -92,32 +112,39 @@ def ghost_rhs(
             for a in range(dim):
                 dx = pos[j, a] - pos[i, a]
                 r2 += dx * dx
-                dot += (vel[j, a] + gravity[a] * dt - vel[i, a]) * dx
+                field = ghost_field(j, a, gravity, wall_acc, acc_offset)
+                dot += (vel[j, a] + field * dt - vel[i, a]) * dx
             if r2 < re2:
-                lap += weight(np.sqrt(r2), re, wcode) * ghost_jump(i, j, pos, rho, gravity)
+                jump = ghost_jump(i, j, pos, rho, gravity, wall_acc, acc_offset)
+                lap += weight(np.sqrt(r2), re, wcode) * jump
             if r2 < rd2 and r2 > 0.0:
                 div += dot / r2 * weight(np.sqrt(r2), re_div, wcode)
         out[i] = coef * lap - cdiv * div
 
 
 def pressure_gradient_ghost(
-    pos, p, kind, dry, indptr, indices, re, wcode, n0, form, rho, gravity, out, pref_all=None
-):
+    pos, p, kind, dry, indptr, indices, re, wcode, n0, form, rho, gravity, out, pref_all=None,
+    wall_acc=None, acc_offset=0,
+):  # fmt: skip
     """Pressure gradient on fluid particles (Pa/m) with wet wall/dummy neighbours as ghosts
     p_j = p_i + D_ij, dry wall particles at p = 0 and dry dummies left out; ``form`` as in
     :func:`mpsfem.fluid_mps.operators.gradient_kernel` (``pref_all``: its (N,) work array for
-    ``cmps``, allocated when None)."""
+    ``cmps``, allocated when None; ``wall_acc``, ``acc_offset``: as :func:`ghost_field`)."""
     pref_all = fill_reference_pressures(
         pos, p, kind, indptr, indices, re, form, False, True, pref_all
     )
+    if wall_acc is None:
+        wall_acc = NO_WALL_ACCELERATION
     return gradient_kernel(
         pos, p, kind, indptr, indices, re, wcode, n0, form, False, True, dry, rho, gravity,
-        pref_all, out,
+        pref_all, out, False, wall_acc, acc_offset,
     )  # fmt: skip
 
 
 @njit(cache=True, parallel=True)
-def wall_pressure(pos, p, kind, dry, indptr, indices, re, wcode, rho, gravity):
+def wall_pressure(
+    pos, p, kind, dry, indptr, indices, re, wcode, rho, gravity, wall_acc, acc_offset
+):
     """Pressure of pressure-wall particles (Pa) rebuilt from their fluid neighbours:
     p_w = sum_f w_fw (p_f + D_fw) / sum_f w_fw (0 where no fluid is within ``re``); dummies
     carry none (particle_kinds.py), 0."""
@@ -142,7 +169,7 @@ def wall_pressure(pos, p, kind, dry, indptr, indices, re, wcode, rho, gravity):
             if r2 >= re2:
                 continue
             w = weight(np.sqrt(r2), re, wcode)
-            num += w * (p[i] + ghost_jump(i, j, pos, rho, gravity))
+            num += w * (p[i] + ghost_jump(i, j, pos, rho, gravity, wall_acc, acc_offset))
             den += w
         p[j] = max(num / den, 0.0) if den > 0.0 else 0.0
 
