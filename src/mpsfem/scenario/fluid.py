@@ -129,7 +129,7 @@ class PressureSection(Section):
         "step (its velocity change / dt), and the wall flux of the source term uses the wall's "
         "velocity before the step; false: the hydrostatic ghost and the flux at the new "
         "velocity (the earlier model: a floor oscillating under a 2 m column at 75 Hz gave 0.90 "
-        "of the added-mass force, 13 deg late; with it 0.98, 7 deg; validation/"
+        "of the added-mass force, 13 deg late; with it 0.99, 7 deg; validation/"
         "piston_added_mass.py). Neumann wall model only; not with the higher-order source term "
         "or Laplacian, whose ghost parts follow gravity alone",
     )
