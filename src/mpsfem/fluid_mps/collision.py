@@ -21,6 +21,27 @@ import numpy as np
 from numba import njit, prange
 
 
+@njit(cache=True, inline="always")
+def approach_speed(i, j, pos, vel, d2max):
+    """(a, r): the speed a = (u_i - u_j) . e_ij (m/s) at which i and j approach along
+    e_ij = r_ij / r, and their distance r (m); a = 0 when they are not closer than
+    sqrt(d2max) or coincide. A pair collides where a > 0. Shared by the collision model and the
+    momentum budget's collision exchange, so both see the same collisions."""
+    dim = pos.shape[1]
+    r2 = 0.0
+    for d in range(dim):
+        dx = pos[j, d] - pos[i, d]
+        r2 += dx * dx
+    if r2 >= d2max or r2 == 0.0:
+        return 0.0, 0.0
+    r = np.sqrt(r2)
+    a = 0.0
+    for d in range(dim):
+        a += (vel[i, d] - vel[j, d]) * (pos[j, d] - pos[i, d])
+    a /= r
+    return a, r
+
+
 @njit(cache=True, parallel=True)
 def collision_velocity_change(pos, vel, kind, indptr, indices, distance, restitution, dv):
     """dv[i] = velocity change of FLUID particle i from all its collisions (0 for others).
@@ -35,19 +56,9 @@ def collision_velocity_change(pos, vel, kind, indptr, indices, distance, restitu
             continue
         for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
             j = np.uint32(indices[k])
-            r2 = 0.0
-            for d in range(dim):
-                dx = pos[j, d] - pos[i, d]
-                r2 += dx * dx
-            if r2 >= d2max or r2 == 0.0:
-                continue
-            r = np.sqrt(r2)
-            a = 0.0
-            for d in range(dim):
-                a += (vel[i, d] - vel[j, d]) * (pos[j, d] - pos[i, d])
-            a /= r
+            a, r = approach_speed(i, j, pos, vel, d2max)
             if a <= 0.0:
-                continue  # separating
+                continue  # separating, or not within the distance
             f = (1.0 + restitution) * a / r
             if kind[j] == 0:
                 f *= 0.5

@@ -28,12 +28,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from mpsfem.fluid_mps.collision import approach_speed
 from mpsfem.fluid_mps.kernels import weight
 from mpsfem.fluid_mps.operators import (
     corrected_vector,
-    fill_reference_pressures,
     gradient_kernel,
-    neighbour_pressure,
+    gradient_pair,
     pair_pressure,
     row_reference_pressure,
 )
@@ -95,7 +95,6 @@ def pressure_exchange(
     dry,
     rho,
     gravity,
-    pref_all,
     wall_acc,
     acc_offset,
     visit,
@@ -106,9 +105,10 @@ def pressure_exchange(
 ):
     """out[target[j] - offset] += scale L_i a_ij r_ij w_ij / r_ij^2 for every pair of a FLUID
     particle i (with ``visit[i]``) and a boundary neighbour j of its gradient row (arguments as
-    ``operators.gradient_kernel``): with scale = m / rho (m^3; m^2 in 2D) this is the force of
-    the fluid on j, N (N/m in 2D), the reaction to the pair's share of -m / rho <grad p>_i.
-    Sequential in index order (bit-identical for any thread count); ``out`` is not cleared."""
+    ``operators.gradient_kernel``, pairs by ``operators.gradient_pair``): with scale = m / rho
+    (m^3; m^2 in 2D) this is the force of the fluid on j, N (N/m in 2D), the reaction to the
+    pair's share of -m / rho <grad p>_i. Sequential in index order (bit-identical for any
+    thread count); ``out`` is not cleared."""
     n, dim = pos.shape
     c = dim / n0
     re2 = re * re
@@ -120,27 +120,14 @@ def pressure_exchange(
             i, pos, p, kind, indptr, indices, re2, form, skip_dummy, ghost
         )
         m00 = m01 = m02 = m11 = m12 = m22 = 0.0
-        if corrected:
+        if corrected:  # C_i over the whole row, as the gradient has it
             for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
-                j = np.uint32(indices[k])
-                kj = kind[j]
-                if skip_dummy and (kj == 2 or kj == 4):
+                ok, _, w, x0, x1, x2 = gradient_pair(
+                    i, np.uint32(indices[k]), pos, p, kind, re, re2, wcode, skip_dummy, ghost,
+                    dry, rho, gravity, wall_acc, acc_offset,
+                )  # fmt: skip
+                if not ok:
                     continue
-                r2 = 0.0
-                for d in range(dim):
-                    dx = pos[j, d] - pos[i, d]
-                    r2 += dx * dx
-                if r2 >= re2 or r2 == 0.0:
-                    continue
-                _, counts = neighbour_pressure(
-                    i, j, pos, p, kind, ghost, dry, rho, gravity, wall_acc, acc_offset
-                )
-                if not counts:
-                    continue
-                w = weight(np.sqrt(r2), re, wcode) / r2
-                x0 = pos[j, 0] - pos[i, 0]
-                x1 = pos[j, 1] - pos[i, 1]
-                x2 = pos[j, 2] - pos[i, 2] if dim == 3 else 0.0
                 m00 += w * x0 * x0
                 m01 += w * x0 * x1
                 m02 += w * x0 * x2
@@ -149,25 +136,18 @@ def pressure_exchange(
                 m22 += w * x2 * x2
         for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
             j = np.uint32(indices[k])
-            kj = kind[j]
-            if kj == 0 or (skip_dummy and (kj == 2 or kj == 4)):
+            if kind[j] == 0:
                 continue
-            r2 = 0.0
-            for d in range(dim):
-                dx = pos[j, d] - pos[i, d]
-                r2 += dx * dx
-            if r2 >= re2 or r2 == 0.0:
+            ok, pj, w, x0, x1, x2 = gradient_pair(
+                i, j, pos, p, kind, re, re2, wcode, skip_dummy, ghost, dry, rho, gravity,
+                wall_acc, acc_offset,
+            )  # fmt: skip
+            if not ok:
                 continue
-            pj, counts = neighbour_pressure(
-                i, j, pos, p, kind, ghost, dry, rho, gravity, wall_acc, acc_offset
-            )
-            if not counts:
-                continue
-            w = weight(np.sqrt(r2), re, wcode) / r2
             a = pair_pressure(form, pj, p[i], pref, pref) * w  # a boundary j takes p_min,i
-            x0 = a * (pos[j, 0] - pos[i, 0])
-            x1 = a * (pos[j, 1] - pos[i, 1])
-            x2 = a * (pos[j, 2] - pos[i, 2]) if dim == 3 else 0.0
+            x0 *= a
+            x1 *= a
+            x2 *= a
             if corrected:
                 x0, x1, x2 = corrected_vector(m00, m01, m02, m11, m12, m22, x0, x1, x2, dim, c)
             else:
@@ -225,17 +205,7 @@ def collision_exchange(pos, vel, kind, indptr, indices, distance, restitution, v
             j = np.uint32(indices[k])
             if kind[j] == 0:
                 continue
-            r2 = 0.0
-            for d in range(dim):
-                dx = pos[j, d] - pos[i, d]
-                r2 += dx * dx
-            if r2 >= d2max or r2 == 0.0:
-                continue
-            r = np.sqrt(r2)
-            a = 0.0
-            for d in range(dim):
-                a += (vel[i, d] - vel[j, d]) * (pos[j, d] - pos[i, d])
-            a /= r
+            a, r = approach_speed(i, j, pos, vel, d2max)
             if a <= 0.0:
                 continue
             f = mass * (1.0 + restitution) * a / r
@@ -346,6 +316,7 @@ class MomentumBudget:
         self.exchange_force = np.zeros((nb, dim))
         #: its viscous and collision share (pair interactions other than pressure)
         self.contact_force = np.zeros((nb, dim))
+        self._collision_force = np.zeros((nb, dim))  # work: the collision impulse / dt
         self._reported = np.zeros((len(patches), dim))
         self.ledger = np.zeros((PATCH_ROWS + PER_PATCH * len(patches), dim))
         #: exchange impulse each patch received since t = 0, N s (N s/m in 2D) (state)
@@ -392,16 +363,16 @@ class MomentumBudget:
         """The pressure gradient's exchange force on each boundary particle, and (full ledger)
         its internal share. ``args``: (pos, p, kind) and the gradient's arguments after the
         list, as ``operators.gradient_kernel`` takes them: (re, wcode, n0, form, skip_dummy,
-        ghost, dry, rho, gravity, pref_all, wall_acc, acc_offset); ``scratch``: an (N, dim) work array."""
+        ghost, dry, rho, gravity, pref_all, wall_acc, acc_offset), ``pref_all`` as the step's
+        gradient left it (``cmps``: every fluid particle's p_min); ``scratch``: an (N, dim)
+        work array."""
         if not self.needs_pressure_pairs:
             return
         pos, p, kd, re, wcode, n0, form, skip, ghost, dry, rho, g, pref_all, acc, off = args
-        pref_all = fill_reference_pressures(pos, p, kd, nb.indptr, nb.indices, re, form, skip,
-                                            ghost, pref_all)  # fmt: skip
         touches_boundary(kind, nb.indptr, nb.indices, self.visit)
         self.pressure_force[:] = 0.0
         pressure_exchange(pos, p, kd, nb.indptr, nb.indices, re, wcode, n0, form, skip, ghost,
-                          dry, rho, g, pref_all, acc, off, self.visit, self.target, self.offset,
+                          dry, rho, g, acc, off, self.visit, self.target, self.offset,
                           self.mass / self.rho, self.pressure_force)  # fmt: skip
         if self.full:  # the fluid-fluid share of the gradient, summed: the internal imbalance
             gradient_kernel(pos, p, kd, nb.indptr, nb.indices, re, wcode, n0, form, skip, ghost,
@@ -426,7 +397,8 @@ class MomentumBudget:
         contact = self.contact_force
         np.copyto(contact, self.viscous_force)
         if self._collided:
-            contact += self.collision_impulse / dt
+            np.divide(self.collision_impulse, dt, out=self._collision_force)
+            contact += self._collision_force
         ex = self.exchange_force
         np.add(self.pressure_force, contact, out=ex)
         rep = self._reported

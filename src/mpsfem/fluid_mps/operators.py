@@ -284,6 +284,36 @@ def neighbour_pressure(i, j, pos, p, kind, ghost, dry, rho, gravity, wall_acc, a
     return p[i] + rho * jump, True
 
 
+@njit(cache=True, inline="always")
+def gradient_pair(
+    i, j, pos, p, kind, re, re2, wcode, skip_dummy, ghost, dry, rho, gravity, wall_acc, acc_offset
+):
+    """Neighbour j of fluid particle i's gradient row: (counts, p_j as the row sees it (Pa,
+    :func:`neighbour_pressure`), w_ij / r_ij^2 (1/m^2), r_ij components (m)); not counted when
+    it is a dummy left out, outside ``re`` or at zero distance, or a dry dummy ghost. Shared by
+    :func:`gradient_kernel` and the momentum budget's exchange, so both see the same pairs."""
+    kj = kind[j]
+    if skip_dummy and (kj == 2 or kj == 4):
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0
+    dim = pos.shape[1]
+    r2 = 0.0
+    for d in range(dim):
+        dx = pos[j, d] - pos[i, d]
+        r2 += dx * dx
+    if r2 >= re2 or r2 == 0.0:
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0
+    pj, counts = neighbour_pressure(
+        i, j, pos, p, kind, ghost, dry, rho, gravity, wall_acc, acc_offset
+    )
+    if not counts:
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0
+    w = weight(np.sqrt(r2), re, wcode) / r2
+    x0 = pos[j, 0] - pos[i, 0]
+    x1 = pos[j, 1] - pos[i, 1]
+    x2 = pos[j, 2] - pos[i, 2] if dim == 3 else 0.0
+    return True, pj, w, x0, x1, x2
+
+
 @njit(cache=True, parallel=True)
 def gradient_kernel(
     pos, p, kind, indptr, indices, re, wcode, n0, form, skip_dummy, ghost, dry, rho, gravity,
@@ -330,27 +360,16 @@ def gradient_kernel(
         for k in range(np.uint64(indptr[i]), np.uint64(indptr[i + 1])):
             j = np.uint32(indices[k])
             kj = kind[j]
-            if skip_dummy and (kj == 2 or kj == 4):
+            ok, pj, w, x0, x1, x2 = gradient_pair(
+                i, j, pos, p, kind, re, re2, wcode, skip_dummy, ghost, dry, rho, gravity,
+                wall_acc, acc_offset,
+            )  # fmt: skip
+            if not ok:
                 continue
-            r2 = 0.0
-            for d in range(dim):
-                dx = pos[j, d] - pos[i, d]
-                r2 += dx * dx
-            if r2 >= re2 or r2 == 0.0:
-                continue
-            pj, counts = neighbour_pressure(
-                i, j, pos, p, kind, ghost, dry, rho, gravity, wall_acc, acc_offset
-            )
-            if not counts:
-                continue
-            w = weight(np.sqrt(r2), re, wcode) / r2
             prj = pref_all[j] if form == 4 and kj == 0 else pref
             a = pair_pressure(form, pj, p[i], pref, prj) * w
             if fluid_pairs_only and kj != 0:
                 a = 0.0
-            x0 = pos[j, 0] - pos[i, 0]
-            x1 = pos[j, 1] - pos[i, 1]
-            x2 = pos[j, 2] - pos[i, 2] if dim == 3 else 0.0
             v0 += a * x0
             v1 += a * x1
             v2 += a * x2

@@ -230,14 +230,24 @@ def patch_force(p, normal, start, stop, kind, area):
     """Pressure force (N; N/m in 2D) of the fluid on wall particles ``start:stop``: the sum of
     -p_i A n_i over pressure-layer particles, n_i the unit normal towards the fluid and
     A = l0^(d-1) the area a particle represents (thesis eq. 2-51, F_i = P_i l0^(d-1) n_i)."""
+    out = np.zeros((1, normal.shape[1]))
+    patch_forces(p, normal, np.array([start]), np.array([stop]), kind, area, out)
+    return out[0]
+
+
+@njit(cache=True)
+def patch_forces(p, normal, starts, stops, kind, area, out):
+    """out[k] = :func:`patch_force` of particles ``starts[k]:stops[k]``, into ``out`` (no
+    allocation: the momentum budget takes every patch's every step)."""
     dim = normal.shape[1]
-    f = np.zeros(dim)
-    for i in range(start, stop):
-        if kind[i] != 1 and kind[i] != 3:
-            continue
+    for k in range(starts.shape[0]):
         for a in range(dim):
-            f[a] -= p[i] * area * normal[i, a]
-    return f
+            out[k, a] = 0.0
+        for i in range(starts[k], stops[k]):
+            if kind[i] != 1 and kind[i] != 3:
+                continue
+            for a in range(dim):
+                out[k, a] -= p[i] * area * normal[i, a]
 
 
 @njit(cache=True)

@@ -247,6 +247,9 @@ class FluidSolver:
             model=spec.boundary_force,
         )
         self.budget.reset((self.vel, self.kind))
+        self._patch_starts = np.array([pt.start for pt in self.patches], dtype=np.int64)
+        self._patch_stops = np.array([pt.stop for pt in self.patches], dtype=np.int64)
+        self._integrals = np.zeros((len(self.patches), self.dim))
         #: per force probe, [time, impulse...] at its last sample (interval means, state)
         self.force_marks: dict[str, list[float]] = {}
         #: fluid.pressure.wall_acceleration: each boundary particle's acceleration over the step
@@ -628,14 +631,13 @@ class FluidSolver:
                 self.pref_all, NO_WALL_ACCELERATION, 0)  # fmt: skip
 
     def _pressure_integrals(self) -> np.ndarray:
-        """Per patch, the pressure integral force of thesis eq. 2-51 (N; N/m in 2D)."""
-        area = self.l0 ** (self.dim - 1)
-        return np.array(
-            [
-                probes.patch_force(self.p, self.normal, pt.start, pt.stop, self.kind, area)
-                for pt in self.patches
-            ]
-        ).reshape(len(self.patches), self.dim)
+        """Per patch, the pressure integral force of thesis eq. 2-51 (N; N/m in 2D), into an
+        array sized once (read before the next step)."""
+        probes.patch_forces(
+            self.p, self.normal, self._patch_starts, self._patch_stops, self.kind,
+            self.l0 ** (self.dim - 1), self._integrals,
+        )  # fmt: skip
+        return self._integrals
 
     def boundary_force(self, names: Sequence[str]) -> np.ndarray:
         """The force of the last step on the patches ``names`` as ``fluid.boundary_force``
@@ -684,6 +686,10 @@ class FluidSolver:
                 self.pos, self.kind, self.free_surface, self.dummy_src, nb.indptr, nb.indices,
                 self.re_n,
             )  # fmt: skip
+        operators.fill_reference_pressures(  # cmps reads them; the step's gradient fills them
+            self.pos, self.p, self.kind, nb.indptr, nb.indices, self.re_grad, self.grad_form,
+            False, self.neumann, self.pref_all,
+        )  # fmt: skip
         self.budget.pressure(self._gradient_args(), nb, self.vel_before, self.kind)
         np.copyto(self.budget.contact_force, self.budget.viscous_force)
         np.add(self.budget.pressure_force, self.budget.contact_force,
