@@ -29,3 +29,18 @@ def next_due(t: float, interval: float) -> float:
 def is_due(t: float, due: float, interval: float) -> bool:
     """Whether a step ending at ``t`` (s) takes the sample due at ``due`` (s)."""
     return t >= due - GRID_SLACK * max(interval, 1e-300) - 1e-15
+
+
+def take_sample(
+    last: dict[str, float], key: str, t: float, due_at: float, interval: float, force: bool
+) -> tuple[bool, bool]:
+    """Whether the series ``key`` takes a sample at ``t`` (s), and whether that sample is off
+    its grid (taken only because ``force`` asks for the final state). A series never samples
+    twice at one time; ``last`` (key -> time of its last sample) is updated when it does."""
+    if last.get(key) == t:
+        return False, False
+    due = is_due(t, due_at, interval)
+    if not (due or force):
+        return False, False
+    last[key] = t
+    return True, not due

@@ -38,7 +38,7 @@ from mpsfem.results.checkpoint import (
 )
 from mpsfem.results.results_file import ResultsFile
 from mpsfem.results.xdmf import xdmf_path
-from mpsfem.sampling import is_due, next_due
+from mpsfem.sampling import next_due, take_sample
 from mpsfem.scenario.compare import RESTART_FREE_TEXT, restart_differences
 from mpsfem.scenario.loader import LoadedScenario
 
@@ -147,8 +147,7 @@ def run_fluid(
     }
     next_probe = {p.name: 0.0 for p in probes}
     next_snap = 0.0
-    last_probe_t: dict[str, float] = {}  # when each probe was last sampled in this process
-    last_snap_t = -math.inf
+    last_t: dict[str, float] = {}  # when each series was last sampled in this process
     next_ckpt = outs.checkpoint_interval if outs.checkpoint_interval > 0 else math.inf
     ckpt_path = default_checkpoint_path(out)
     sidecar = xdmf_path(out) if outs.xdmf else None  # rewritten by each flush of the results
@@ -196,28 +195,23 @@ def run_fluid(
         """Take the samples due at the solver's time; with ``force`` all of them (the final
         state), none twice at one time. Returns the results-file paths sampled only because
         of ``force`` (``ResultsFile.mark_end_samples``)."""
-        nonlocal next_snap, last_snap_t
+        nonlocal next_snap
         t = solver.t
         extra = []
         for p in probes:
-            if last_probe_t.get(p.name) == t:  # never twice at one time
-                continue
-            due = is_due(t, next_probe[p.name], interval[p.name])
-            if due or force:
+            take, off = take_sample(last_t, p.name, t, next_probe[p.name], interval[p.name], force)
+            if take:
                 results.append_probe(p.name, t, solver.probe_value(p))
-                last_probe_t[p.name] = t
                 next_probe[p.name] = next_due(t, interval[p.name])
-                if not due:
-                    extra.append(f"probes/{p.name}")
+                extra += [f"probes/{p.name}"] if off else []
         snap = outs.snapshot_interval
-        if snap > 0 and last_snap_t != t:
-            due = is_due(t, next_snap, snap)
-            if due or force:
-                key = results.write_snapshot(t, solver.pos, solver.vel, solver.p, solver.kind)
-                last_snap_t = t
-                next_snap = next_due(t, snap)
-                if not due:
-                    extra.append(f"particles/{key}")
+        take, off = (
+            take_sample(last_t, "/particles", t, next_snap, snap, force) if snap > 0 else (0, 0)
+        )
+        if take:
+            key = results.write_snapshot(t, solver.pos, solver.vel, solver.p, solver.kind)
+            next_snap = next_due(t, snap)
+            extra += [f"particles/{key}"] if off else []
         return extra
 
     bar = Progress(solver.t, t_end, sc.run.progress if progress is None else progress, "fluid")
@@ -652,13 +646,9 @@ def _fluid_side(
         t = scheme.t
         extra = []
         for p in every:
-            if last_t.get(p.name) == t:  # never twice at one time
+            take, off = take_sample(last_t, p.name, t, next_probe[p.name], interval[p.name], force)
+            if not take:
                 continue
-            due = is_due(t, next_probe[p.name], interval[p.name])
-            if not (due or force):
-                continue
-            if not due:
-                extra.append(f"probes/{p.name}")
             if p.kind == "displacement":
                 d = next(x for x in disp if x.probe is p)
                 val = d.value(scheme.d)
@@ -667,24 +657,24 @@ def _fluid_side(
             else:
                 val = fluid.probe_value(p)
             results.append_probe(p.name, t, val)
-            last_t[p.name] = t
             next_probe[p.name] = next_due(t, interval[p.name])
-        due = is_due(t, sched["next_record"], rec_interval)
-        if last_t.get("/structure") != t and (due or force):
+            extra += [f"probes/{p.name}"] if off else []
+        take, off = take_sample(last_t, "/structure", t, sched["next_record"], rec_interval, force)
+        if take:
             for name, sl in slices.items():
                 results.append_structure(name, t, scheme.d[sl])
-                if not due:
-                    extra.append(f"structure/{name}")
-            last_t["/structure"] = t
+                extra += [f"structure/{name}"] if off else []
             sched["next_record"] = next_due(t, rec_interval)
         snap = outs.snapshot_interval
-        due = snap > 0 and is_due(t, sched["next_snapshot"], snap)
-        if snap > 0 and last_t.get("/particles") != t and (due or force):
+        take, off = (
+            take_sample(last_t, "/particles", t, sched["next_snapshot"], snap, force)
+            if snap > 0
+            else (0, 0)
+        )
+        if take:
             key = results.write_snapshot(t, solver.pos, solver.vel, solver.p, solver.kind)
-            last_t["/particles"] = t
             sched["next_snapshot"] = next_due(t, snap)
-            if not due:
-                extra.append(f"particles/{key}")
+            extra += [f"particles/{key}"] if off else []
         return extra
 
     def record(rec) -> None:
