@@ -44,7 +44,7 @@ def _fluid_height(scenario: Scenario) -> float:
     return hi - lo
 
 
-def _time_estimate(scenario: Scenario, n_fluid: int, n_all: int) -> tuple[int, float, str]:
+def _time_estimate(scenario: Scenario, n_all: int) -> tuple[int, float, str]:
     """(steps, seconds on one thread, how dt was estimated)."""
     f = scenario.fluid
     ts = f.time_step
@@ -163,7 +163,7 @@ def report(scenario: Scenario, title: str = "") -> Report:
         lines.append(
             f"memory: about {mem / 2**20:.0f} MiB ({BYTES_PER_PARTICLE[f.dim]} B per particle)"
         )
-        steps, seconds, why = _time_estimate(scenario, ps.n_fluid, n_all)
+        steps, seconds, why = _time_estimate(scenario, n_all)
         time_text = f"{seconds / 60:.1f} min" if seconds >= 60 else f"{seconds:.0f} s"
         lines.append(
             f"run time: about {steps} fluid steps (dt from {why}), roughly {time_text} on one "
