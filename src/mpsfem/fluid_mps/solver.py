@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from mpsfem.fluid_mps import (
+    dynamic_stabilization,
     operators,
     probes,
     surface_pressure,
@@ -216,6 +217,11 @@ class FluidSolver:
         self.surface_offset = self.neumann and spec.surface.pressure == "half_spacing"
         self.p_surface = np.zeros(n)
         self.vel_before = np.zeros((n, self.dim))
+        #: fluid.pressure.dynamic_stabilization: its distance (m, 0 = off) and work array
+        self.ds_distance = spec.pressure.dynamic_stabilization * l0
+        self.ds_work = np.zeros((n, self.dim)) if self.ds_distance > 0.0 else None
+        #: fluid.pressure.pressure_courant: the decaying peak fluid pressure it reads (Pa)
+        self.p_peak = 0.0
 
         # dummy particles need no neighbour rows of their own (neighbours.py): skipping them
         # saves three quarters of the search in a 3D tank
@@ -333,6 +339,14 @@ class FluidSolver:
             dt = min(dt, ts.courant * self.l0 / umax)
         if self.nu > 0.0:
             dt = min(dt, ts.viscous_number * self.l0**2 / self.nu)
+        c_p = self.spec.pressure.pressure_courant
+        if c_p > 0.0:  # the repulsion p_i + p_j as a spring: omega ~ sqrt(2 p / rho) / l0
+            p_max = float(self.p[: self.n_fluid].max()) if self.n_fluid else 0.0
+            # a decaying peak (half in ~10 steps): one step whose pressures collapse (many
+            # surface flags) must not hand the next step a dt far beyond the stiffness limit
+            self.p_peak = max(p_max, 0.93 * self.p_peak)
+            if self.p_peak > 0.0:
+                dt = min(dt, c_p * self.l0 / math.sqrt(2.0 * self.p_peak / self.rho))
         return dt
 
     def move_walls(self, t: float) -> None:
@@ -607,6 +621,11 @@ class FluidSolver:
             )
         budget.pressure(self._gradient_args(), near, self.vel_before, self.kind)
         time_integration.correct(self.pos, self.vel, self.kind, self.grad_p, self.rho, dt)
+        if self.ds_distance > 0.0:  # fluid-fluid only: nets to zero in the pressure stage
+            dynamic_stabilization.stabilise(
+                self.pos, self.vel, self.kind, near.indptr, near.indices, self.ds_distance, dt,
+                self.ds_work,
+            )  # fmt: skip
         budget.stage(PRESSURE, self.vel, self.kind)
         budget.finish(dt, None if self.exchange else self._pressure_integrals())
         if self.wall_acceleration:

@@ -133,6 +133,25 @@ class PressureSection(Section):
         "piston_added_mass.py). Neumann wall model only; not with the higher-order source term "
         "or Laplacian, whose ghost parts follow gravity alone",
     )
+    dynamic_stabilization: float = Field(
+        0.0,
+        ge=0.0,
+        lt=1.0,
+        description="distance alpha (x l0) of the dynamic stabilisation (after Tsuruta, Khayyer "
+        "& Gotoh 2013): every fluid pair closer than alpha l0 after the pressure correction is "
+        "pushed back to alpha l0 within the step, shared equally (antisymmetric, so the fluid's "
+        "momentum is unchanged; walls keep the collision model; fluid_mps/"
+        "dynamic_stabilization.py, docs/fluid.md); 0 = off",
+    )
+    pressure_courant: float = Field(
+        0.0,
+        ge=0.0,
+        le=10.0,
+        description="time-step limit of the antisymmetric gradients: dt <= C l0 / sqrt(2 "
+        "p_max / rho) with p_max the largest fluid pressure, the stiffness of the repulsion "
+        "p_i + p_j of the tanaka form (still water at dt = 2e-3 s blew up, 1e-3 s did not; "
+        "docs/fluid.md); 0 = no limit",
+    )
 
 
 class SurfaceSection(Section):
