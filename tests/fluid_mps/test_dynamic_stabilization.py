@@ -99,3 +99,31 @@ def test_interior_hydrostatic_gradient(form, expected):
     inner = np.all((pos > 3 * L0) & (pos < (n - 4) * L0), axis=1)
     np.testing.assert_allclose(out[inner, 0], 0.0, atol=1e-9 * rho * g)
     np.testing.assert_allclose(out[inner, 1] / (-rho * g), expected, atol=1e-9)
+
+
+def lattice(n=12):
+    xs, ys = np.meshgrid(np.arange(n) * L0, np.arange(n) * L0, indexing="ij")
+    return np.column_stack([xs.ravel(), ys.ravel()])
+
+
+def test_shifting_moves_a_displaced_particle_back_and_leaves_the_surface():
+    from mpsfem.fluid_mps.particle_shifting import shift_particles
+
+    pos = lattice()
+    mid = 6 * 12 + 6
+    pos[mid, 0] += 0.1 * L0  # towards its right neighbour
+    surface = np.zeros(len(pos), np.int8)
+    surface[pos[:, 1] > 10.5 * L0] = 1
+    kind = np.zeros(len(pos), np.int8)
+    re = 2.1 * L0
+    nb = build_neighbours(pos, re)
+    n0, _ = lattice_constants(2, L0, re, "improved")
+    new = pos.copy()
+    moved = shift_particles(new, kind, surface, nb.indptr, nb.indices, re,
+                            weight_code("improved"), n0, 0.1, L0, 0.1 * L0,
+                            np.empty_like(pos))  # fmt: skip
+    assert 0.0 < moved <= 0.1 * L0
+    assert new[mid, 0] < pos[mid, 0]  # back towards its site
+    assert abs(new[mid, 1] - pos[mid, 1]) < 1e-12 * L0
+    near_top = pos[:, 1] > 8.5 * L0  # surface rows and those with a surface neighbour
+    np.testing.assert_array_equal(new[near_top], pos[near_top])

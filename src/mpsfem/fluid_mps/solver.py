@@ -29,6 +29,7 @@ import numpy as np
 from mpsfem.fluid_mps import (
     dynamic_stabilization,
     operators,
+    particle_shifting,
     probes,
     surface_pressure,
     time_integration,
@@ -81,6 +82,8 @@ class StageTimes:
         }
 
 
+#: the largest particle shift of fluid.pressure.shifting, x l0
+SHIFT_CAP = 0.1
 #: the gravity argument of a gradient without ghosts (unread there)
 _NO_GRAVITY = np.zeros(3)
 
@@ -220,6 +223,7 @@ class FluidSolver:
         #: fluid.pressure.dynamic_stabilization: its distance (m, 0 = off) and work array
         self.ds_distance = spec.pressure.dynamic_stabilization * l0
         self.ds_work = np.zeros((n, self.dim)) if self.ds_distance > 0.0 else None
+        self.shift_work = np.zeros((n, self.dim)) if spec.pressure.shifting > 0.0 else None
         #: fluid.pressure.pressure_courant: the decaying peak fluid pressure it reads (Pa)
         self.p_peak = 0.0
 
@@ -625,6 +629,12 @@ class FluidSolver:
             dynamic_stabilization.stabilise(
                 self.pos, self.vel, self.kind, near.indptr, near.indices, self.ds_distance, dt,
                 self.ds_work,
+            )  # fmt: skip
+        if self.spec.pressure.shifting > 0.0:  # positions only: momentum untouched
+            particle_shifting.shift_particles(
+                self.pos, self.kind, self.free_surface, near.indptr, near.indices,
+                self.re_grad, self.wcode, self.n0_grad, self.spec.pressure.shifting, self.l0,
+                SHIFT_CAP * self.l0, self.shift_work,
             )  # fmt: skip
         budget.stage(PRESSURE, self.vel, self.kind)
         budget.finish(dt, None if self.exchange else self._pressure_integrals())
