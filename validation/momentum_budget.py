@@ -13,6 +13,13 @@ Cases (each an ``mpsfem run`` subprocess, resumable like every study in validati
 * the antisymmetric gradients (``tanaka``, ``cmps``, with ``momentum_exchange``), which close
   the budget to round-off (tests/fluid_mps/test_momentum_budget.py), on still water
   (scenarios/hydrostatic_2d.toml, 0.5 s) and the dam break at L/40: do they run?
+* the stabilised conservative option: ``tanaka`` with its stiffness time-step limit
+  ``fluid.pressure.pressure_courant = 0.25`` and ``momentum_exchange`` (:data:`LIMITED`), on
+  still water for 2 s (gauge mean over 1-2 s against rho g (H - 0.05) = 4414.5 Pa, velocity
+  RMS, highest particle), the dam break at L/40 to 0.4 s (budget, front error against both
+  experiments as validation/dam_break.py defines it, the far-wall gauge's noise as
+  validation/dam_break_wall_gauge.py defines it; the default run's figures beside it) and
+  the elastic obstacle at L/20 (budget, tip, ringing);
 
 Per case and window, from ``/momentum_budget`` (impulses in N s/m):
 
@@ -87,6 +94,84 @@ def dam_cases() -> dict:
     sets = ["fluid.spacing=0.00365", "run.end_time=0.4", "output.probe_interval=0.001"]
     out = RESULTS_DIR / "momentum_dam_break_L40.h5"
     return {("dam_break", 40, "fluid_only"): (out, sets, "[dam break L/40]")}
+
+
+#: the stabilised conservative option: Tanaka's antisymmetric gradient under the time-step
+#: limit of its p_i + p_j repulsion (docs/fluid.md), loads by momentum exchange
+LIMITED = [
+    "fluid.pressure.gradient=tanaka",
+    "fluid.pressure.pressure_courant=0.25",
+    "fluid.boundary_force=momentum_exchange",
+]
+
+
+def limited_cases() -> dict:
+    return {
+        ("still_water", 0, "default"): (
+            RESULTS_DIR / "momentum_still_default.h5",
+            ["run.end_time=2.0", "output.snapshot_interval=0"],
+            "[still water default]",
+        ),
+        ("still_water", 0, "tanaka_limited"): (
+            RESULTS_DIR / "momentum_still_tanaka_limited.h5",
+            [*LIMITED, "run.end_time=2.0", "output.snapshot_interval=0"],
+            "[still water tanaka limited]",
+        ),
+        ("dam_break", 40, "tanaka_limited"): (
+            RESULTS_DIR / "momentum_dam_break_L40_tanaka_limited.h5",
+            [*LIMITED, *dam_cases()[("dam_break", 40, "fluid_only")][1],
+             "output.snapshot_interval=0"],
+            "[dam break L/40 tanaka limited]",
+        ),
+        ("obstacle", 20, "tanaka_limited"): (
+            RESULTS_DIR / "momentum_obstacle_L20_tanaka_limited.h5",
+            [*LIMITED, f"fluid.spacing={L / 20:.6g}", "run.end_time=0.25",
+             "output.snapshot_interval=0"],
+            "[obstacle L/20 tanaka limited]",
+        ),
+    }  # fmt: skip
+
+
+def dam_quality(path: Path) -> dict:
+    """The front's RMS error against both experiments, raw and after the best time offset
+    (validation/dam_break.py), and the far-wall gauge's noise (dam_break_wall_gauge.py)."""
+    import dam_break
+    import dam_break_wall_gauge
+
+    T, Z = dam_break.front_curve(path)
+    row = dam_break.comparison(T, Z, dam_break.references())
+    stats = dam_break_wall_gauge.gauge_statistics(*dam_break_wall_gauge.read_gauge(path))
+    with h5py.File(path, "r") as h5:
+        row["steps"] = len(h5["momentum_budget/time"])
+        row["wall_time_s"] = float(h5.attrs.get("wall_time", np.nan))
+    return row | {"gauge_noise_rel": stats.noise_relative, "gauge_peak_pa": stats.peak_pa}
+
+
+def still_row(path: Path, model: str) -> dict:
+    """Still water over 1-2 s: the gauge's mean against rho g (H - 0.05), the fluid's velocity
+    RMS (from the kinetic energy) and the highest particle."""
+    with h5py.File(path, "r") as h5:
+        t = h5["probes/gauge/time"][:]
+        p = h5["probes/gauge/value"][:]
+        te = h5["probes/energy/time"][:]
+        e = h5["probes/energy/value"][:]
+        wall = float(h5.attrs.get("wall_time", np.nan))
+        steps = len(h5["momentum_budget/time"])
+    sel = (t >= 1.0) & (t <= 2.0)
+    sel_e = (te >= 1.0) & (te <= 2.0)
+    mass = 1000.0 * 0.4 * 0.5  # kg/m, rho W H
+    return {
+        "case": "still_water",
+        "resolution_L_over_l0": 0,
+        "force_model": model,
+        "window": "1-2 s",
+        "t0_s": 1.0,
+        "t1_s": 2.0,
+        "gauge_mean_error_rel": float(p[sel].mean() / 4414.5 - 1.0),
+        "velocity_rms": float(np.sqrt(2.0 * e[sel_e, 0].mean() / mass)),
+        "steps": steps,
+        "wall_time_s": wall,
+    }
 
 
 def conservative_cases() -> dict:
@@ -191,11 +276,11 @@ def obstacle_row(path: Path, n: int, model: str) -> dict:
     }
 
 
-def dam_rows(path: Path) -> list[dict]:
+def dam_rows(path: Path, models: tuple[str, ...] = MODELS) -> list[dict]:
     rows = []
     for label, t0, t1 in WINDOWS["dam_break"]:
         b = window_sums(path, t0, t1)
-        for model in MODELS:
+        for model in models:
             rows.append(
                 {
                     "case": "dam_break",
@@ -234,12 +319,34 @@ def main(argv: list[str] | None = None) -> int:
     RESULTS_DIR.mkdir(parents=True, exist_ok=True)
     run = (args.threads, args.analyse_only, args.retry_failed)
     rows = []
-    scene = RESULTS_DIR / "dam_break_elastic_obstacle_2d_two_force_probes.toml"
-    scene.write_text(OBSTACLE.read_text() + INSTANT_PROBE)
-    for key, path in case_runner.finished_cases(scene, obstacle_cases(), *run).items():
+    obstacle_scene = RESULTS_DIR / "dam_break_elastic_obstacle_2d_two_force_probes.toml"
+    obstacle_scene.write_text(OBSTACLE.read_text() + INSTANT_PROBE)
+    for key, path in case_runner.finished_cases(obstacle_scene, obstacle_cases(), *run).items():
         rows.append(obstacle_row(path, key[1], key[2]))
     for path in case_runner.finished_cases(DAM, dam_cases(), *run).values():
         rows.extend(dam_rows(path))
+        rows[-1].update(dam_quality(path))
+    limited = limited_cases()
+    for key, (out, sets, tag) in limited.items():
+        scene = {"still_water": STILL, "dam_break": DAM}.get(key[0], obstacle_scene)
+        status = case_runner.case_status(scene, out, sets, *run, tag=tag)
+        if status != "finished":
+            if status is not None:
+                rows.append(stability_row(out, key))
+            continue
+        if key[0] == "still_water":
+            model = (
+                "pressure_and_contact"
+                if key[2] == "default"
+                else "momentum_exchange, tanaka limited"
+            )
+            rows.append(still_row(out, model))
+        elif key[0] == "dam_break":
+            for row in dam_rows(out, ("momentum_exchange",)):
+                rows.append(row | {"force_model": "momentum_exchange, tanaka limited"})
+            rows[-1].update(dam_quality(out))
+        else:
+            rows.append(obstacle_row(out, key[1], "momentum_exchange, tanaka limited"))
     for key, (out, sets, tag) in conservative_cases().items():
         scene = STILL if key[0] == "still_water" else DAM
         status = case_runner.case_status(scene, out, sets, *run, tag=tag)
@@ -257,6 +364,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     print("case        L/l0  model                 window    res_ext x (rel)   res_ext y (rel)")
     for r in rows:
+        if r["case"] == "still_water" and r["window"] != "stability":
+            print(f"still water  {r['force_model']}: gauge {100 * r['gauge_mean_error_rel']:+.2f} %, "
+                  f"velocity rms {r['velocity_rms']:.3f} m/s over 1-2 s")  # fmt: skip
+            continue
         if r["window"] == "stability":
             print(f"{r['case']:10s} {r['resolution_L_over_l0']:>4}  {r['force_model']}: "
                   f"{r['status']} at t = {r['t1_s']:.3f} s")  # fmt: skip
@@ -270,6 +381,15 @@ def main(argv: list[str] | None = None) -> int:
                 f"  tip {r['tip_peak_mm']:.1f} mm at {r['tip_peak_time_s']:.3f} s"
                 f"  ringing {r['ringing_last_step']:.3f} -> {r['ringing_mean']:.3f}"
                 if r["case"] == "obstacle"
+                else ""
+            )
+            + (
+                f"  front {100 * r['rms_error_ko']:.1f} / {100 * r['rms_error_mm']:.1f} %"
+                f" (shifted {100 * r['rms_error_shifted_ko']:.1f} / "
+                f"{100 * r['rms_error_shifted_mm']:.1f} % by {r['offset_ms_ko']:.0f} / "
+                f"{r['offset_ms_mm']:.0f} ms)  gauge noise {100 * r['gauge_noise_rel']:.0f} %"
+                f"  {r['steps']} steps"
+                if "gauge_noise_rel" in r
                 else ""
             )
         )

@@ -14,9 +14,18 @@ acceleration in the ghosts (``fluid.pressure.wall_acceleration``), and at 75 Hz 
 the pressure integral alone, the higher-order source (HS), the higher-order Laplacian (HL),
 gamma = 0 and l0 halved: what moves the lag?
 
+Also at 75 Hz: the stabilised conservative gradient (``tanaka`` under its time-step limit,
+loads by momentum exchange; docs/fluid.md), with and without the walls' acceleration.
+
 Writes validation/results/piston_added_mass.csv and prints the table.
 
+``--defaults`` runs instead the cross-case check of ``wall_acceleration``: the hydrostatic
+plate (scenarios/hydrostatic_plate_2d.toml, l0 = 0.02 m, 0.25 s; mean deflection over
+0.05-0.25 s against 6.85e-5 m) and the elastic obstacle at L/20 (0.25 s; peak tip, force
+ringing), each with and without it; writes validation/results/wall_acceleration_cases.csv.
+
     python validation/piston_added_mass.py [--threads 1] [--analyse-only] [--retry-failed]
+                                           [--defaults]
 """
 
 from __future__ import annotations
@@ -39,6 +48,12 @@ RESULTS_DIR = ROOT / "validation" / "results"
 RHO, G, H, WIDTH = 1000.0, 9.81, 2.0, 1.0
 #: (label, frequency Hz, dt s, extra overrides)
 WALL_ACCELERATION = ["fluid.pressure.wall_acceleration=true"]
+#: the stabilised conservative gradient (docs/fluid.md, "Momentum budget")
+LIMITED = [
+    "fluid.pressure.gradient=tanaka",
+    "fluid.pressure.pressure_courant=0.25",
+    "fluid.boundary_force=momentum_exchange",
+]
 CASES = [
     ("default", 20.0, 2e-4, []),
     ("default", 75.0, 2e-4, []),
@@ -53,7 +68,18 @@ CASES = [
     ("HL", 75.0, 2e-4, ["fluid.pressure.laplacian=higher_order"]),
     ("gamma=0", 75.0, 2e-4, ["fluid.pressure.gamma=0"]),
     ("l0=0.01", 75.0, 2e-4, ["fluid.spacing=0.01"]),
+    ("tanaka_limited", 75.0, 2e-4, LIMITED),
+    ("tanaka_limited+wall_acceleration", 75.0, 2e-4, [*LIMITED, *WALL_ACCELERATION]),
 ]
+#: the cross-case check of ``--defaults``: (case, scenario, overrides); each runs with and
+#: without the walls' acceleration
+PLATE = ROOT / "scenarios" / "hydrostatic_plate_2d.toml"
+OBSTACLE = ROOT / "scenarios" / "dam_break_elastic_obstacle_2d.toml"
+DEFAULTS_CASES = [
+    ("hydrostatic_plate_0.02", PLATE, ["fluid.spacing=0.02", "run.end_time=0.25"]),
+    ("obstacle_L20", OBSTACLE, ["fluid.spacing=0.0073", "run.end_time=0.25"]),
+]
+W_REF = 6.85e-5  # m, the 2D plate's static deflection (references.md section 5)
 
 
 def case_path(label: str, freq: float, dt: float) -> Path:
@@ -102,11 +128,68 @@ def fit(path: Path) -> dict:
     }
 
 
+def defaults_row(case: str, variant: str, path: Path) -> dict:
+    """The plate's mean mid-point deflection over 0.05-0.25 s against W_REF, or the obstacle's
+    peak tip displacement and its force probe's ringing over the impact (0.12-0.25 s: RMS of
+    the 1 ms sample-to-sample jump over the peak, as validation/momentum_budget.py)."""
+    with h5py.File(path, "r") as h5:
+        row = {"case": case, "variant": variant, "status": str(h5.attrs["status"])}
+        row["wall_time_s"] = float(h5.attrs.get("wall_time", np.nan))
+        if case.startswith("hydrostatic_plate"):
+            t = h5["probes/mid_deflection/time"][:]
+            v = h5["probes/mid_deflection/value"][:, -1]
+            mean = -float(v[t >= 0.05].mean())
+            return row | {"deflection_mean_m": mean, "deflection_error_rel": mean / W_REF - 1}
+        t = h5["probes/tip/time"][:]
+        tip = h5["probes/tip/value"][:, 0]
+        tf = h5["probes/obstacle_force/time"][:]
+        f = h5["probes/obstacle_force/value"][:, 0]
+    sel = (tf >= 0.12) & (tf <= 0.25)
+    peak = float(np.abs(f[sel]).max())
+    ring = float(np.sqrt(np.mean(np.diff(f[sel]) ** 2)) / peak)
+    return row | {
+        "tip_peak_mm": float(1e3 * tip.max()),
+        "tip_peak_time_s": float(t[np.argmax(tip)]),
+        "force_peak": peak,
+        "ringing": ring,
+    }
+
+
+def run_defaults(args) -> int:
+    """``--defaults``: does the walls' acceleration change the coupled cases? (The dam break's
+    walls are static: bit-identical either way.)"""
+    rows = []
+    for case, scene, sets in DEFAULTS_CASES:
+        for variant, extra in (("default", []), ("wall_acceleration", WALL_ACCELERATION)):
+            out = RESULTS_DIR / f"wall_acceleration_{case}_{variant}.h5"
+            status = case_runner.case_status(
+                scene, out, [*sets, "output.snapshot_interval=0", *extra], args.threads,
+                args.analyse_only, args.retry_failed, tag=f"[{case} {variant}]",
+            )  # fmt: skip
+            if status is not None:
+                rows.append(defaults_row(case, variant, out))
+    if not rows:
+        print("nothing to analyse")
+        return 1
+    write_csv(
+        rows,
+        RESULTS_DIR / "wall_acceleration_cases.csv",
+        comment="fluid.pressure.wall_acceleration on coupled cases "
+        "(validation/piston_added_mass.py --defaults)",
+    )
+    for r in rows:
+        print({k: (round(v, 6) if isinstance(v, float) else v) for k, v in r.items()})
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     case_runner.add_run_options(ap)
+    ap.add_argument("--defaults", action="store_true", help="the cross-case check instead")
     args = ap.parse_args(argv)
     RESULTS_DIR.mkdir(parents=True, exist_ok=True)
+    if args.defaults:
+        return run_defaults(args)
     cases = {
         (label, f, dt): (case_path(label, f, dt), overrides(f, dt, extra), f"[{label} {f:g} Hz]")
         for label, f, dt, extra in CASES
