@@ -14,7 +14,9 @@ Cases (each an ``mpsfem run`` subprocess, resumable like every study in validati
   the budget to round-off (tests/fluid_mps/test_momentum_budget.py), on still water
   (scenarios/hydrostatic_2d.toml, 0.5 s) and the dam break at L/40: do they run?
 * the stabilised conservative option: ``tanaka`` with its stiffness time-step limit
-  ``fluid.pressure.pressure_courant = 0.25`` and ``momentum_exchange`` (:data:`LIMITED`), on
+  ``fluid.pressure.pressure_courant = 0.25`` and ``momentum_exchange`` (:data:`LIMITED`), with
+  and without particle shifting (``fluid.pressure.shifting = 0.1``; the default with shifting
+  too, on the dam break), on
   still water for 2 s (gauge mean over 1-2 s against rho g (H - 0.05) = 4414.5 Pa, velocity
   RMS, highest particle), the dam break at L/40 to 0.4 s (budget, front error against both
   experiments as validation/dam_break.py defines it, the far-wall gauge's noise as
@@ -105,31 +107,44 @@ LIMITED = [
 ]
 
 
+#: the variants of :func:`limited_cases`: their overrides and the force model they report
+SHIFTING = ["fluid.pressure.shifting=0.1"]
+VARIANTS = {
+    "default": ([], "pressure_and_contact"),
+    "default_shifting": (SHIFTING, "pressure_and_contact, shifting 0.1"),
+    "tanaka_limited": (LIMITED, "momentum_exchange, tanaka limited"),
+    "tanaka_limited_shifting": (
+        [*LIMITED, *SHIFTING],
+        "momentum_exchange, tanaka limited, shifting 0.1",
+    ),
+}
+LIMITED_RUNS = {
+    "still_water": ("default", "tanaka_limited", "tanaka_limited_shifting"),
+    "dam_break": ("default_shifting", "tanaka_limited", "tanaka_limited_shifting"),
+    "obstacle": ("tanaka_limited", "tanaka_limited_shifting"),
+}
+
+
 def limited_cases() -> dict:
-    return {
-        ("still_water", 0, "default"): (
-            RESULTS_DIR / "momentum_still_default.h5",
-            ["run.end_time=2.0", "output.snapshot_interval=0"],
-            "[still water default]",
-        ),
-        ("still_water", 0, "tanaka_limited"): (
-            RESULTS_DIR / "momentum_still_tanaka_limited.h5",
-            [*LIMITED, "run.end_time=2.0", "output.snapshot_interval=0"],
-            "[still water tanaka limited]",
-        ),
-        ("dam_break", 40, "tanaka_limited"): (
-            RESULTS_DIR / "momentum_dam_break_L40_tanaka_limited.h5",
-            [*LIMITED, *dam_cases()[("dam_break", 40, "fluid_only")][1],
-             "output.snapshot_interval=0"],
-            "[dam break L/40 tanaka limited]",
-        ),
-        ("obstacle", 20, "tanaka_limited"): (
-            RESULTS_DIR / "momentum_obstacle_L20_tanaka_limited.h5",
-            [*LIMITED, f"fluid.spacing={L / 20:.6g}", "run.end_time=0.25",
-             "output.snapshot_interval=0"],
-            "[obstacle L/20 tanaka limited]",
-        ),
+    """(case, L / l0, variant) -> (results path, overrides, tag) of the limited Tanaka study
+    (the dam break's and the obstacle's default runs are :func:`dam_cases` and
+    :func:`obstacle_cases`)."""
+    base = {
+        "still_water": (0, "momentum_still", ["run.end_time=2.0"]),
+        "dam_break": (40, "momentum_dam_break_L40", dam_cases()[("dam_break", 40, "fluid_only")][1]),
+        "obstacle": (20, "momentum_obstacle_L20", [f"fluid.spacing={L / 20:.6g}", "run.end_time=0.25"]),
     }  # fmt: skip
+    cases = {}
+    for case, variants in LIMITED_RUNS.items():
+        n, stem, sets = base[case]
+        for variant in variants:
+            extra = VARIANTS[variant][0]
+            cases[(case, n, variant)] = (
+                RESULTS_DIR / f"{stem}_{variant}.h5",
+                [*extra, *sets, "output.snapshot_interval=0"],
+                f"[{case} {variant}]",
+            )
+    return cases
 
 
 def dam_quality(path: Path) -> dict:
@@ -334,19 +349,16 @@ def main(argv: list[str] | None = None) -> int:
             if status is not None:
                 rows.append(stability_row(out, key))
             continue
+        model = VARIANTS[key[2]][1]
         if key[0] == "still_water":
-            model = (
-                "pressure_and_contact"
-                if key[2] == "default"
-                else "momentum_exchange, tanaka limited"
-            )
             rows.append(still_row(out, model))
         elif key[0] == "dam_break":
-            for row in dam_rows(out, ("momentum_exchange",)):
-                rows.append(row | {"force_model": "momentum_exchange, tanaka limited"})
+            models = ("momentum_exchange",) if "tanaka" in key[2] else ("pressure_and_contact",)
+            for row in dam_rows(out, models):
+                rows.append(row | {"force_model": model})
             rows[-1].update(dam_quality(out))
         else:
-            rows.append(obstacle_row(out, key[1], "momentum_exchange, tanaka limited"))
+            rows.append(obstacle_row(out, key[1], model))
     for key, (out, sets, tag) in conservative_cases().items():
         scene = STILL if key[0] == "still_water" else DAM
         status = case_runner.case_status(scene, out, sets, *run, tag=tag)

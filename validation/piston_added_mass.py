@@ -15,7 +15,8 @@ the pressure integral alone, the higher-order source (HS), the higher-order Lapl
 gamma = 0 and l0 halved: what moves the lag?
 
 Also at 75 Hz: the stabilised conservative gradient (``tanaka`` under its time-step limit,
-loads by momentum exchange; docs/fluid.md), with and without the walls' acceleration.
+loads by momentum exchange; docs/fluid.md), with the walls' acceleration and with particle
+shifting (``fluid.pressure.shifting = 0.1``), and the default numerics with shifting.
 
 Writes validation/results/piston_added_mass.csv and prints the table.
 
@@ -70,6 +71,8 @@ CASES = [
     ("l0=0.01", 75.0, 2e-4, ["fluid.spacing=0.01"]),
     ("tanaka_limited", 75.0, 2e-4, LIMITED),
     ("tanaka_limited+wall_acceleration", 75.0, 2e-4, [*LIMITED, *WALL_ACCELERATION]),
+    ("tanaka_limited+shifting", 75.0, 2e-4, [*LIMITED, "fluid.pressure.shifting=0.1"]),
+    ("shifting", 75.0, 2e-4, ["fluid.pressure.shifting=0.1"]),
 ]
 #: the cross-case check of ``--defaults``: (case, scenario, overrides); each runs with and
 #: without the walls' acceleration
