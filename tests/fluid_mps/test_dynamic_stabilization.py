@@ -127,3 +127,22 @@ def test_shifting_moves_a_displaced_particle_back_and_leaves_the_surface():
     assert abs(new[mid, 1] - pos[mid, 1]) < 1e-12 * L0
     near_top = pos[:, 1] > 8.5 * L0  # surface rows and those with a surface neighbour
     np.testing.assert_array_equal(new[near_top], pos[near_top])
+
+
+def test_shifting_leaves_particles_next_to_a_member():
+    from mpsfem.fluid_mps.particle_shifting import shift_particles
+
+    pos = lattice()
+    kind = np.zeros(len(pos), np.int8)
+    kind[pos[:, 0] < 0.5 * L0] = 3  # a one-layer member along x = 0: no dummies behind it
+    mid = 6 * 12 + 6
+    pos[mid, 0] += 0.1 * L0
+    re = 2.1 * L0
+    nb = build_neighbours(pos, re)
+    n0, _ = lattice_constants(2, L0, re, "improved")
+    new = pos.copy()
+    shift_particles(new, kind, np.zeros(len(pos), np.int8), nb.indptr, nb.indices, re,
+                    weight_code("improved"), n0, 0.1, L0, 0.1 * L0, np.empty_like(pos))  # fmt: skip
+    beside = (kind == 0) & (pos[:, 0] < 2.5 * L0)  # a member particle within re
+    np.testing.assert_array_equal(new[beside], pos[beside])
+    assert new[mid, 0] < pos[mid, 0]  # the interior still shifts

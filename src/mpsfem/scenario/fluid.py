@@ -148,7 +148,7 @@ class PressureSection(Section):
         ge=0.0,
         le=1.0,
         description="particle shifting coefficient eps: after the pressure correction every "
-        "interior fluid particle (no free-surface particle within re) moves by -eps l0^2 <grad "
+        "interior fluid particle (no free-surface or structure particle within re) moves by -eps l0^2 <grad "
         "C> (Lind et al. 2012 with the MPS gradient of the neighbour concentration), at most "
         "0.1 l0; velocities unchanged (fluid_mps/particle_shifting.py, docs/fluid.md); 0 = off",
     )
