@@ -9,9 +9,11 @@ One step (thesis ch. 2.1):
    fluid pairs;
 4. particle number density n*, free-surface detection;
 5. pressure Poisson equation with the mixed source term, solved by preconditioned CG;
-6. negative-pressure clamp (if on); pressure gradient; correction of u and r;
-7. checks (non-finite values, escaped particles) and the next dt from the Courant number and the
-   viscous limit;
+6. negative-pressure clamp (if on); pressure gradient; correction of u and r; dynamic
+   stabilisation of close fluid pairs and particle shifting (each if on;
+   dynamic_stabilization.py, particle_shifting.py);
+7. checks (non-finite values, escaped particles) and the next dt from the Courant number, the
+   viscous limit and (if on) the antisymmetric gradients' pressure limit;
 8. if nu > 0: lap u^{n+1} on this step's neighbour list (state, checkpointed), for the next
    step's prediction.
 """
@@ -335,7 +337,9 @@ class FluidSolver:
 
     # ------------------------------------------------------------------ time step
     def stable_dt(self) -> float:
-        """Largest dt allowed by the Courant number and the viscous limit, capped at dt_max."""
+        """Largest dt allowed by the Courant number, the viscous limit and, with
+        ``fluid.pressure.pressure_courant`` = C, dt <= C l0 / sqrt(2 p_peak / rho) (the
+        stiffness of Tanaka's p_i + p_j repulsion, docs/fluid.md), capped at dt_max (s)."""
         ts = self.spec.time_step
         umax = time_integration.max_speed(self.vel, self.kind)
         dt = ts.dt_max
@@ -781,6 +785,7 @@ class FluidSolver:
             "t": self.t,
             "step": self.step_count,
             "dt_next": self.dt_next,
+            "p_peak": self.p_peak,
             "force_marks": {k: list(v) for k, v in self.force_marks.items()},
         }
 
@@ -816,6 +821,7 @@ class FluidSolver:
         self.t = float(meta["t"])
         self.step_count = int(meta["step"])
         self.dt_next = float(meta["dt_next"])
+        self.p_peak = float(meta.get("p_peak", 0.0))  # pressure_courant's decaying peak
         self.force_marks = {k: list(v) for k, v in meta.get("force_marks", {}).items()}
         self.pressure.set_preconditioner_state(preconditioner)
 
