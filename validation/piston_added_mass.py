@@ -177,6 +177,7 @@ def run_defaults(args) -> int:
     write_csv(
         rows,
         RESULTS_DIR / "wall_acceleration_cases.csv",
+        list(dict.fromkeys(k for r in rows for k in r)),
         comment="fluid.pressure.wall_acceleration on coupled cases "
         "(validation/piston_added_mass.py --defaults)",
     )
