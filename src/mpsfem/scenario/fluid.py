@@ -75,10 +75,12 @@ class PressureSection(Section):
         "neighbourhood, so surface and corner particles feel the full hydrostatic gradient; "
         "docs/fluid.md); 'corrected', the same with p_j - p_i (no repulsive part); 'pmin', eq. "
         "2-11 with the neighbourhood minimum (repulsive; half the gradient at a free surface); "
-        "'tanaka', the momentum-conserving form of eq. 2-12 (unstable near a free surface in our "
-        "tests); 'cmps', Khayyer & Gotoh's (2008) antisymmetric form sum (p_i + p_j - p_min,i - "
-        "p_min,j): momentum-conserving and stabilised, its fluid-fluid pairs cancel exactly "
-        "(docs/fluid.md, momentum budget)",
+        "'tanaka', the momentum-conserving form of eq. 2-12 (its p_i + p_j repulsion is stiff: "
+        "run it with pressure_courant, e.g. 0.25, and with boundary_force = "
+        "'momentum_exchange' the momentum budget closes to round-off); 'cmps', Khayyer & "
+        "Gotoh's (2008) antisymmetric form sum (p_i + p_j - p_min,i - p_min,j), whose "
+        "neighbours' p_min shift cancels the interior hydrostatic gradient (still water falls "
+        "and the run stops; docs/fluid.md, momentum budget)",
     )
     gamma: float = Field(
         0.01,
