@@ -119,7 +119,7 @@ VARIANTS = {
     ),
 }
 LIMITED_RUNS = {
-    "still_water": ("default", "tanaka_limited", "tanaka_limited_shifting"),
+    "still_water": ("default", "default_shifting", "tanaka_limited", "tanaka_limited_shifting"),
     "dam_break": ("default_shifting", "tanaka_limited", "tanaka_limited_shifting"),
     "obstacle": ("tanaka_limited", "tanaka_limited_shifting"),
 }
