@@ -81,6 +81,9 @@ class ParticleSet:
     normal: np.ndarray
     n_fluid: int
     patches: list[WallPatch] = field(default_factory=list)
+    #: int8 per particle, 1 on the pressure layer of polygon walls: wet by fluid contact alone
+    #: (wall_boundary.mark_dry); empty when the scene has no polygon wall
+    contact_wet: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int8))
 
 
 def default_dummy_layers(max_re: float) -> int:
@@ -460,7 +463,15 @@ def build_particles(fluid: FluidSection, external: Sequence[ExternalPatch] = ())
         normal.append(np.asarray(ext.normal, dtype=np.float64))
         patches.append(WallPatch(ext.name, n, n + len(ext.pos), None))
         n += len(ext.pos)
+    contact_wet = np.zeros(0, dtype=np.int8)
+    if polygons:
+        contact_wet = np.zeros(n, dtype=np.int8)
+        for pt in patches:
+            if pt.spec is not None and pt.spec.shape == "polygon":
+                k = np.concatenate(kind)[pt.start : pt.stop]
+                contact_wet[pt.start : pt.stop] = k == WALL
     out = ParticleSet(
+        contact_wet=contact_wet,
         pos=np.ascontiguousarray(np.concatenate(pos)),
         vel=np.ascontiguousarray(np.concatenate(vel)),
         kind=np.concatenate(kind),
