@@ -122,13 +122,14 @@ def case_name(beta_deg: int, n: int, tank: float) -> str:
     return f"beta{beta_deg}_n{n}" + ("" if tank == 1.0 else f"_tank{tank:g}")
 
 
-def run_case(beta_deg: int, n: int, tank: float = 1.0) -> Path:
-    """Run one case (unless its file exists) and keep its histories; returns the file."""
+def run_case(beta_deg: int, n: int, tank: float = 1.0, out_dir: Path = OUT_DIR) -> Path:
+    """Run one case (unless its file exists in ``out_dir``) and keep its histories there;
+    returns the file."""
     from mpsfem.fluid_mps.particle_kinds import WALL
     from mpsfem.fluid_mps.solver import FluidSolver
     from mpsfem.scenario.loader import load_scenario
 
-    path = OUT_DIR / f"{case_name(beta_deg, n, tank)}.npz"
+    path = out_dir / f"{case_name(beta_deg, n, tank)}.npz"
     if path.is_file():
         return path
     loaded = load_scenario(SCENARIO, overrides(beta_deg, n, tank))
@@ -152,7 +153,7 @@ def run_case(beta_deg: int, n: int, tank: float = 1.0) -> Path:
         force.append(solver.boundary_force(["wedge"])[1])
         press.append(solver.p[idx].copy())
     wall = time.perf_counter() - t0
-    OUT_DIR.mkdir(parents=True, exist_ok=True)
+    out_dir.mkdir(parents=True, exist_ok=True)
     np.savez_compressed(
         path,
         t=np.array(times),
@@ -168,9 +169,9 @@ def run_case(beta_deg: int, n: int, tank: float = 1.0) -> Path:
     return path
 
 
-def analyse(beta_deg: int, n: int, tank: float = 1.0) -> dict:
+def analyse(beta_deg: int, n: int, tank: float = 1.0, out_dir: Path = OUT_DIR) -> dict:
     """The row of one case (module docstring)."""
-    d = np.load(OUT_DIR / f"{case_name(beta_deg, n, tank)}.npz")
+    d = np.load(out_dir / f"{case_name(beta_deg, n, tank)}.npz")
     beta = math.radians(beta_deg)
     cdot = wagner_speed(beta)
     t, dt, f, p, x = d["t"], d["dt"], d["force"], d["p"], d["x"]

@@ -170,3 +170,32 @@ def test_hydrostatic_pressure_on_an_inclined_face():
     print(f"inclined face: {len(face)} particles, largest error {err.max() * 100:.2f} % rho g H")
     assert samples > 50
     assert err.max() < 0.02
+
+
+def _wedge_study():
+    import importlib.util
+    import sys
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "validation" / "wedge_entry.py"
+    spec = importlib.util.spec_from_file_location("wedge_entry", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["wedge_entry"] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.slow
+def test_wedge_force_against_wagner(tmp_path):
+    """The 30 deg wedge of scenarios/wedge_entry_2d.toml at l0 = B / 20 (about 15 s): the force
+    coefficient F / (rho V^3 t) from the impulse over c = 0.3-0.6 B lies between 0.7 and 1.0 of
+    Wagner's pi^3 / (4 tan^2 beta) = 23.25. Wagner's linearised theory bounds the force from
+    above (the nonlinear similarity solution's force is lower); the lower bound allows the 15-25 %
+    that our three spacings read below it (docs/validation_water_entry.md). The face pressure's
+    similarity peak lies at the spray root, 0.8 <= |x| / c <= 1.2."""
+    study = _wedge_study()
+    study.run_case(30, 20, out_dir=tmp_path)
+    row = study.analyse(30, 20, out_dir=tmp_path)
+    print({k: row[k] for k in ("cf_impulse", "cf_wagner", "cp_max", "xi_peak")})
+    assert 0.7 <= row["cf_impulse"] / row["cf_wagner"] <= 1.0
+    assert 0.8 <= row["xi_peak"] <= 1.2
