@@ -73,7 +73,7 @@ ZF_CP_MAX = {10: 54.3, 30: 6.93}
 
 COLUMNS = [
     "beta_deg", "n", "l0", "tank", "particles", "steps", "wall_s",
-    "cf_impulse", "cf_fit", "cf_wagner", "cf_ratio",
+    "cf_impulse", "cf_fit", "cf_wagner", "cf_ratio", "cf_half1", "cf_half2", "cf_pressure",
     "cp_max", "xi_peak", "cp_spike", "cp_wagner", "cp_zf", "cp_ratio_zf",
     "impulse_ratio",
 ]  # fmt: skip
@@ -177,10 +177,20 @@ def analyse(beta_deg: int, n: int, tank: float = 1.0, out_dir: Path = OUT_DIR) -
     t, dt, f, p, x = d["t"], d["dt"], d["force"], d["p"], d["x"]
     t1, t2 = C_START * B / cdot, C_END * B / cdot
     # impulse by the rectangle rule of the step forces (each F is the step's force)
-    impulse = np.concatenate([[0.0], np.cumsum(f * dt)])
     tt = np.concatenate([[0.0], t])
-    i1, i2 = np.interp(t1, tt, impulse), np.interp(t2, tt, impulse)
-    cf_imp = 2.0 * (i2 - i1) / (RHO * V**3 * (t2**2 - t1**2))
+
+    def cf_between(force: np.ndarray, ta: float, tb: float) -> float:
+        impulse = np.concatenate([[0.0], np.cumsum(force * dt)])
+        ia, ib = np.interp(ta, tt, impulse), np.interp(tb, tt, impulse)
+        return 2.0 * (ib - ia) / (RHO * V**3 * (tb**2 - ta**2))
+
+    cf_imp = cf_between(f, t1, t2)
+    t_mid = 0.5 * (t1 + t2)
+    halves = (cf_between(f, t1, t_mid), cf_between(f, t_mid, t2))
+    # the pressure part alone: -sum p l0 n_y over the face particles (normal (+-sin b, -cos b),
+    # the apex's (0, -1)); the rest of the total is the contact (collision, viscous) part
+    ny = np.where(np.abs(x) < 1e-12, 1.0, math.cos(beta))
+    cf_press = cf_between((p * ny[None, :]).sum(axis=1) * float(d["l0"]), t1, t2)
     win = (t > t1) & (t <= t2 + 1e-12)
     cf_fit = float(np.sum(f[win] * t[win]) / np.sum(t[win] ** 2)) / (RHO * V**3)
     q = 0.5 * RHO * V**2
@@ -214,6 +224,9 @@ def analyse(beta_deg: int, n: int, tank: float = 1.0, out_dir: Path = OUT_DIR) -
         "cf_fit": cf_fit,
         "cf_wagner": cfw,
         "cf_ratio": cf_imp / cfw,
+        "cf_half1": halves[0],
+        "cf_half2": halves[1],
+        "cf_pressure": cf_press,
         "cp_max": float(mean[k]),
         "xi_peak": (k + 0.5) * BIN,
         "cp_spike": float(cp.max()),
@@ -254,7 +267,7 @@ def main() -> None:
     write_csv(rows, CSV, COLUMNS, comment="validation/wedge_entry.py: rigid wedge entry, V = 5 m/s")
     head = f"{'beta':>4} {'n':>3} {'tank':>4} {'N':>6} {'steps':>5} {'wall s':>7} "
     head += f"{'CF imp':>7} {'CF fit':>7} {'CF Wag':>7} {'Cpmax':>6} {'xi':>5} {'spike':>7} "
-    head += f"{'CpWag':>6} {'CpZF':>5} {'I/IWag':>6}"
+    head += f"{'CpWag':>6} {'CpZF':>5} {'I/IWag':>6} {'CF 1st/2nd half':>15} {'CF p':>6}"
     print(head)
     for r in rows:
         print(
@@ -262,14 +275,22 @@ def main() -> None:
             f"{r['wall_s']:>7.0f} {r['cf_impulse']:>7.2f} {r['cf_fit']:>7.2f} "
             f"{r['cf_wagner']:>7.2f} {r['cp_max']:>6.2f} {r['xi_peak']:>5.3f} "
             f"{r['cp_spike']:>7.1f} {r['cp_wagner']:>6.2f} {r['cp_zf']:>5.2f} "
-            f"{r['impulse_ratio']:>6.3f}"
+            f"{r['impulse_ratio']:>6.3f} {r['cf_half1']:>7.1f}/{r['cf_half2']:<7.1f} "
+            f"{r['cf_pressure']:>6.1f}"
         )
     for b in betas:
         rs = [r for r in rows if r["beta_deg"] == b and r["tank"] == 1.0]
-        if len(rs) == 3:
+        for k in range(len(rs) - 2):
+            three = rs[k : k + 3]
             for key in ("cf_impulse", "cp_max", "impulse_ratio"):
-                qs = [r[key] for r in rs]
-                print(f"beta {b}: {key} observed order (three levels) {observed_order(qs):.2f}")
+                qs = [r[key] for r in three]
+                mono = (qs[0] - qs[1]) * (qs[1] - qs[2]) > 0
+                print(
+                    f"beta {b}, n = {three[0]['n']}-{three[2]['n']}: {key} "
+                    f"{' -> '.join(f'{q:.3g}' for q in qs)}, observed order "
+                    f"{observed_order(qs):.2f}"
+                    + ("" if mono else " (not monotone: no asymptotic order)")
+                )
 
 
 if __name__ == "__main__":
