@@ -36,7 +36,10 @@ Cp_max = 6.93 at 30 deg and 54.3 at 10 deg (values as commonly cited from their 
 paper's force coefficients were not available to us).
 
     python validation/wedge_entry.py [--betas 10,30] [--levels 20,40,80] [--threads 1]
-                                     [--tank-check] [--analyse-only]
+                                     [--tank-levels 20,40] [--analyse-only]
+
+The published table: ``--levels 20,40,80,160 --tank-levels 20,40`` (B / 160 for 10 deg only:
+``--betas 10 --levels 160`` first; the analysis reports every case whose file exists).
 """
 
 from __future__ import annotations
@@ -248,18 +251,23 @@ def main() -> None:
     ap.add_argument("--betas", default="10,30")
     ap.add_argument("--levels", default="20,40,80")
     ap.add_argument("--threads", type=int, default=1)
-    ap.add_argument("--tank-check", action="store_true", help="also beta 30, coarsest, tank x2")
+    ap.add_argument(
+        "--tank-levels",
+        default="",
+        help="also run beta 30 in a tank twice as wide and deep at these n (e.g. 20,40)",
+    )
     ap.add_argument("--analyse-only", action="store_true")
     args = ap.parse_args()
     os.environ.setdefault("NUMBA_NUM_THREADS", str(args.threads))
     betas = [int(b) for b in args.betas.split(",")]
     levels = [int(n) for n in args.levels.split(",")]
     cases = [(b, n, 1.0) for b in betas for n in levels]
-    if args.tank_check:
-        cases.append((30, levels[0], 2.0))
-    for case in cases:
-        if not args.analyse_only:
+    tank_levels = [int(n) for n in args.tank_levels.split(",")] if args.tank_levels else []
+    runs = cases + [(30, n, 2.0) for n in tank_levels]
+    if not args.analyse_only:
+        for case in runs:
             run_case(*case)
+    cases += [(30, n, 2.0) for n in levels]  # tank checks run before are reported too
     rows = [analyse(*c) for c in cases if (OUT_DIR / f"{case_name(*c)}.npz").is_file()]
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     from results_csv import write_csv
