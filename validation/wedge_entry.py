@@ -36,9 +36,11 @@ Cp_max = 6.93 at 30 deg and 54.3 at 10 deg (values as commonly cited from their 
 paper's force coefficients were not available to us).
 
     python validation/wedge_entry.py [--betas 10,30] [--levels 20,40,80] [--threads 1]
-                                     [--tank-levels 20,40] [--analyse-only]
+                                     [--tank-levels 20,40] [--variants dt05:40,gravity:40]
+                                     [--analyse-only]
 
-The published table: ``--levels 20,40,80,160 --tank-levels 20,40`` (B / 160 for 10 deg only:
+The published table: ``--levels 20,40,80,160 --tank-levels 20,40 --variants
+dt05:40,gravity:40`` (B / 160 for 10 deg only:
 ``--betas 10 --levels 160`` first; the analysis reports every case whose file exists).
 """
 
@@ -75,7 +77,7 @@ IMPULSE_XI = 0.25  # face point of the pressure impulse, |x| / c_end
 ZF_CP_MAX = {10: 54.3, 30: 6.93}
 
 COLUMNS = [
-    "beta_deg", "n", "l0", "tank", "particles", "steps", "wall_s",
+    "beta_deg", "n", "l0", "tank", "variant", "particles", "steps", "wall_s",
     "cf_impulse", "cf_fit", "cf_wagner", "cf_ratio", "cf_half1", "cf_half2", "cf_pressure",
     "cp_max", "xi_peak", "cp_spike", "cp_wagner", "cp_zf", "cp_ratio_zf",
     "impulse_ratio",
@@ -97,9 +99,18 @@ def wagner_cp_max(beta: float) -> float:
     return (math.pi / (2.0 * math.tan(beta))) ** 2
 
 
-def overrides(beta_deg: int, n: int, tank: float = 1.0) -> list[str]:
-    """--set overrides of the scenario for deadrise ``beta_deg``, spacing B / n and a tank
-    ``tank`` times as wide and deep (the apex stays on the surface)."""
+#: sensitivity variants (``--variants``): extra overrides of the scenario and what they test
+VARIANTS = {
+    "": "the study's set-up",
+    "dt05": "dt_max = 0.05 l0 / V instead of 0.02 l0 / V (the step's effect)",
+    "gravity": "g = 9.81 m/s^2 with a hydrostatic start (the Froude number's effect)",
+}
+
+
+def overrides(beta_deg: int, n: int, tank: float = 1.0, variant: str = "") -> list[str]:
+    """--set overrides of the scenario for deadrise ``beta_deg``, spacing B / n, a tank
+    ``tank`` times as wide and deep (the apex stays on the surface) and a :data:`VARIANTS`
+    key."""
     beta = math.radians(beta_deg)
     depth = H * tank
     half = HALF_WIDTH * tank
@@ -108,10 +119,14 @@ def overrides(beta_deg: int, n: int, tank: float = 1.0) -> list[str]:
     verts = [[0.0, depth], [B, knuckle], [B, top], [-B, top], [-B, knuckle]]
     t_end = C_END * B / wagner_speed(beta)
     vtxt = "[" + ",".join(f"[{x:.9g},{y:.9g}]" for x, y in verts) + "]"
-    return [
+    if variant not in VARIANTS:
+        raise ValueError(f"variant {variant!r}: allowed {sorted(VARIANTS)}")
+    dt_per_spacing = 0.05 if variant == "dt05" else DT_MAX_PER_SPACING
+    extra = ["fluid.gravity=[0.0,-9.81]", "fluid.hydrostatic_start=true"]
+    return (extra if variant == "gravity" else []) + [
         f"fluid.spacing={B / n:.9g}",
         f"run.end_time={t_end:.9g}",
-        f"fluid.time_step.dt_max={DT_MAX_PER_SPACING * B / n / V:.9g}",
+        f"fluid.time_step.dt_max={dt_per_spacing * B / n / V:.9g}",
         f"fluid.walls.1.vertices={vtxt}",
         f"fluid.blocks.0.lower=[{-half},0.0]",
         f"fluid.blocks.0.upper=[{half},{depth}]",
@@ -121,21 +136,24 @@ def overrides(beta_deg: int, n: int, tank: float = 1.0) -> list[str]:
     ]
 
 
-def case_name(beta_deg: int, n: int, tank: float) -> str:
-    return f"beta{beta_deg}_n{n}" + ("" if tank == 1.0 else f"_tank{tank:g}")
+def case_name(beta_deg: int, n: int, tank: float = 1.0, variant: str = "") -> str:
+    name = f"beta{beta_deg}_n{n}" + ("" if tank == 1.0 else f"_tank{tank:g}")
+    return name + (f"_{variant}" if variant else "")
 
 
-def run_case(beta_deg: int, n: int, tank: float = 1.0, out_dir: Path = OUT_DIR) -> Path:
+def run_case(
+    beta_deg: int, n: int, tank: float = 1.0, variant: str = "", out_dir: Path = OUT_DIR
+) -> Path:
     """Run one case (unless its file exists in ``out_dir``) and keep its histories there;
     returns the file."""
     from mpsfem.fluid_mps.particle_kinds import WALL
     from mpsfem.fluid_mps.solver import FluidSolver
     from mpsfem.scenario.loader import load_scenario
 
-    path = out_dir / f"{case_name(beta_deg, n, tank)}.npz"
+    path = out_dir / f"{case_name(beta_deg, n, tank, variant)}.npz"
     if path.is_file():
         return path
-    loaded = load_scenario(SCENARIO, overrides(beta_deg, n, tank))
+    loaded = load_scenario(SCENARIO, overrides(beta_deg, n, tank, variant))
     sc = loaded.scenario
     solver = FluidSolver(sc.fluid, base_dir=SCENARIO.parent)
     pt = solver.patch("wedge")
@@ -172,9 +190,11 @@ def run_case(beta_deg: int, n: int, tank: float = 1.0, out_dir: Path = OUT_DIR) 
     return path
 
 
-def analyse(beta_deg: int, n: int, tank: float = 1.0, out_dir: Path = OUT_DIR) -> dict:
+def analyse(
+    beta_deg: int, n: int, tank: float = 1.0, variant: str = "", out_dir: Path = OUT_DIR
+) -> dict:
     """The row of one case (module docstring)."""
-    d = np.load(out_dir / f"{case_name(beta_deg, n, tank)}.npz")
+    d = np.load(out_dir / f"{case_name(beta_deg, n, tank, variant)}.npz")
     beta = math.radians(beta_deg)
     cdot = wagner_speed(beta)
     t, dt, f, p, x = d["t"], d["dt"], d["force"], d["p"], d["x"]
@@ -220,6 +240,7 @@ def analyse(beta_deg: int, n: int, tank: float = 1.0, out_dir: Path = OUT_DIR) -
         "n": n,
         "l0": float(d["l0"]),
         "tank": tank,
+        "variant": variant,
         "particles": int(d["particles"]),
         "steps": len(t),
         "wall_s": float(d["wall_s"]),
@@ -256,30 +277,40 @@ def main() -> None:
         default="",
         help="also run beta 30 in a tank twice as wide and deep at these n (e.g. 20,40)",
     )
+    ap.add_argument(
+        "--variants",
+        default="",
+        help="also run beta 30 as variant:n pairs (dt05:40,gravity:40; VARIANTS)",
+    )
     ap.add_argument("--analyse-only", action="store_true")
     args = ap.parse_args()
     os.environ.setdefault("NUMBA_NUM_THREADS", str(args.threads))
     betas = [int(b) for b in args.betas.split(",")]
     levels = [int(n) for n in args.levels.split(",")]
-    cases = [(b, n, 1.0) for b in betas for n in levels]
+    cases = [(b, n, 1.0, "") for b in betas for n in levels]
     tank_levels = [int(n) for n in args.tank_levels.split(",")] if args.tank_levels else []
-    runs = cases + [(30, n, 2.0) for n in tank_levels]
+    runs = cases + [(30, n, 2.0, "") for n in tank_levels]
+    extra = [v.split(":") for v in args.variants.split(",")] if args.variants else []
+    runs += [(30, int(n), 1.0, v) for v, n in extra]
     if not args.analyse_only:
         for case in runs:
             run_case(*case)
-    cases += [(30, n, 2.0) for n in levels]  # tank checks run before are reported too
+    # tank checks and variants run before are reported too
+    cases += [(30, n, 2.0, "") for n in levels]
+    cases += [(30, n, 1.0, v) for v in VARIANTS if v for n in levels]
     rows = [analyse(*c) for c in cases if (OUT_DIR / f"{case_name(*c)}.npz").is_file()]
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     from results_csv import write_csv
 
     write_csv(rows, CSV, COLUMNS, comment="validation/wedge_entry.py: rigid wedge entry, V = 5 m/s")
-    head = f"{'beta':>4} {'n':>3} {'tank':>4} {'N':>6} {'steps':>5} {'wall s':>7} "
+    head = f"{'beta':>4} {'n':>3} {'tank':>4}{'variant':>8} {'N':>6} {'steps':>5} {'wall s':>7} "
     head += f"{'CF imp':>7} {'CF fit':>7} {'CF Wag':>7} {'Cpmax':>6} {'xi':>5} {'spike':>7} "
     head += f"{'CpWag':>6} {'CpZF':>5} {'I/IWag':>6} {'CF 1st/2nd half':>15} {'CF p':>6}"
     print(head)
     for r in rows:
         print(
-            f"{r['beta_deg']:>4} {r['n']:>3} {r['tank']:>4g} {r['particles']:>6} {r['steps']:>5} "
+            f"{r['beta_deg']:>4} {r['n']:>3} {r['tank']:>4g}{r['variant']:>8} {r['particles']:>6} "
+            f"{r['steps']:>5} "
             f"{r['wall_s']:>7.0f} {r['cf_impulse']:>7.2f} {r['cf_fit']:>7.2f} "
             f"{r['cf_wagner']:>7.2f} {r['cp_max']:>6.2f} {r['xi_peak']:>5.3f} "
             f"{r['cp_spike']:>7.1f} {r['cp_wagner']:>6.2f} {r['cp_zf']:>5.2f} "
@@ -287,7 +318,7 @@ def main() -> None:
             f"{r['cf_pressure']:>6.1f}"
         )
     for b in betas:
-        rs = [r for r in rows if r["beta_deg"] == b and r["tank"] == 1.0]
+        rs = [r for r in rows if r["beta_deg"] == b and r["tank"] == 1.0 and not r["variant"]]
         for k in range(len(rs) - 2):
             three = rs[k : k + 3]
             for key in ("cf_impulse", "cp_max", "impulse_ratio"):
