@@ -74,9 +74,9 @@ def test_layers_spacing_and_no_duplicates(verts):
 
 
 def test_pressure_layer_normals_point_to_the_fluid():
-    """Unit normals; on a face away from corners exactly the face's outward normal (for the
-    wedge's right face (sin b, -cos b) rotated: (-sin beta, cos beta) is inward, so outward is
-    (sin beta, -cos beta)); at the apex straight down."""
+    """Unit normals; on a face away from corners exactly the face's outward normal (the wedge's
+    right face rises at beta, so its outward normal is (sin beta, -cos beta)); at the apex the
+    bisector, straight down; a step of 0.6 l0 along any normal leaves the polygon."""
     l0 = 0.02
     p, layer, n = polygon_wall(WEDGE, l0, 5)
     w = layer == 0
