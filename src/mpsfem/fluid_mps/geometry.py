@@ -18,6 +18,19 @@ Conventions (every dimension):
 - a wall particle's layer is its lattice distance behind the face (the largest over the axes),
   layer 0 is the pressure layer (kind WALL) and deeper layers are DUMMY;
 - wall normals are unit vectors from the particle towards the fluid side (for force probes).
+
+Polygon walls (2D, ``shape = "polygon"``; :func:`polygon_wall`): inclined faces cannot sit on the
+lattice, so their particles are laid along the outline instead. Layer m (0 = pressure layer) is
+the outline offset inward by (m + 1/2) l0, as a box's layers are: along each face a row parallel
+to it, from corner to corner of the offset outline, cut into round(length / l0) equal pieces
+(spacing within l0 (1 +- 1/(2 n)) on a face n spacings long); a convex corner holds one particle
+at the mitre point of its two offset faces (normal: the two faces' normals averaged), a reflex
+corner an arc of radius (m + 1/2) l0 around the vertex. A particle closer than (m + 1/4) l0 to the
+outline or outside it (a layer deeper than the polygon is thick) is dropped, as is one closer
+than l0 / 2 to a particle laid before it (shallower layers first). An axis-aligned rectangle with
+corners on the lattice gives exactly a box's particles. The vertices are kept as given (not
+snapped); fluid particles inside the outline or closer than l0 / 2 to it are removed, the gap a
+lattice-aligned box face leaves to its nearest fluid row.
 """
 
 from __future__ import annotations
@@ -68,6 +81,9 @@ class ParticleSet:
     normal: np.ndarray
     n_fluid: int
     patches: list[WallPatch] = field(default_factory=list)
+    #: int8 per particle, 1 on the pressure layer of polygon walls: wet by fluid contact alone
+    #: (wall_boundary.mark_dry); empty when the scene has no polygon wall
+    contact_wet: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int8))
 
 
 def default_dummy_layers(max_re: float) -> int:
@@ -126,6 +142,10 @@ def scene_corners(fluid: FluidSection) -> list[tuple[str, np.ndarray, np.ndarray
         for i, b in enumerate(fluid.blocks)
     ]
     for i, w in enumerate(fluid.walls):
+        if w.shape == "polygon":  # laid along its faces, not on the lattice: its bounding box
+            box = (np.asarray(w.lower, dtype=np.float64), np.asarray(w.upper, dtype=np.float64))
+            out.append((f"fluid.walls[{i}]", *box))
+            continue
         floor = fluid.vertical_axis if w.shape == "tank" else None
         out.append((f"fluid.walls[{i}]", *wall_corners(w.lower, w.upper, l0, origin, floor)))
     return out
@@ -220,6 +240,107 @@ def solid_box(lower, upper, l0: float, layers: int) -> tuple[np.ndarray, np.ndar
     return pts, layer, normal
 
 
+def polygon_outline(vertices) -> np.ndarray:
+    """The vertices (m) as an (n, 2) float64 array in counter-clockwise order (shoelace area
+    positive); the schema has checked that they form a simple polygon."""
+    v = np.asarray(vertices, dtype=np.float64)
+    x, y = v[:, 0], v[:, 1]
+    area2 = float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))  # shoelace formula
+    return v if area2 > 0.0 else v[::-1].copy()
+
+
+def inside_polygon(pts: np.ndarray, vertices) -> np.ndarray:
+    """Mask of the points (m, (n, 2)) strictly inside the polygon (even-odd crossing rule; a point
+    on the outline may fall either way)."""
+    v = np.asarray(vertices, dtype=np.float64)
+    x, y = pts[:, 0], pts[:, 1]
+    inside = np.zeros(len(pts), dtype=bool)
+    for a, b in zip(v, np.roll(v, -1, axis=0), strict=True):
+        straddles = (a[1] > y) != (b[1] > y)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x_cross = a[0] + (y - a[1]) * (b[0] - a[0]) / (b[1] - a[1])
+        inside ^= straddles & (x < x_cross)
+    return inside
+
+
+def outline_distance(pts: np.ndarray, vertices) -> np.ndarray:
+    """Distance (m) of each point ((n, 2), m) to the polygon's outline (its nearest edge)."""
+    v = np.asarray(vertices, dtype=np.float64)
+    best = np.full(len(pts), np.inf)
+    for a, b in zip(v, np.roll(v, -1, axis=0), strict=True):
+        e = b - a
+        s = np.clip((pts - a) @ e / float(e @ e), 0.0, 1.0)
+        best = np.minimum(best, np.linalg.norm(pts - (a + s[:, None] * e), axis=1))
+    return best
+
+
+def _first_apart(pts: np.ndarray, gap: float) -> np.ndarray:
+    """Indices of the points kept when each is dropped if a point kept before it lies closer
+    than ``gap`` (m), in order."""
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(pts)
+    kept = np.zeros(len(pts), dtype=bool)
+    for i in range(len(pts)):
+        near = tree.query_ball_point(pts[i], gap * (1.0 - 1e-9))
+        if not any(kept[j] for j in near if j < i):
+            kept[i] = True
+    return np.flatnonzero(kept)
+
+
+def polygon_wall(vertices, l0: float, layers: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Wall particles of a solid 2D polygon (fluid outside) to ``layers`` deep, laid along its
+    faces (module docstring). Returns positions (n x 2, m), layer index (n,) and unit normals
+    towards the fluid (n x 2; meaningful on layer 0)."""
+    v = polygon_outline(vertices)
+    nv = len(v)
+    edge = np.roll(v, -1, axis=0) - v
+    tang = edge / np.linalg.norm(edge, axis=1, keepdims=True)
+    out_n = np.stack([tang[:, 1], -tang[:, 0]], axis=1)  # outward normal of a CCW outline
+    prev = np.roll(np.arange(nv), 1)
+    # turn at vertex k from edge k-1 to edge k: > 0 convex, < 0 reflex (CCW outline)
+    turn = tang[prev, 0] * tang[:, 1] - tang[prev, 1] * tang[:, 0]
+    convex = turn >= -1e-12
+    pts, lay, nrm = [], [], []
+    for m in range(layers):
+        d = (m + 0.5) * l0
+        bis = out_n[prev] + out_n
+        mitre = v - d * bis / (1.0 + np.sum(out_n[prev] * out_n, axis=1))[:, None]
+        for k in range(nv):
+            k1 = (k + 1) % nv
+            start = mitre[k] if convex[k] else v[k] - d * out_n[k]
+            end = mitre[k1] if convex[k1] else v[k1] - d * out_n[k]
+            length = float((end - start) @ tang[k])
+            if length < -1e-9 * l0:
+                continue  # the polygon is thinner than this layer here
+            count = max(1, round(length / l0))
+            row = start + np.arange(count)[:, None] / count * (end - start)
+            normals = np.repeat(out_n[k][None, :], count, axis=0)
+            if convex[k]:
+                normals[0] = bis[k] / np.linalg.norm(bis[k])
+            pts.append(row)
+            nrm.append(normals)
+            lay.append(np.full(count, m))
+            if not convex[k1]:  # reflex corner: an arc around the vertex to the next face
+                a0 = math.atan2(out_n[k][1], out_n[k][0])
+                a1 = math.atan2(out_n[k1][1], out_n[k1][0])
+                sweep = (a1 - a0 + math.pi) % (2.0 * math.pi) - math.pi
+                steps = max(1, round(abs(sweep) * d / l0))
+                ang = a0 + sweep * np.arange(1, steps) / steps
+                u = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+                pts.append(v[k1] - d * u)
+                nrm.append(u)
+                lay.append(np.full(len(u), m))
+    if not pts:
+        return np.zeros((0, 2)), np.zeros(0, dtype=np.int64), np.zeros((0, 2))
+    pos, layer, normal = np.concatenate(pts), np.concatenate(lay), np.concatenate(nrm)
+    depth = (layer + 0.5) * l0
+    ok = inside_polygon(pos, v) & (outline_distance(pos, v) >= depth - 0.25 * l0)
+    pos, layer, normal = pos[ok], layer[ok], normal[ok]
+    keep = _first_apart(pos, 0.5 * l0)
+    return pos[keep], layer[keep], normal[keep]
+
+
 def _inside_any(pts: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
     mask = np.zeros(len(pts), dtype=bool)
     for lo, hi in boxes:
@@ -252,6 +373,30 @@ def _refuse_overlapping_walls(wall_pos: list[np.ndarray], patches: list[WallPatc
     )
 
 
+def _refuse_walls_near_polygons(
+    wall_pos: list[np.ndarray], patches: list[WallPatch], walls: Sequence[Wall], l0: float
+):
+    """Raise when another wall's particle lies within l0 / 2 of a polygon wall's particle (off
+    the lattice, an overlap need not share a site), naming both walls."""
+    from scipy.spatial import cKDTree
+
+    for k, w in enumerate(walls):
+        if w.shape != "polygon" or len(wall_pos[k]) == 0:
+            continue
+        tree = cKDTree(wall_pos[k])
+        for j, other in enumerate(wall_pos):
+            if j == k or len(other) == 0:
+                continue
+            dist, _ = tree.query(other)
+            if dist.min() < 0.5 * l0:
+                where = [float(f"{x:.6g}") for x in other[int(np.argmin(dist))]]
+                raise ValueError(
+                    f"fluid.walls[{k}] ({patches[k].name}) and fluid.walls[{j}] "
+                    f"({patches[j].name}) have particles {dist.min() / l0:.3g} l0 apart near "
+                    f"{where}: the walls overlap or touch; keep them at least one spacing apart"
+                )
+
+
 def build_particles(fluid: FluidSection, external: Sequence[ExternalPatch] = ()) -> ParticleSet:
     """All particles of a scene: fluid first, then each wall's particles in scenario order, then
     the external patches."""
@@ -264,10 +409,14 @@ def build_particles(fluid: FluidSection, external: Sequence[ExternalPatch] = ())
     block_corners = corners[: len(fluid.blocks)]
     wall_boxes = corners[len(fluid.blocks) :]
     solids = [c for c, w in zip(wall_boxes, fluid.walls, strict=True) if w.shape == "box"]
+    polygons = [polygon_outline(w.vertices) for w in fluid.walls if w.shape == "polygon"]
     fluid_pts, fluid_vel = [], []
     for b, (lo, hi) in zip(fluid.blocks, block_corners, strict=True):
         pts = fluid_block(lo, hi, l0)
         pts = pts[~_inside_any(pts, solids)]
+        for poly in polygons:  # inside or within l0/2: a lattice-aligned box face's gap
+            near = outline_distance(pts, poly) < 0.5 * l0 * (1.0 - 1e-9)
+            pts = pts[~(near | inside_polygon(pts, poly))]
         for ext in external:
             if ext.inside is not None:
                 pts = pts[~np.asarray(ext.inside(pts), dtype=bool)]
@@ -294,6 +443,8 @@ def build_particles(fluid: FluidSection, external: Sequence[ExternalPatch] = ())
     for i, (w, (lo, hi)) in enumerate(zip(fluid.walls, wall_boxes, strict=True)):
         if w.shape == "tank":
             pts, layer, nrm = tank_walls(lo, hi, l0, layers)
+        elif w.shape == "polygon":
+            pts, layer, nrm = polygon_wall(w.vertices, l0, layers)
         else:
             pts, layer, nrm = solid_box(lo, hi, l0, layers)
         kinds = np.where(layer == 0, WALL, DUMMY).astype(np.int8)
@@ -304,6 +455,7 @@ def build_particles(fluid: FluidSection, external: Sequence[ExternalPatch] = ())
         patches.append(WallPatch(w.name or f"wall{i}", n, n + len(pts), w))
         n += len(pts)
     _refuse_overlapping_walls(pos[1:], patches, l0)
+    _refuse_walls_near_polygons(pos[1:], patches, fluid.walls, l0)
     for ext in external:
         pos.append(np.asarray(ext.pos, dtype=np.float64))
         vel.append(np.zeros_like(pos[-1]))
@@ -311,7 +463,15 @@ def build_particles(fluid: FluidSection, external: Sequence[ExternalPatch] = ())
         normal.append(np.asarray(ext.normal, dtype=np.float64))
         patches.append(WallPatch(ext.name, n, n + len(ext.pos), None))
         n += len(ext.pos)
+    contact_wet = np.zeros(0, dtype=np.int8)
+    if polygons:
+        contact_wet = np.zeros(n, dtype=np.int8)
+        for pt in patches:
+            if pt.spec is not None and pt.spec.shape == "polygon":
+                k = np.concatenate(kind)[pt.start : pt.stop]
+                contact_wet[pt.start : pt.stop] = k == WALL
     out = ParticleSet(
+        contact_wet=contact_wet,
         pos=np.ascontiguousarray(np.concatenate(pos)),
         vel=np.ascontiguousarray(np.concatenate(vel)),
         kind=np.concatenate(kind),

@@ -123,6 +123,7 @@ class FluidSolver:
         self.surface_freeze = None
         self.pos, self.vel, self.kind, self.normal = ps.pos, ps.vel, ps.kind, ps.normal
         self.n_fluid = ps.n_fluid
+        self.contact_wet = ps.contact_wet  # polygon walls' pressure layers (wall_boundary.py)
         self.patches = ps.patches
         self._patch = {pt.name: pt for pt in self.patches}
         n = len(self.pos)
@@ -514,6 +515,7 @@ class FluidSolver:
                 near.indptr,
                 near.indices,
                 self.re_n,
+                self.contact_wet,
             )
         if self.surface_freeze is not None:  # implicit coupling: one set of flags per window
             self.surface_freeze.apply(self.free_surface)
@@ -717,7 +719,7 @@ class FluidSolver:
         if self.neumann:
             wall_boundary.mark_dry(
                 self.pos, self.kind, self.free_surface, self.dummy_src, nb.indptr, nb.indices,
-                self.re_n,
+                self.re_n, self.contact_wet,
             )  # fmt: skip
         operators.fill_reference_pressures(  # cmps reads them; the step's gradient fills them
             self.pos, self.p, self.kind, nb.indptr, nb.indices, self.re_grad, self.grad_form,

@@ -422,20 +422,161 @@ class WallMotion(Section):
         return self
 
 
+#: fewest vertices of a polygon wall
+MIN_POLYGON_VERTICES = 3
+
+
+def _segments_cross(a, b, c, d) -> bool:
+    """Whether the closed segments a-b and c-d (2D points) share a point."""
+
+    def orient(p, q, r) -> float:
+        return (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
+
+    def on(p, q, r) -> bool:  # r on segment p-q, given the three are collinear
+        return min(p[0], q[0]) <= r[0] <= max(p[0], q[0]) and min(p[1], q[1]) <= r[1] <= max(
+            p[1], q[1]
+        )
+
+    o1, o2, o3, o4 = orient(a, b, c), orient(a, b, d), orient(c, d, a), orient(c, d, b)
+    if ((o1 > 0) != (o2 > 0)) and ((o3 > 0) != (o4 > 0)) and o1 and o2 and o3 and o4:
+        return True
+    return (
+        (o1 == 0 and on(a, b, c))
+        or (o2 == 0 and on(a, b, d))
+        or (o3 == 0 and on(c, d, a))
+        or (o4 == 0 and on(c, d, b))
+    )
+
+
+def check_polygon(vertices: list[list[float]], key: str = "vertices") -> None:
+    """Refuse an outline that is no simple 2D polygon: fewer than 3 vertices, a vertex with other
+    than 2 coordinates, a zero-length edge (a repeated vertex, the first repeated at the end
+    included), zero area or two edges that cross or touch (self-intersection)."""
+    n = len(vertices)
+    if n < MIN_POLYGON_VERTICES:
+        raise InvalidValue(
+            key, f"a polygon needs at least {MIN_POLYGON_VERTICES} vertices, got {n}", vertices
+        )
+    for i, v in enumerate(vertices):
+        if len(v) != 2:
+            raise InvalidValue(
+                f"{key}[{i}]", "polygon walls are 2D: each vertex is [x, y] (2 entries)", v
+            )
+    for i in range(n):
+        a, b = vertices[i], vertices[(i + 1) % n]
+        if a[0] == b[0] and a[1] == b[1]:
+            raise InvalidValue(
+                f"{key}[{(i + 1) % n}]",
+                f"repeats vertex {i} ({a}): edges need a length (list the outline once; the "
+                "last vertex joins the first by itself)",
+                b,
+            )
+    # shoelace formula: twice the signed area
+    area2 = sum(
+        vertices[i][0] * vertices[(i + 1) % n][1] - vertices[(i + 1) % n][0] * vertices[i][1]
+        for i in range(n)
+    )
+    if area2 == 0.0:
+        raise InvalidValue(key, "the polygon has zero area (collinear vertices)", vertices)
+    for i in range(n):
+        for j in range(i + 1, n):
+            if j == i + 1 or (i == 0 and j == n - 1):
+                continue  # neighbouring edges share a vertex
+            a, b = vertices[i], vertices[(i + 1) % n]
+            c, d = vertices[j], vertices[(j + 1) % n]
+            if _segments_cross(a, b, c, d):
+                raise InvalidValue(
+                    key,
+                    f"edge {i} ({a} .. {b}) meets edge {j} ({c} .. {d}): the outline must not "
+                    "intersect itself (a simple polygon)",
+                    vertices,
+                )
+
+
 class Wall(Section):
     """Rigid wall particles: one pressure layer plus dummy layers that fill the kernel."""
 
-    shape: Literal["tank", "box"] = Field(
+    shape: Literal["tank", "box", "polygon"] = Field(
         description="'tank': walls on the floor and both sides (and the ends in 3D) of the "
-        "box lower..upper, fluid inside, top open; 'box': a solid obstacle, fluid outside"
+        "box lower..upper, fluid inside, top open; 'box': a solid obstacle, fluid outside; "
+        "'polygon' (2D only): a solid obstacle of any simple polygonal outline ``vertices``, "
+        "fluid outside, its particles laid along the faces (docs/fluid.md, polygon walls)"
     )
-    lower: Point = Field(description="lower corner of the fluid-side face box, m")
-    upper: Point = Field(description="upper corner of the fluid-side face box, m")
+    lower: Point | None = Field(
+        None,
+        description="lower corner of the fluid-side face box, m ('tank', 'box'; required); "
+        "'polygon': leave out, it is the vertices' bounding box",
+    )
+    upper: Point | None = Field(
+        None,
+        description="upper corner of the fluid-side face box, m ('tank', 'box'; required); "
+        "'polygon': leave out, it is the vertices' bounding box",
+    )
+    vertices: list[Point] | None = Field(
+        None,
+        description="'polygon' only: the outline's corners [[x, y], ...], m, in order around it "
+        "(either sense), at least 3, each listed once (the last joins the first), no edge "
+        "crossing another",
+    )
     name: str | None = Field(None, description="patch name, for force probes")
     motion: WallMotion = Field(default_factory=WallMotion, description="prescribed motion")
 
+    @model_validator(mode="before")
+    @classmethod
+    def _polygon_bounds(cls, data):
+        """A polygon's lower/upper are its vertices' bounding box (filled in here, so that the
+        domain, the size estimate and the reports treat it as the box it spans)."""
+        if not isinstance(data, dict) or data.get("shape") != "polygon":
+            return data
+        for key in ("lower", "upper"):
+            if key in data:
+                raise InvalidValue(
+                    key,
+                    "is not used by shape = 'polygon' (its bounding box follows from vertices); "
+                    "leave it out",
+                    data[key],
+                )
+        verts = data.get("vertices")
+        numbers = (int, float)
+        if (
+            isinstance(verts, list)
+            and verts
+            and all(
+                isinstance(v, list)
+                and v
+                and all(
+                    isinstance(x, numbers) and not isinstance(x, bool) and math.isfinite(x)
+                    for x in v
+                )
+                and len(v) == len(verts[0])
+                for v in verts
+            )
+        ):
+            dim = len(verts[0])
+            data = {
+                **data,
+                "lower": [float(min(v[a] for v in verts)) for a in range(dim)],
+                "upper": [float(max(v[a] for v in verts)) for a in range(dim)],
+            }
+        return data
+
     @model_validator(mode="after")
     def _check(self) -> Wall:
+        if self.shape == "polygon":
+            if self.vertices is None:
+                raise InvalidValue("vertices", "shape = 'polygon' needs vertices [[x, y], ...]")
+            check_polygon(self.vertices)
+            return self
+        if self.vertices is not None:
+            raise InvalidValue(
+                "vertices",
+                f"is only used by shape = 'polygon', not {self.shape!r} (which takes lower and "
+                "upper)",
+                self.vertices,
+            )
+        for key in ("lower", "upper"):
+            if getattr(self, key) is None:
+                raise InvalidValue(key, f"shape = {self.shape!r} needs {key} (a corner, m)")
         _check_box(self.lower, self.upper)
         return self
 
@@ -630,6 +771,12 @@ class FluidSection(Section):
                     b.upper,
                 )
         for i, w in enumerate(self.walls):
+            if w.shape == "polygon" and d != 2:
+                raise InvalidValue(
+                    f"walls[{i}].shape",
+                    f"'polygon' walls are 2D only (dim = {d}); use 'box' in 3D",
+                    w.shape,
+                )
             if len(w.lower) != d:
                 raise InvalidValue(
                     f"walls[{i}].lower", f"must have {d} components (dim = {d})", w.lower
