@@ -66,17 +66,18 @@ class DeltaSPHSection(Section):
         description="alpha at the outer edge of each fluid.sponges zone: alpha grows linearly "
         "from viscosity_alpha at the zone's start to this at its end (seed eq. 4)",
     )
-    integrator: Literal["symplectic", "rk4"] = Field(
-        "symplectic",
-        description="time integrator: 'symplectic', kick-drift-kick leapfrog, one right-hand side "
-        "per step; 'rk4', classical Runge-Kutta, four per step (the seed paper's)",
+    integrator: Literal["rk4", "symplectic"] = Field(
+        "rk4",
+        description="time integrator: 'rk4', classical Runge-Kutta, four right-hand sides per "
+        "step (the seed paper's); 'symplectic', kick-drift-kick leapfrog, one per step but a "
+        "smaller stable Courant number (docs/fluid_sph.md)",
     )
     cfl: float | None = Field(
         None,
         gt=0.0,
         le=3.0,
-        description="acoustic Courant number: dt <= cfl h / (c0 + u_max) (default 0.2 "
-        "symplectic, 0.8 rk4); also dt <= 0.25 sqrt(h / a_max) and fluid.time_step.dt_max",
+        description="acoustic Courant number: dt <= cfl h / (c0 + u_max) (default 0.8 "
+        "rk4, 0.1 symplectic); also dt <= 0.25 sqrt(h / a_max) and fluid.time_step.dt_max",
     )
     max_mach: float = Field(
         0.5,
