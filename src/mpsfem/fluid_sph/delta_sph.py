@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from mpsfem.fluid_sph.wendland import gradient_factor, kernel_value
+from mpsfem.fluid_sph.wendland import gradient_factor_fast, kernel_value
 
 #: det(B_i) below this: the correction matrix M_i = B_i^-1 is replaced by the identity (a
 #: particle with so few neighbours that B_i is near singular: a splash or a lone drop)
@@ -28,6 +28,13 @@ def equation_of_state(rho, p, n_fluid, rho0, c0):
     c2 = c0 * c0
     for i in prange(n_fluid):
         p[i] = c2 * (rho[i] - rho0)  # seed eq. 1: p = c0^2 (rho - rho0)
+
+
+@njit(cache=True, parallel=True)
+def particle_volume(rho, mass, vol):
+    """V_i = m / rho_i, m^dim (m^2 in 2D), of every particle."""
+    for i in prange(rho.shape[0]):
+        vol[i] = mass / rho[i]
 
 
 @njit(cache=True, parallel=True)
@@ -68,7 +75,7 @@ def wall_pressure(pos, rho, p, kind, indptr, indices, n_fluid, gravity, omega2, 
 
 
 @njit(cache=True, parallel=True)
-def correction(pos, rho, indptr, indices, n_fluid, mass, h, norm, M, grad_rho):
+def correction(pos, rho, vol, indptr, indices, n_fluid, inv_h, coef, M, grad_rho):
     """CSPM correction M_i = [sum_j (r_j - r_i) (x) grad_i W_ij V_j]^-1 (seed eq. 7; identity
     where det < DET_MIN) and the renormalised density gradient <grad rho>_i = M_i sum_j
     (rho_j - rho_i) grad_i W_ij V_j (seed eq. 7, used by the diffusion term eq. 2), over every
@@ -83,7 +90,7 @@ def correction(pos, rho, indptr, indices, n_fluid, mass, h, norm, M, grad_rho):
             d1 = pos[i, 1] - pos[j, 1]
             d2 = pos[i, 2] - pos[j, 2] if dim == 3 else 0.0
             r = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-            f = gradient_factor(r, h, norm) * mass / rho[j]  # F V_j; grad W = F r_ij
+            f = gradient_factor_fast(r, inv_h, coef) * vol[j]  # F V_j; grad W = F r_ij
             gw0 = f * d0
             gw1 = f * d1
             gw2 = f * d2
@@ -155,7 +162,7 @@ def viscosity_ramp(pos, n_fluid, alpha0, alpha_damp, axis, start, inv_length, al
 
 
 @njit(cache=True, parallel=True)
-def pair_terms(pos, vel, rho, p, kind, indptr, indices, n_fluid, mass, h, norm, rho0, c0, delta,
+def pair_terms(pos, vel, rho, vol, p, indptr, indices, n_fluid, h, inv_h, coef, rho0, c0, delta,
                corrected, M, grad_rho, alpha, gravity, omega2, center, acc, drho):  # fmt: skip
     """Right-hand side of the fluid particles (seed eq. 13):
 
@@ -186,11 +193,10 @@ def pair_terms(pos, vel, rho, p, kind, indptr, indices, n_fluid, mass, h, norm, 
             d1 = pos[i, 1] - pos[j, 1]
             d2 = pos[i, 2] - pos[j, 2] if dim == 3 else 0.0
             r2 = d0 * d0 + d1 * d1 + d2 * d2
-            f = gradient_factor(np.sqrt(r2), h, norm)
+            f = gradient_factor_fast(np.sqrt(r2), inv_h, coef)
             if f == 0.0:
                 continue
-            vj = mass / rho[j]
-            fv = f * vj
+            fv = f * vol[j]
             g0 = fv * d0  # grad_i W_ij V_j = F r_ij V_j
             g1 = fv * d1
             g2 = fv * d2

@@ -26,7 +26,7 @@ from mpsfem.fluid_mps.neighbours import NeighbourSearch, build_neighbours
 from mpsfem.fluid_mps.time_integration import first_bad_particle
 from mpsfem.fluid_mps.wall_motion import MotionLaw
 from mpsfem.fluid_sph import delta_sph, time_stepping
-from mpsfem.fluid_sph.wendland import wendland_norm
+from mpsfem.fluid_sph.wendland import gradient_coefficient, wendland_norm
 from mpsfem.scenario.fluid import FluidSection
 from mpsfem.scenario.fluid_sph import DeltaSPHSection
 
@@ -100,6 +100,8 @@ class DeltaSPHSolver:
         self.gravity = np.asarray(spec.gravity, dtype=np.float64)
         self.h = sph.smoothing_ratio * dx
         self.norm = wendland_norm(dim, self.h)
+        self.inv_h = 1.0 / self.h
+        self.grad_coef = gradient_coefficient(dim, self.h)
         self.radius = 2.0 * self.h  # Wendland C2 support
         self.corrected = sph.gradient == "corrected"
         self.omega2 = sph.central_field_omega**2
@@ -145,6 +147,7 @@ class DeltaSPHSolver:
         self.grad_rho = np.zeros((nf, dim))
         self.alpha = np.full(nf, sph.viscosity_alpha)
         self.acc = np.zeros((n, dim))
+        self.vol = np.zeros(n)
         self.drho = np.zeros(n)
         zones = spec.sponges
         self.zone_axis = np.array([z.axis for z in zones], dtype=np.int32)
@@ -243,8 +246,9 @@ class DeltaSPHSolver:
             self.pos, self.rho, self.p, self.kind, nb.indptr, nb.indices, nf, self.gravity,
             self.omega2, self.center, self.h, self.norm, self.rho0, self.c0,
         )  # fmt: skip
+        delta_sph.particle_volume(self.rho, self.mass, self.vol)
         delta_sph.correction(
-            self.pos, self.rho, nb.indptr, nb.indices, nf, self.mass, self.h, self.norm,
+            self.pos, self.rho, self.vol, nb.indptr, nb.indices, nf, self.inv_h, self.grad_coef,
             self.M, self.grad_rho,
         )  # fmt: skip
         if len(self.zone_axis):
@@ -253,8 +257,8 @@ class DeltaSPHSolver:
                 self.zone_start, self.zone_inv, self.alpha,
             )  # fmt: skip
         delta_sph.pair_terms(
-            self.pos, self.vel, self.rho, self.p, self.kind, nb.indptr, nb.indices, nf,
-            self.mass, self.h, self.norm, self.rho0, self.c0, self.sph.density_diffusion,
+            self.pos, self.vel, self.rho, self.vol, self.p, nb.indptr, nb.indices, nf,
+            self.h, self.inv_h, self.grad_coef, self.rho0, self.c0, self.sph.density_diffusion,
             self.corrected, self.M, self.grad_rho, self.alpha, self.gravity, self.omega2,
             self.center, self.acc, self.drho,
         )  # fmt: skip

@@ -31,6 +31,21 @@ def kernel_value(r, h, norm):
 
 
 @njit(cache=True, inline="always")
+def gradient_factor_fast(r, inv_h, coef):
+    """F(r) as :func:`gradient_factor` with the constants hoisted: ``inv_h`` = 1/h, ``coef`` =
+    -5 a_d / h^2 (:func:`gradient_coefficient`)."""
+    t = 1.0 - 0.5 * r * inv_h
+    if t <= 0.0:
+        return 0.0
+    return coef * t * t * t
+
+
+def gradient_coefficient(dim: int, h: float) -> float:
+    """-5 a_d / h^2 of F(r) = -5 a_d (1 - q/2)^3 / h^2, 1/m^(dim+2)."""
+    return -5.0 * wendland_norm(dim, h) / (h * h)
+
+
+@njit(cache=True, inline="always")
 def gradient_factor(r, h, norm):
     """F(r) = W'(r) / r, 1/m^(dim+2), so that grad_i W_ij = F (r_i - r_j): -5 a_d (1-q/2)^3 / h^2."""
     q = r / h
