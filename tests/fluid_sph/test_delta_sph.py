@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pytest
 
@@ -136,3 +137,20 @@ def test_equation_of_state():
     p = np.zeros(3)
     delta_sph.equation_of_state(rho, p, 3, 1000.0, 20.0)
     assert np.allclose(p, [0.0, 400.0, -400.0])
+
+
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs 2 numba threads")
+def test_results_do_not_depend_on_the_thread_count():
+    """Every loop sums its own row in a fixed order: 1 and 2 threads give the same bits."""
+    states = []
+    for threads in (1, 2):
+        numba.set_num_threads(threads)
+        try:
+            s = DeltaSPHSolver(_tank())
+            for _ in range(5):
+                s.step(s.dt_next)
+        finally:
+            numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+        states.append({k: v.copy() for k, v in s.state().items()})
+    for k, v in states[0].items():
+        assert np.array_equal(v, states[1][k]), k
