@@ -12,13 +12,14 @@ lattice's own bias, 0.4 % at R/dx = 20). The mechanical energy E = sum m (|u|^2 
 / 2 is conserved by the flow; E_per(t) = (E(0) - E(t)) / E(0) is the seed's decay rate.
 
 Cases: R/dx = --resolution (default 20, the seed uses 50-200, too many for our shared cores),
-alpha_s = h/dx = 1.3 and 2.0, gradient 'plain' (δ-SPH, seed eq. 6) and 'corrected' (δ-SPHC,
+alpha_s = h/dx = 1.3 and 2.0 (--ratios), artificial viscosity alpha = 0.02 (--alphas), gradient 'plain' (δ-SPH, seed eq. 6) and 'corrected' (δ-SPHC,
 eq. 12), RK4, c0 = 10 max(U_max, sqrt(p_max / rho0)) from the ODE (seed eq. 1), over
 --periods ODE periods. Writes validation/results/delta_sph_drop.csv (per case: RMS and largest
 error of a/R against the ODE, E_per at the end, the decay rate per period, the run's wall
 time) and validation/results/delta_sph_drop_series.csv (t, a_ode, a and E_per per case).
 
-    python validation/delta_sph_drop.py [--resolution 20] [--periods 2] [--threads 1]
+    python validation/delta_sph_drop.py [--resolution 20] [--periods 2] [--ratios 1.3,2.0]
+                                        [--alphas 0.02] [--tag SUFFIX]
 """
 
 from __future__ import annotations
@@ -62,7 +63,7 @@ def ode_period() -> tuple[float, float]:
     return float(np.diff(sol.t[peaks]).mean()), float(u)
 
 
-def drop_solver(n_per_radius: int, ratio: float, gradient: str, c0: float):
+def drop_solver(n_per_radius: int, ratio: float, gradient: str, c0: float, alpha: float = 0.02):
     from mpsfem.fluid_mps.geometry import ParticleSet
     from mpsfem.fluid_sph.solver import DeltaSPHSolver
     from mpsfem.scenario.fluid import FluidSection
@@ -84,6 +85,7 @@ def drop_solver(n_per_radius: int, ratio: float, gradient: str, c0: float):
             "sound_speed": c0,
             "central_field_omega": OMEGA,
             "integrator": "rk4",
+            "viscosity_alpha": alpha,
         },
     )
     g = (np.arange(-n_per_radius, n_per_radius) + 0.5) * dx
@@ -111,8 +113,8 @@ def energy(s) -> float:
     return 0.5 * s.mass * (v2 + OMEGA**2 * r2)
 
 
-def run_case(n, ratio, gradient, c0, t_end, sample_dt):
-    s = drop_solver(n, ratio, gradient, c0)
+def run_case(n, ratio, gradient, c0, t_end, sample_dt, alpha):
+    s = drop_solver(n, ratio, gradient, c0, alpha)
     a0 = semi_axis(s)
     e0 = energy(s)
     rows = [(0.0, R, 0.0)]
@@ -131,6 +133,8 @@ def main() -> int:
     ap.add_argument("--resolution", type=int, default=20, help="R / dx (default 20)")
     ap.add_argument("--periods", type=float, default=2.0, help="ODE periods to run (default 2)")
     ap.add_argument("--ratios", default="1.3,2.0", help="h / dx values (default 1.3,2.0)")
+    ap.add_argument("--alphas", default="0.02", help="artificial viscosity alphas (default 0.02)")
+    ap.add_argument("--tag", default="", help="suffix of the CSV names")
     args = ap.parse_args()
     period, u_max = ode_period()
     p_max = RHO0 * (SIGMA0**2 + OMEGA**2) * R * R / 2.0
@@ -141,40 +145,46 @@ def main() -> int:
     )
     sol = ode(t_end)
     summary, series = [], {}
-    for ratio in (float(x) for x in args.ratios.split(",")):
-        for gradient in ("plain", "corrected"):
-            rows, wall, s = run_case(args.resolution, ratio, gradient, c0, t_end, 0.05)
-            a_ode = sol.sol(rows[:, 0])[1]
-            err = rows[:, 1] - a_ode
-            decay_per_period = rows[-1, 2] / args.periods
-            name = f"{'delta-SPHC' if gradient == 'corrected' else 'delta-SPH'} h={ratio}dx"
-            summary.append(
-                {
-                    "case": name,
-                    "R_over_dx": args.resolution,
-                    "smoothing_ratio": ratio,
-                    "gradient": gradient,
-                    "particles": s.n_fluid,
-                    "steps": s.step_count,
-                    "c0": c0,
-                    "t_end": t_end,
-                    "rms_error_a_over_R": float(np.sqrt(np.mean(err**2))) / R,
-                    "max_error_a_over_R": float(np.abs(err).max()) / R,
-                    "E_per_end": float(rows[-1, 2]),
-                    "E_per_per_period": decay_per_period,
-                    "wall_time_s": wall,
-                }
-            )
-            series[name] = (rows, a_ode)
-            r = summary[-1]
-            print(
-                f"{name:22} a/R rms {r['rms_error_a_over_R']:.4f} max {r['max_error_a_over_R']:.4f}"
-                f"  E_per(end) {r['E_per_end']:.4f} ({decay_per_period:.4f}/period)"
-                f"  {s.step_count} steps {wall:.0f} s"
-            )
+    grid = [
+        (ratio, alpha, gradient)
+        for ratio in (float(x) for x in args.ratios.split(","))
+        for alpha in (float(x) for x in args.alphas.split(","))
+        for gradient in ("plain", "corrected")
+    ]
+    for ratio, alpha, gradient in grid:
+        rows, wall, s = run_case(args.resolution, ratio, gradient, c0, t_end, 0.05, alpha)
+        a_ode = sol.sol(rows[:, 0])[1]
+        err = rows[:, 1] - a_ode
+        decay_per_period = rows[-1, 2] / args.periods
+        name = f"{'delta-SPHC' if gradient == 'corrected' else 'delta-SPH'} h={ratio}dx a={alpha}"
+        summary.append(
+            {
+                "case": name,
+                "R_over_dx": args.resolution,
+                "smoothing_ratio": ratio,
+                "gradient": gradient,
+                "viscosity_alpha": alpha,
+                "particles": s.n_fluid,
+                "steps": s.step_count,
+                "c0": c0,
+                "t_end": t_end,
+                "rms_error_a_over_R": float(np.sqrt(np.mean(err**2))) / R,
+                "max_error_a_over_R": float(np.abs(err).max()) / R,
+                "E_per_end": float(rows[-1, 2]),
+                "E_per_per_period": decay_per_period,
+                "wall_time_s": wall,
+            }
+        )
+        series[name] = (rows, a_ode)
+        r = summary[-1]
+        print(
+            f"{name:22} a/R rms {r['rms_error_a_over_R']:.4f} max {r['max_error_a_over_R']:.4f}"
+            f"  E_per(end) {r['E_per_end']:.4f} ({decay_per_period:.4f}/period)"
+            f"  {s.step_count} steps {wall:.0f} s"
+        )
     write_csv(
         summary,
-        RESULTS / "delta_sph_drop.csv",
+        RESULTS / f"delta_sph_drop{args.tag}.csv",
         comment="oscillating drop, sigma0 = Omega = R = 1 (validation/delta_sph_drop.py): semi-axis "
         "error against the ODE and mechanical-energy decay E_per",
     )
@@ -185,10 +195,10 @@ def main() -> int:
         cols[f"E_per {name}"] = rows[:, 2]
     write_csv(
         [dict(zip(cols, vals, strict=True)) for vals in zip(*cols.values(), strict=True)],
-        RESULTS / "delta_sph_drop_series.csv",
+        RESULTS / f"delta_sph_drop{args.tag}_series.csv",
         comment="oscillating drop series: ODE semi-axis and each case's a/R and E_per",
     )
-    print(f"wrote {RESULTS / 'delta_sph_drop.csv'}")
+    print(f"wrote {RESULTS / f'delta_sph_drop{args.tag}.csv'}")
     return 0
 
 

@@ -2,7 +2,7 @@
 
 A 0.4 m wide tank holds water d = 0.2 m deep (l0 = d / --resolution, default 20) from a
 hydrostatic start; each method (fluid.method = "mps" with its defaults, "delta-sph" with δ-SPHC
-and with the plain gradient, RK4) runs --end-time seconds (default 1.0). After settling
+and with the plain gradient at h = 1.3 and 2.0 l0, RK4) runs --end-time seconds (default 1.0). After settling
 (t >= end/2) the script averages, per sample, the relative error of the bottom fluid row's mean
 pressure against rho g (d - y) (y the row's mean height), and reports the mean and the largest
 of these over the settled samples, the largest fluid speed at the end (spurious currents) and the
@@ -31,10 +31,12 @@ CSV = ROOT / "validation" / "results" / "delta_sph_hydrostatic.csv"
 DEPTH, WIDTH, RHO, G = 0.2, 0.4, 1000.0, 9.81
 
 
-def spec(method: str, dx: float, gradient: str | None):
+def spec(method: str, dx: float, gradient: str | None, ratio: float = 1.3):
     from mpsfem.scenario.fluid import FluidSection
 
-    extra = {"sph": {"gradient": gradient}} if method == "delta-sph" else {}
+    extra = (
+        {"sph": {"gradient": gradient, "smoothing_ratio": ratio}} if method == "delta-sph" else {}
+    )
     return FluidSection(
         method=method,
         spacing=dx,
@@ -46,10 +48,10 @@ def spec(method: str, dx: float, gradient: str | None):
     )
 
 
-def run(method: str, gradient: str | None, dx: float, t_end: float) -> dict:
+def run(method: str, gradient: str | None, dx: float, t_end: float, ratio: float = 1.3) -> dict:
     from mpsfem.fluid_methods import create_fluid_solver
 
-    s = create_fluid_solver(spec(method, dx, gradient))
+    s = create_fluid_solver(spec(method, dx, gradient, ratio))
     nf = s.n_fluid
     errors = []
     tic = time.perf_counter()
@@ -75,6 +77,7 @@ def run(method: str, gradient: str | None, dx: float, t_end: float) -> dict:
     return {
         "method": method,
         "gradient": gradient or "mps default",
+        "smoothing_ratio": ratio if method == "delta-sph" else None,
         "d_over_l0": round(DEPTH / dx),
         "t_end": t_end,
         "steps": s.step_count,
@@ -94,11 +97,18 @@ def main() -> int:
     args = ap.parse_args()
     dx = DEPTH / args.resolution
     rows = []
-    for method, gradient in (("mps", None), ("delta-sph", "corrected"), ("delta-sph", "plain")):
-        r = run(method, gradient, dx, args.end_time)
+    cases = (
+        ("mps", None, 1.3),
+        ("delta-sph", "corrected", 1.3),
+        ("delta-sph", "plain", 1.3),
+        ("delta-sph", "corrected", 2.0),
+        ("delta-sph", "plain", 2.0),
+    )
+    for method, gradient, ratio in cases:
+        r = run(method, gradient, dx, args.end_time, ratio)
         rows.append(r)
         print(
-            f"{method:10} {r['gradient']:12} bottom p error mean {r['bottom_p_rel_error_mean']:+.4f}"
+            f"{method:10} {r['gradient']:12} h/l0 {ratio} bottom p error mean {r['bottom_p_rel_error_mean']:+.4f}"
             f" max {r['bottom_p_rel_error_max']:.4f}  |u|max {r['max_speed_end']:.4f} m/s  floor "
             f"F/W {r['floor_force_over_weight']:.4f}  {r['steps']} steps {r['wall_time_s']:.1f} s"
         )
