@@ -154,3 +154,52 @@ def test_results_do_not_depend_on_the_thread_count():
         states.append({k: v.copy() for k, v in s.state().items()})
     for k, v in states[0].items():
         assert np.array_equal(v, states[1][k]), k
+
+
+@pytest.mark.parametrize("wall_acc", [[0.0, 0.0], [0.0, -9.81], [2.0, 1.0]])
+def test_dummy_pressure_is_adami_extrapolation(wall_acc):
+    """p_w = (sum p_f W + (g - a_w) . sum rho_f (r_w - r_f) W) / sum W (Adami et al. 2012,
+    eq. 27), checked against a direct evaluation for one wall particle and three fluid ones."""
+    h, dim = 0.013, 2
+    norm = wendland_norm(dim, h)
+    pos = np.array([[0.0, 0.01], [0.01, 0.012], [-0.008, 0.02], [0.0, -0.005]])
+    rho = np.array([1001.0, 1000.5, 999.8, 0.0])
+    p = np.array([200.0, 150.0, -20.0, 0.0])
+    g = np.array([0.0, -9.81])
+    acc = np.array([wall_acc])
+    indptr = np.array([0, 0, 0, 0, 3])
+    indices = np.array([0, 1, 2], dtype=np.int32)
+    delta_sph.wall_pressure(pos, rho, p, np.array([0, 0, 0, 2], np.int8), indptr, indices, 3, g,
+                            0.0, np.zeros(2), acc, h, norm, 1000.0, 20.0)  # fmt: skip
+    w = np.array([kernel_value(np.linalg.norm(pos[3] - pos[j]), h, norm) for j in range(3)])
+    b = g - acc[0]
+    expected = (w @ p[:3] + sum(w[j] * rho[j] * b @ (pos[3] - pos[j]) for j in range(3))) / w.sum()
+    assert p[3] == pytest.approx(expected, rel=1e-12)
+    assert rho[3] == pytest.approx(1000.0 + expected / 400.0, rel=1e-12)
+
+
+def test_a_shaken_tank_carries_its_acceleration_into_the_dummy_pressure():
+    """A tank shaken harmonically along x, x = A sin(2 pi t / T): over each step its particles
+    carry a_w = (v(t + dt) - v(t)) / dt, which tends to -A (2 pi / T)^2 sin(2 pi t / T)."""
+    a, period = 0.002, 0.5
+    spec = FluidSection(
+        method="delta-sph",
+        spacing=0.02,
+        blocks=[{"lower": [0.0, 0.0], "upper": [0.3, 0.2]}],
+        walls=[
+            {
+                "shape": "tank",
+                "lower": [0.0, 0.0],
+                "upper": [0.3, 0.4],
+                "motion": {"kind": "harmonic", "amplitude": a, "period": period},
+            }
+        ],
+    )
+    s = DeltaSPHSolver(spec)
+    for _ in range(3):
+        t0, dt = s.t, s.dt_next
+        s.step(dt)
+        w = 2 * np.pi / period
+        exact = -a * w * w * np.sin(w * (t0 + 0.5 * dt))  # the mean over the step, to O(dt^2)
+        assert np.allclose(s.wall_acc[:, 0], exact, rtol=1e-4)
+        assert np.all(s.wall_acc[:, 1] == 0.0)

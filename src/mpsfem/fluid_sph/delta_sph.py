@@ -38,13 +38,13 @@ def particle_volume(rho, mass, vol):
 
 
 @njit(cache=True, parallel=True)
-def wall_pressure(pos, rho, p, kind, indptr, indices, n_fluid, gravity, omega2, center, h, norm,
-                  rho0, c0):  # fmt: skip
+def wall_pressure(pos, rho, p, kind, indptr, indices, n_fluid, gravity, omega2, center, wall_acc,
+                  h, norm, rho0, c0):  # fmt: skip
     """Pressure (Pa) and density (kg/m^3) of every wall / dummy particle i >= n_fluid,
     extrapolated from its fluid neighbours: p_w = (sum_f p_f W_wf + (b . sum_f rho_f r_wf W_wf))
-    / sum_f W_wf with b = g - Omega^2 (r_w - c) the body force at the wall (Adami et al. 2012,
-    eq. 27, static walls); rho_w = rho0 + p_w / c0^2 (inverse linear EOS). Without fluid
-    neighbours p_w = 0, rho_w = rho0."""
+    / sum_f W_wf with b = g - Omega^2 (r_w - c) - a_w, the body force at the wall less the wall's
+    own acceleration ``wall_acc[i - n_fluid]`` (m/s^2; Adami et al. 2012, eq. 27); rho_w = rho0 +
+    p_w / c0^2 (inverse linear EOS). Without fluid neighbours p_w = 0, rho_w = rho0."""
     n = pos.shape[0]
     dim = pos.shape[1]
     inv_c2 = 1.0 / (c0 * c0)
@@ -61,7 +61,7 @@ def wall_pressure(pos, rho, p, kind, indptr, indices, n_fluid, gravity, omega2, 
             for a in range(dim):
                 d = pos[i, a] - pos[j, a]
                 r2 += d * d
-                b = gravity[a] - omega2 * (pos[i, a] - center[a])
+                b = gravity[a] - omega2 * (pos[i, a] - center[a]) - wall_acc[i - n_fluid, a]
                 bdot += b * d
             w = kernel_value(np.sqrt(r2), h, norm)
             sw += w

@@ -148,6 +148,8 @@ class DeltaSPHSolver:
         self.alpha = np.full(nf, sph.viscosity_alpha)
         self.acc = np.zeros((n, dim))
         self.vol = np.zeros(n)
+        #: each wall particle's acceleration over the current step, m/s^2 (moving walls)
+        self.wall_acc = np.zeros((n - nf, dim))
         self.drho = np.zeros(n)
         zones = spec.sponges
         self.zone_axis = np.array([z.axis for z in zones], dtype=np.int32)
@@ -244,7 +246,7 @@ class DeltaSPHSolver:
         delta_sph.equation_of_state(self.rho, self.p, nf, self.rho0, self.c0)
         delta_sph.wall_pressure(
             self.pos, self.rho, self.p, self.kind, nb.indptr, nb.indices, nf, self.gravity,
-            self.omega2, self.center, self.h, self.norm, self.rho0, self.c0,
+            self.omega2, self.center, self.wall_acc, self.h, self.norm, self.rho0, self.c0,
         )  # fmt: skip
         delta_sph.particle_volume(self.rho, self.mass, self.vol)
         delta_sph.correction(
@@ -288,10 +290,21 @@ class DeltaSPHSolver:
         """Not supported (no external patches under δ-SPH yet)."""
         raise ValueError(f"patch {name!r}: δ-SPH has no externally driven patches yet")
 
+    def _wall_acceleration(self, dt: float) -> None:
+        """a_w = (v(t + dt) - v(t)) / dt of every moving wall particle, constant over the step
+        (the prescribed velocities' difference; zero for walls at rest)."""
+        for pt, law in self.moving:
+            _, v0 = law(self.t)
+            _, v1 = law(self.t + dt)
+            rows = slice(pt.start - self.n_fluid, pt.stop - self.n_fluid)
+            self.wall_acc[rows] = (v1 - v0) / dt * law.direction
+
     def step(self, dt: float) -> None:
         """Advance by exactly ``dt`` (s) with fluid.sph.integrator; raises :class:`SPHRunError`
         on a non-finite or escaped particle or a Mach number above fluid.sph.max_mach."""
         nf = self.n_fluid
+        if self.moving:
+            self._wall_acceleration(dt)
         if self.integrator == "symplectic":
             tic = time.perf_counter()
             time_stepping.kick(self.vel, self.rho, self.acc, self.drho, nf, 0.5 * dt)
