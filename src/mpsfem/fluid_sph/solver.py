@@ -171,6 +171,9 @@ class DeltaSPHSolver:
         self.wall_origin = {pt.name: self.pos[pt.start : pt.stop].copy() for pt, _ in self.moving}
         self.budget = NoBudget([pt.name for pt in self.patches], spec.boundary_force)
         self.force_marks: dict[str, list[float]] = {}
+        #: per patch, the impulse of boundary_force since t = 0 (step-end force x dt), N s
+        self.patch_impulse = np.zeros((len(self.patches), dim))
+        self._patch_index = {pt.name: k for k, pt in enumerate(self.patches)}
         self.times = SPHStageTimes()
         self.t = 0.0
         self.step_count = 0
@@ -323,6 +326,9 @@ class DeltaSPHSolver:
         self.t += dt
         self.step_count += 1
         self._check()
+        if self.force_marks:  # some probe averages: book each patch's impulse of this step
+            for k, pt in enumerate(self.patches):
+                self.patch_impulse[k] += dt * self.boundary_force([pt.name])
         self.dt_next = self.stable_dt()
         self.times.other += time.perf_counter() - tic
 
@@ -392,6 +398,7 @@ class DeltaSPHSolver:
             "rho": self.rho,
             "acc": self.acc,
             "drho": self.drho,
+            "patch_impulse": self.patch_impulse,
         }
 
     def meta(self) -> dict:
@@ -444,6 +451,19 @@ class DeltaSPHSolver:
             )
         return f
 
+    def mean_boundary_force(self, key: str, names: Sequence[str]) -> np.ndarray:
+        """:meth:`boundary_force` on ``names`` averaged since the last call with ``key`` (a
+        probe's name), N (N/m in 2D): the impulse booked step by step (step-end force x dt)
+        over that interval divided by its length; the current force at a first call or at the
+        same time (as MPS's ``mean_boundary_force``). Impulses are booked from the first call
+        on."""
+        impulse = sum(self.patch_impulse[self._patch_index[n]] for n in names)
+        mark = self.force_marks.get(key)
+        self.force_marks[key] = [self.t, *np.asarray(impulse).tolist()]
+        if mark is None or not self.t > mark[0]:
+            return self.boundary_force(names)
+        return (impulse - np.array(mark[1:])) / (self.t - mark[0])
+
     def probe_value(self, probe) -> float | np.ndarray:
         """Current value of a fluid probe (definitions in ``fluid_mps.probes``)."""
         l0 = self.l0
@@ -475,10 +495,7 @@ class DeltaSPHSolver:
             )  # fmt: skip
         if probe.kind == "force":
             if probe.average:
-                raise ValueError(
-                    f"probe {probe.name!r}: interval-averaged force probes (average = true) are "
-                    "not available under fluid.method = 'delta-sph' yet; set average = false"
-                )
+                return self.mean_boundary_force(probe.name, [probe.target])
             return self.boundary_force([probe.target])
         if probe.kind == "energy":
             return np.array(probes.fluid_energy(self.pos, self.vel, self.kind, self.mass,
