@@ -63,8 +63,9 @@ class DeltaSPHSection(Section):
         0.6,
         ge=0.0,
         le=100.0,
-        description="alpha at the outer edge of each fluid.sponges zone: alpha grows linearly "
-        "from viscosity_alpha at the zone's start to this at its end (seed eq. 4)",
+        description="alpha at the outer edge of each fluid.sponges zone: alpha = max("
+        "viscosity_alpha, damping_alpha r), r rising 0 -> 1 across the zone (seed eq. 4; the "
+        "zones' coefficient is MPS's and unread here)",
     )
     integrator: Literal["rk4", "symplectic"] = Field(
         "rk4",
@@ -77,7 +78,8 @@ class DeltaSPHSection(Section):
         gt=0.0,
         le=3.0,
         description="acoustic Courant number: dt <= cfl h / (c0 + u_max) (default 0.8 "
-        "rk4, 0.1 symplectic); also dt <= 0.25 sqrt(h / a_max) and fluid.time_step.dt_max",
+        "rk4, 0.1 symplectic); also dt <= 0.25 sqrt(h / a_max), the artificial viscosity's "
+        "dt <= 0.15 h / (alpha_max c0) (0.1 symplectic) and fluid.time_step.dt_max",
     )
     max_mach: float = Field(
         0.5,
