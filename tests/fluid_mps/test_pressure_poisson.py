@@ -65,7 +65,7 @@ def column():
 def test_matrix_too_large_for_int32_indices_is_refused(column, monkeypatch):
     """The int32 row pointer would wrap past 2^31 - 1 nonzeros (3D at 4.01 l0: 8.4 M rows) and
     the fill would write past its buffers; the assembly refuses it first (limit lowered here)."""
-    import mpsfem.fluid_mps.pressure_poisson as ppe
+    import mpsfem.fluid_mps.pressure_system as ppe  # where the assembly reads it
 
     s = column.solver()
     A, _, m = s.assemble(column.pos, column.vel, column.kind, column.n, column.fs, column.nb, DT)

@@ -7,7 +7,9 @@ from typing import Annotated, Literal
 
 from pydantic import Field, field_validator, model_validator
 
+from mpsfem.fluid_methods import FLUID_METHODS, METHOD_TABLES
 from mpsfem.scenario.base import COORDINATE_LIMIT, InvalidValue, Point, Section
+from mpsfem.scenario.fluid_sph import DeltaSPHSection
 
 Vector = list[float]
 
@@ -612,8 +614,14 @@ class SpongeZone(Section):
 
 
 class FluidSection(Section):
-    """The MPS fluid: material, numerics and initial geometry."""
+    """The particle fluid: material, numerics and initial geometry."""
 
+    method: Literal[FLUID_METHODS.names()] = Field(
+        "mps",
+        description="particle method (fluid_methods.py): 'mps', semi-implicit MPS (numerical "
+        "keys in kernel, pressure, surface, collision); 'delta-sph', weakly compressible "
+        "δ-SPH / δ-SPHC (numerical keys in [fluid.sph], docs/fluid_sph.md)",
+    )
     dim: Literal[2, 3] = Field(2, description="space dimension")
     spacing: Annotated[float, Field(ge=MIN_SPACING, le=MAX_SPACING)] = Field(
         description=f"initial particle spacing l0, m ({MIN_SPACING:g} .. {MAX_SPACING:g})"
@@ -673,6 +681,9 @@ class FluidSection(Section):
     neighbours: NeighbourSection = Field(
         default_factory=NeighbourSection, description="neighbour search"
     )
+    sph: DeltaSPHSection | None = Field(
+        None, description="δ-SPH numerics (fluid.method = 'delta-sph' only; default table)"
+    )
     blocks: list[FluidBlock] = Field(min_length=1, description="fluid regions")
     walls: list[Wall] = Field(default_factory=list, description="rigid walls and obstacles")
     sponges: list[SpongeZone] = Field(
@@ -709,6 +720,48 @@ class FluidSection(Section):
         if isinstance(data, dict) and "gravity" not in data and data.get("dim") == 3:
             data = {**data, "gravity": [0.0, 0.0, -9.81]}
         return data
+
+    @model_validator(mode="after")
+    def _method_tables(self) -> FluidSection:
+        """A numerical table of another method is refused; δ-SPH gets its default table."""
+        for method, tables in METHOD_TABLES.items():
+            if method == self.method:
+                continue
+            for key in tables:
+                if key in self.model_fields_set and getattr(self, key) is not None:
+                    raise InvalidValue(
+                        key,
+                        f"belongs to fluid.method = {method!r}, but fluid.method = "
+                        f"{self.method!r} (whose numerical keys are "
+                        f"{', '.join('fluid.' + k for k in METHOD_TABLES[self.method])}); remove it",
+                        getattr(self, key).model_dump(exclude_unset=True),
+                    )
+        if self.method == "delta-sph":
+            if self.sph is None:
+                object.__setattr__(self, "sph", DeltaSPHSection())
+            if self.boundary_force == "momentum_exchange":
+                raise InvalidValue(
+                    "boundary_force",
+                    "'momentum_exchange' is not available under fluid.method = 'delta-sph' "
+                    "(its wall forces are the pressure integral over the wall's first layer); "
+                    "use 'pressure_integral' or 'pressure_and_contact'",
+                    self.boundary_force,
+                )
+            if "momentum_budget" in self.model_fields_set and self.momentum_budget:
+                raise InvalidValue(
+                    "momentum_budget",
+                    "the momentum budget is recorded by fluid.method = 'mps' only (not yet by "
+                    "'delta-sph'); leave it out or set it false",
+                    True,
+                )
+            c = self.sph.central_field_center
+            if c is not None and len(c) != self.dim:
+                raise InvalidValue(
+                    "sph.central_field_center",
+                    f"must have {self.dim} components (dim = {self.dim})",
+                    c,
+                )
+        return self
 
     @model_validator(mode="after")
     def _check(self) -> FluidSection:

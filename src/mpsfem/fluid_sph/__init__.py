@@ -1,0 +1,1 @@
+"""δ-SPH / δ-SPHC: the weakly compressible SPH fluid behind the fluid-method seam (docs/fluid_sph.md)."""

@@ -1,0 +1,512 @@
+"""The δ-SPH / δ-SPHC fluid (``fluid.method = "delta-sph"``): state arrays sized once, explicit
+steps of the right-hand side in ``delta_sph.py``, the :class:`~mpsfem.fluid_methods.FluidMethod`
+protocol for the run loop, the probes, the results file and the checkpoints.
+
+Shared with MPS (``fluid_mps``): the particle layout of blocks and walls (``geometry.py``; the
+wall's first layer and its dummies all become dummy particles with extrapolated pressure, the wall
+surface lies half a spacing in front of them as in MPS), the neighbour search
+(``neighbours.py``), prescribed wall motion (``wall_motion.py``), the probe kernels
+(``probes.py``) and the state checks (``time_integration.first_bad_particle``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from mpsfem.fluid_mps import probes
+from mpsfem.fluid_mps.geometry import ParticleSet, build_particles, default_dummy_layers
+from mpsfem.fluid_mps.geometry import hydrostatic_pressure as hydrostatic_column_pressure
+from mpsfem.fluid_mps.neighbours import NeighbourSearch, build_neighbours
+from mpsfem.fluid_mps.time_integration import first_bad_particle
+from mpsfem.fluid_mps.wall_motion import MotionLaw
+from mpsfem.fluid_sph import delta_sph, time_stepping
+from mpsfem.fluid_sph.wendland import gradient_coefficient, wendland_norm
+from mpsfem.scenario.fluid import FluidSection
+from mpsfem.scenario.fluid_sph import DeltaSPHSection
+
+#: default acoustic Courant numbers (dt <= cfl h / (c0 + u_max)) per integrator. The leapfrog
+#: has no damping of its own: at 0.2 the δ-SPHC free surface of still water grew unstable within
+#: 0.1 s (0.2 m deep, 10 particles per depth), at 0.1 it stayed still for 0.6 s
+#: (docs/fluid_sph.md); RK4 was stable at 0.8 and 1.2
+DEFAULT_CFL = {"symplectic": 0.1, "rk4": 0.8}
+#: viscous limit dt <= C h / (alpha_max c0) of the artificial viscosity, per integrator. Measured
+#: on the regular-wave tank (damping zone alpha = 0.6, RK4): stable at 0.25 h / c0, growing at
+#: 0.35, blown up at 0.5 within 15 steps; so C = 0.15 for RK4. The leapfrog's real-axis
+#: stability interval is shorter (2 against RK4's 2.8): 0.1 (not measured)
+VISCOUS_LIMIT = {"symplectic": 0.1, "rk4": 0.15}
+
+
+class SPHRunError(RuntimeError):
+    """The δ-SPH state went wrong (non-finite values, an escaped particle, Mach number too high)."""
+
+
+@dataclass
+class SPHStageTimes:
+    """Accumulated wall time per stage, s; ``rhs_calls`` right-hand-side evaluations."""
+
+    neighbours: float = 0.0
+    rhs: float = 0.0
+    integrate: float = 0.0
+    other: float = 0.0
+    rhs_calls: int = 0
+
+    def as_dict(self) -> dict[str, float]:
+        return {
+            "neighbours": self.neighbours,
+            "rhs": self.rhs,
+            "integrate": self.integrate,
+            "other": self.other,
+            "rhs_calls": float(self.rhs_calls),
+        }
+
+
+@dataclass
+class NoBudget:
+    """δ-SPH keeps no momentum budget yet (``/momentum_budget`` is MPS's); the run loop reads
+    ``full`` and the force model's name."""
+
+    names: list[str]
+    model: str
+    full: bool = False
+
+
+class DeltaSPHSolver:
+    """Weakly compressible δ-SPH fluid. Units SI; arrays (N, dim) float64, kinds int8.
+
+    ``particles``: a ready particle set (fluid first, then walls), e.g. a circular drop; default
+    the scenario's blocks and walls. ``external`` / ``neighbour_filter`` (coupled structure
+    surfaces) are not supported yet and are refused.
+    """
+
+    def __init__(
+        self,
+        spec: FluidSection,
+        base_dir: Path | None = None,
+        external: Sequence = (),
+        neighbour_filter=None,
+        particles: ParticleSet | None = None,
+    ) -> None:
+        if len(external) or neighbour_filter is not None:
+            raise ValueError(
+                "fluid.method = 'delta-sph' does not yet couple to a [structure] (its members' "
+                "surfaces are MPS particles); use fluid.method = 'mps' for coupled runs"
+            )
+        self.spec = spec
+        self.sph = sph = spec.sph if spec.sph is not None else DeltaSPHSection()
+        self.dim = dim = spec.dim
+        self.l0 = dx = spec.spacing
+        self.rho0 = spec.density
+        self.gravity = np.asarray(spec.gravity, dtype=np.float64)
+        self.h = sph.smoothing_ratio * dx
+        self.norm = wendland_norm(dim, self.h)
+        self.inv_h = 1.0 / self.h
+        self.grad_coef = gradient_coefficient(dim, self.h)
+        self.radius = 2.0 * self.h  # Wendland C2 support
+        self.corrected = sph.gradient == "corrected"
+        self.omega2 = sph.central_field_omega**2
+        self.center = np.zeros(dim)
+        if sph.central_field_center is not None:
+            self.center[:] = sph.central_field_center
+
+        if particles is None:
+            layered = spec
+            if spec.dummy_layers is None:  # enough layers to fill the kernel's support 2h
+                layers = default_dummy_layers(2.0 * sph.smoothing_ratio)
+                layered = spec.model_copy(update={"dummy_layers": layers - 1})
+            particles = build_particles(layered)
+        ps = particles
+        self.pos = np.ascontiguousarray(ps.pos, dtype=np.float64)
+        self.vel = np.ascontiguousarray(ps.vel, dtype=np.float64)
+        self.kind = np.asarray(ps.kind, dtype=np.int8)
+        self.normal = np.ascontiguousarray(ps.normal, dtype=np.float64)
+        self.n_fluid = nf = ps.n_fluid
+        self.n = n = len(self.pos)
+        self.patches = ps.patches
+        self.mass = self.rho0 * dx**dim  # kg (kg/m in 2D)
+
+        self.c0 = self._sound_speed()
+        self.p = np.zeros(n)
+        self.rho = np.full(n, self.rho0)
+        if spec.hydrostatic_start and np.any(self.gravity):
+            self.p[:nf] = hydrostatic_column_pressure(
+                self.pos, self.kind, self.gravity, self.rho0, dx
+            )[:nf]
+            self.rho[:nf] = self.rho0 + self.p[:nf] / self.c0**2  # inverse of seed eq. 1
+
+        self.lower, self.upper = self._domain()
+        self.search = NeighbourSearch(
+            dim,
+            self.radius,
+            domain=(self.lower, self.upper),
+            escape="clip",
+            skin=spec.neighbours.skin * dx,
+        )
+        # work arrays, sized once
+        self.M = np.zeros((nf, dim, dim))
+        self.grad_rho = np.zeros((nf, dim))
+        self.alpha = np.full(nf, sph.viscosity_alpha)
+        self.acc = np.zeros((n, dim))
+        self.vol = np.zeros(n)
+        #: each wall particle's acceleration over the current step, m/s^2 (moving walls)
+        self.wall_acc = np.zeros((n - nf, dim))
+        self.drho = np.zeros(n)
+        zones = spec.sponges
+        self.zone_axis = np.array([z.axis for z in zones], dtype=np.int32)
+        self.zone_start = np.array([z.start for z in zones], dtype=np.float64)
+        self.zone_inv = np.array([1.0 / (z.end - z.start) for z in zones], dtype=np.float64)
+        self.integrator = sph.integrator
+        self.alpha_max = max(sph.viscosity_alpha, sph.damping_alpha if len(zones) else 0.0)
+        self.cfl = sph.cfl if sph.cfl is not None else DEFAULT_CFL[sph.integrator]
+        if self.integrator == "rk4":
+            self._y0 = (np.empty_like(self.pos), np.empty_like(self.vel), np.empty_like(self.rho))
+            self._sum = (np.empty_like(self.pos), np.empty_like(self.vel), np.empty_like(self.rho))
+
+        g_abs = float(np.linalg.norm(self.gravity))
+        self.motions = [
+            MotionLaw(w.motion, base_dir, gravity=g_abs, dim=dim, key=f"fluid.walls[{i}].motion")
+            for i, w in enumerate(pt.spec for pt in self.patches if pt.spec is not None)
+        ]
+        rigid = [pt for pt in self.patches if pt.spec is not None]
+        self.moving = [(pt, m) for pt, m in zip(rigid, self.motions, strict=True) if m.moves]
+        self.wall_origin = {pt.name: self.pos[pt.start : pt.stop].copy() for pt, _ in self.moving}
+        self.budget = NoBudget([pt.name for pt in self.patches], spec.boundary_force)
+        self.force_marks: dict[str, list[float]] = {}
+        #: per patch, the impulse of boundary_force since t = 0 (step-end force x dt), N s
+        self.patch_impulse = np.zeros((len(self.patches), dim))
+        self._patch_index = {pt.name: k for k, pt in enumerate(self.patches)}
+        self.times = SPHStageTimes()
+        self.t = 0.0
+        self.step_count = 0
+        self.max_speed = 0.0
+        self._uf_parent: np.ndarray | None = None
+        self._uf_size: np.ndarray | None = None
+        self._gauge_work: np.ndarray | None = None
+        self.move_walls(0.0)
+        self.rhs()  # the first kick's right-hand side (state from here on)
+        ts = spec.time_step
+        self.dt_next = min(ts.dt_initial or ts.dt_max, self.stable_dt())
+
+    # ------------------------------------------------------------------ set-up helpers
+    def _sound_speed(self) -> float:
+        """c0 (m/s): fluid.sph.sound_speed, or 10 max(U, sqrt(g H)) (seed eq. 1) with H the
+        tallest block and U fluid.sph.reference_speed (default 2 sqrt(g H), Ritter's front)."""
+        sph = self.sph
+        if sph.sound_speed is not None:
+            return float(sph.sound_speed)
+        g = float(np.linalg.norm(self.gravity))
+        up = self.spec.vertical_axis
+        height = max(b.upper[up] - b.lower[up] for b in self.spec.blocks)
+        u_block = max(
+            (float(np.linalg.norm(b.velocity)) for b in self.spec.blocks if b.velocity),
+            default=0.0,
+        )
+        u_ref = (
+            sph.reference_speed if sph.reference_speed is not None else 2.0 * math.sqrt(g * height)
+        )
+        c0 = 10.0 * max(u_ref, u_block, math.sqrt(g * height))  # seed eq. 1: c0 >= 10 max(U, ...)
+        if not c0 > 0.0:
+            raise ValueError(
+                "fluid.sph.sound_speed: without gravity and a reference speed the default c0 = "
+                "10 max(U, sqrt(g H)) is 0; give fluid.sph.sound_speed (or reference_speed)"
+            )
+        return c0
+
+    def _domain(self) -> tuple[np.ndarray, np.ndarray]:
+        """The box a fluid particle may not leave (fluid.domain_lower/upper, else the particles'
+        bounding box grown by 10 l0 and 1 m against gravity, as MPS)."""
+        spec = self.spec
+        lo = self.pos.min(axis=0) - 10.0 * self.l0
+        hi = self.pos.max(axis=0) + 10.0 * self.l0
+        if np.any(self.gravity):
+            hi[int(np.argmax(np.abs(self.gravity)))] += 1.0
+        if spec.domain_lower is not None:
+            lo = np.asarray(spec.domain_lower, float)
+        if spec.domain_upper is not None:
+            hi = np.asarray(spec.domain_upper, float)
+        return lo, hi
+
+    def set_initial_state(self, vel: np.ndarray | None = None, p: np.ndarray | None = None) -> None:
+        """Fluid velocities (m/s) and pressures (Pa) of the initial state, before the first step
+        (densities from the inverse linear EOS); the right-hand side is re-evaluated."""
+        nf = self.n_fluid
+        if vel is not None:
+            self.vel[:nf] = vel
+        if p is not None:
+            self.p[:nf] = p
+            self.rho[:nf] = self.rho0 + self.p[:nf] / self.c0**2
+        self.rhs()
+        self.dt_next = min(self.spec.time_step.dt_initial or self.spec.time_step.dt_max,
+                           self.stable_dt())  # fmt: skip
+
+    # ------------------------------------------------------------------ right-hand side
+    def rhs(self) -> None:
+        """acc and drho/dt of the fluid at the current (pos, vel, rho); walls where they are."""
+        tic = time.perf_counter()
+        nb = self.search.update(self.pos)
+        toc = time.perf_counter()
+        self.times.neighbours += toc - tic
+        nf = self.n_fluid
+        delta_sph.equation_of_state(self.rho, self.p, nf, self.rho0, self.c0)
+        delta_sph.wall_pressure(
+            self.pos, self.rho, self.p, self.kind, nb.indptr, nb.indices, nf, self.gravity,
+            self.omega2, self.center, self.wall_acc, self.h, self.norm, self.rho0, self.c0,
+        )  # fmt: skip
+        delta_sph.particle_volume(self.rho, self.mass, self.vol)
+        delta_sph.correction(
+            self.pos, self.rho, self.vol, nb.indptr, nb.indices, nf, self.inv_h, self.grad_coef,
+            self.M, self.grad_rho,
+        )  # fmt: skip
+        if len(self.zone_axis):
+            delta_sph.viscosity_ramp(
+                self.pos, nf, self.sph.viscosity_alpha, self.sph.damping_alpha, self.zone_axis,
+                self.zone_start, self.zone_inv, self.alpha,
+            )  # fmt: skip
+        delta_sph.pair_terms(
+            self.pos, self.vel, self.rho, self.vol, self.p, nb.indptr, nb.indices, nf,
+            self.h, self.inv_h, self.grad_coef, self.rho0, self.c0, self.sph.density_diffusion,
+            self.corrected, self.M, self.grad_rho, self.alpha, self.gravity, self.omega2,
+            self.center, self.acc, self.drho,
+        )  # fmt: skip
+        self._last_neighbours = nb
+        self.times.rhs += time.perf_counter() - toc
+        self.times.rhs_calls += 1
+
+    # ------------------------------------------------------------------ time step
+    def stable_dt(self) -> float:
+        """dt (s) <= cfl h / (c0 + u_max), 0.25 sqrt(h / a_max) (Monaghan 1992), the viscous
+        limit C h / (alpha_max c0) (:data:`VISCOUS_LIMIT`) and dt_max."""
+        umax = time_stepping.max_norm(self.vel, self.n_fluid)
+        amax = time_stepping.max_norm(self.acc, self.n_fluid)
+        dt = min(self.spec.time_step.dt_max, self.cfl * self.h / (self.c0 + umax))
+        if amax > 0.0:
+            dt = min(dt, 0.25 * math.sqrt(self.h / amax))  # force condition
+        if self.alpha_max > 0.0:  # the artificial viscosity's own limit (VISCOUS_LIMIT)
+            dt = min(dt, VISCOUS_LIMIT[self.integrator] * self.h / (self.alpha_max * self.c0))
+        return dt
+
+    def move_walls(self, t: float) -> None:
+        """Put the moving wall patches at their prescribed position and velocity for time t."""
+        for pt, law in self.moving:
+            s, v = law(t)
+            sl = slice(pt.start, pt.stop)
+            self.pos[sl] = self.wall_origin[pt.name] + s * law.direction
+            self.vel[sl] = v * law.direction
+
+    def set_patch_state(self, name: str, pos: np.ndarray, vel: np.ndarray) -> None:
+        """Not supported (no external patches under δ-SPH yet)."""
+        raise ValueError(f"patch {name!r}: δ-SPH has no externally driven patches yet")
+
+    def _wall_acceleration(self, dt: float) -> None:
+        """a_w = (v(t + dt) - v(t)) / dt of every moving wall particle, constant over the step
+        (the prescribed velocities' difference; zero for walls at rest)."""
+        for pt, law in self.moving:
+            _, v0 = law(self.t)
+            _, v1 = law(self.t + dt)
+            rows = slice(pt.start - self.n_fluid, pt.stop - self.n_fluid)
+            self.wall_acc[rows] = (v1 - v0) / dt * law.direction
+
+    def step(self, dt: float) -> None:
+        """Advance by exactly ``dt`` (s) with fluid.sph.integrator; raises :class:`SPHRunError`
+        on a non-finite or escaped particle or a Mach number above fluid.sph.max_mach."""
+        nf = self.n_fluid
+        if self.moving:
+            self._wall_acceleration(dt)
+        if self.integrator == "symplectic":
+            tic = time.perf_counter()
+            time_stepping.kick(self.vel, self.rho, self.acc, self.drho, nf, 0.5 * dt)
+            time_stepping.drift(self.pos, self.vel, nf, dt)
+            self.move_walls(self.t + dt)
+            self.times.integrate += time.perf_counter() - tic
+            self.rhs()
+            tic = time.perf_counter()
+            time_stepping.kick(self.vel, self.rho, self.acc, self.drho, nf, 0.5 * dt)
+        else:
+            self._rk4(dt)
+            tic = time.perf_counter()
+        delta_sph.equation_of_state(self.rho, self.p, nf, self.rho0, self.c0)
+        self.times.integrate += time.perf_counter() - tic
+        tic = time.perf_counter()
+        self.t += dt
+        self.step_count += 1
+        self._check()
+        if self.force_marks:  # some probe averages: book each patch's impulse of this step
+            for k, pt in enumerate(self.patches):
+                self.patch_impulse[k] += dt * self.boundary_force([pt.name])
+        self.dt_next = self.stable_dt()
+        self.times.other += time.perf_counter() - tic
+
+    def _rk4(self, dt: float) -> None:
+        """Classical RK4 (weights 1, 2, 2, 1; stages at t, t + dt/2, t + dt/2, t + dt)."""
+        nf = self.n_fluid
+        p0, v0, r0 = self._y0
+        sp, sv, sr = self._sum
+        np.copyto(p0, self.pos)
+        np.copyto(v0, self.vel)
+        np.copyto(r0, self.rho)
+        t = self.t
+        for stage, (w, c) in enumerate(((1.0, 0.5), (2.0, 0.5), (2.0, 1.0), (1.0, 0.0))):
+            if stage > 0:
+                self.move_walls(t + (0.5 if stage < 3 else 1.0) * dt)
+            self.rhs()
+            tic = time.perf_counter()
+            time_stepping.rk_accumulate(sp, sv, sr, self.vel, self.acc, self.drho, nf, w,
+                                        stage == 0)  # fmt: skip
+            if stage < 3:
+                time_stepping.rk_stage(p0, v0, r0, self.vel, self.acc, self.drho, nf, c * dt,
+                                       self.pos, self.vel, self.rho)  # fmt: skip
+            else:
+                time_stepping.rk_finish(p0, v0, r0, sp, sv, sr, nf, dt / 6.0, self.pos,
+                                        self.vel, self.rho)  # fmt: skip
+            self.times.integrate += time.perf_counter() - tic
+
+    def _check(self) -> None:
+        i, code = first_bad_particle(self.pos, self.vel, self.p, self.kind, self.lower, self.upper)
+        where = f"at t = {self.t:.6g} s (step {self.step_count})"
+        if i >= 0:
+            what = {1: "a non-finite position or velocity", 2: "a non-finite pressure",
+                    3: f"left the domain {self.lower.tolist()} .. {self.upper.tolist()}"}[code]  # fmt: skip
+            raise SPHRunError(
+                f"δ-SPH particle {i} has {what} {where}: position {self.pos[i].tolist()}, "
+                f"velocity {self.vel[i].tolist()}"
+                if code != 3
+                else f"δ-SPH fluid particle {i} {what} {where}: position {self.pos[i].tolist()}"
+            )
+        umax = time_stepping.max_norm(self.vel, self.n_fluid)
+        self.max_speed = max(self.max_speed, umax)
+        if umax > self.sph.max_mach * self.c0:
+            raise SPHRunError(
+                f"δ-SPH: the fastest fluid particle moves at {umax:.3g} m/s {where}, above "
+                f"fluid.sph.max_mach = {self.sph.max_mach} times c0 = {self.c0:.3g} m/s: weak "
+                "compressibility is lost; raise fluid.sph.sound_speed"
+            )
+
+    def dt_towards(self, t_end: float) -> float:
+        """The next step (s) on the way to ``t_end``; the last one or two split the rest."""
+        remaining = t_end - self.t
+        n_left = math.ceil(remaining / self.dt_next * (1.0 - 1e-12))
+        return remaining / n_left if n_left <= 2 else self.dt_next
+
+    def substeps(self, window: float) -> tuple[int, float]:
+        """Split ``window`` (s) into n equal steps no longer than the stable dt."""
+        n = max(1, math.ceil(window / self.dt_next * (1.0 - 1e-12)))
+        return n, window / n
+
+    # ------------------------------------------------------------------ state
+    def state(self) -> dict[str, np.ndarray]:
+        """Arrays that, with :meth:`meta`, restore the solver bit for bit (views)."""
+        return {
+            "pos": self.pos,
+            "vel": self.vel,
+            "p": self.p,
+            "rho": self.rho,
+            "acc": self.acc,
+            "drho": self.drho,
+            "patch_impulse": self.patch_impulse,
+        }
+
+    def meta(self) -> dict:
+        return {
+            "t": self.t,
+            "step": self.step_count,
+            "dt_next": self.dt_next,
+            "force_marks": {k: list(v) for k, v in self.force_marks.items()},
+            "max_speed": self.max_speed,
+        }
+
+    def restore(self, arrays: dict[str, np.ndarray], meta: dict, preconditioner=None) -> None:
+        """Set the state from :meth:`state` and :meth:`meta` (copied in)."""
+        for name, dst in self.state().items():
+            if name not in arrays:
+                raise ValueError(f"checkpoint lacks the δ-SPH array {name!r}")
+            src = arrays[name]
+            if src.shape != dst.shape:
+                raise ValueError(
+                    f"checkpoint array {name} has shape {src.shape}, the scenario gives "
+                    f"{dst.shape}: the checkpoint belongs to another scenario"
+                )
+            dst[...] = src
+        self.t = float(meta["t"])
+        self.step_count = int(meta["step"])
+        self.dt_next = float(meta["dt_next"])
+        self.max_speed = float(meta.get("max_speed", 0.0))
+        self.force_marks = {k: list(v) for k, v in meta.get("force_marks", {}).items()}
+
+    def preconditioner_state(self) -> None:
+        """δ-SPH is explicit: no reused solver data."""
+        return None
+
+    def preconditioner_arrays(self) -> tuple[dict[str, np.ndarray], dict]:
+        return {}, {}
+
+    def load_preconditioner_arrays(self, arrays: dict[str, np.ndarray], meta: dict | None) -> None:
+        """Nothing to load (explicit method)."""
+
+    # ------------------------------------------------------------------ forces and probes
+    def boundary_force(self, names: Sequence[str]) -> np.ndarray:
+        """Force of the fluid on the named wall patches, N (N/m in 2D): the pressure integral
+        -sum p_i l0^(d-1) n_i over each wall's first layer (thesis eq. 2-51, extrapolated
+        dummy pressures)."""
+        f = np.zeros(self.dim)
+        for name in names:
+            pt = next(pt for pt in self.patches if pt.name == name)
+            f += probes.patch_force(
+                self.p, self.normal, pt.start, pt.stop, self.kind, self.l0 ** (self.dim - 1)
+            )
+        return f
+
+    def mean_boundary_force(self, key: str, names: Sequence[str]) -> np.ndarray:
+        """:meth:`boundary_force` on ``names`` averaged since the last call with ``key`` (a
+        probe's name), N (N/m in 2D): the impulse booked step by step (step-end force x dt)
+        over that interval divided by its length; the current force at a first call or at the
+        same time (as MPS's ``mean_boundary_force``). Impulses are booked from the first call
+        on."""
+        impulse = sum(self.patch_impulse[self._patch_index[n]] for n in names)
+        mark = self.force_marks.get(key)
+        self.force_marks[key] = [self.t, *np.asarray(impulse).tolist()]
+        if mark is None or not self.t > mark[0]:
+            return self.boundary_force(names)
+        return (impulse - np.array(mark[1:])) / (self.t - mark[0])
+
+    def probe_value(self, probe) -> float | np.ndarray:
+        """Current value of a fluid probe (definitions in ``fluid_mps.probes``)."""
+        l0 = self.l0
+        if probe.kind == "pressure":
+            return probes.pressure_at(
+                self.pos, self.p, self.kind, np.asarray(probe.position, float), probe.radius or l0
+            )
+        if probe.kind == "wave_gauge":
+            up = self.spec.vertical_axis
+            where = np.asarray(probe.position, float)
+            if probe.method == "top_particle":
+                hw = probe.half_width or 0.5 * l0
+                h = probes.surface_height(self.pos, self.kind, where, hw, up, l0)
+            else:
+                if self._gauge_work is None:
+                    self._gauge_work = np.empty(self.n, np.int64)
+                h = probes.surface_height_kernel(self.pos, self.kind, where, up, l0,
+                                                 self._gauge_work)  # fmt: skip
+            return h - probe.reference_level
+        if probe.kind == "front":
+            link = probe.link_distance * l0
+            nb = build_neighbours(self.pos, link, domain=(self.lower, self.upper))
+            if self._uf_parent is None:
+                self._uf_parent = np.empty(self.n, np.int64)
+                self._uf_size = np.empty(self.n, np.int64)
+            return probes.front_position(
+                self.pos, self.kind, nb.indptr, nb.indices, link, probe.axis,
+                probe.min_cluster_fraction, l0, self._uf_parent, self._uf_size,
+            )  # fmt: skip
+        if probe.kind == "force":
+            if probe.average:
+                return self.mean_boundary_force(probe.name, [probe.target])
+            return self.boundary_force([probe.target])
+        if probe.kind == "energy":
+            return np.array(probes.fluid_energy(self.pos, self.vel, self.kind, self.mass,
+                                                self.gravity))  # fmt: skip
+        raise ValueError(f"probe kind {probe.kind!r} is not a fluid probe")

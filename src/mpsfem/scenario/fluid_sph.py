@@ -1,0 +1,100 @@
+"""Schema of ``[fluid.sph]``: the numerical keys of the δ-SPH fluid (``fluid.method = "delta-sph"``).
+
+The δ-SPH method owns this table, as MPS owns ``fluid.kernel``, ``fluid.pressure``,
+``fluid.surface`` and ``fluid.collision``; ``FluidSection`` refuses a table of the other method
+(docs/fluid_sph.md). Sources: Huang, Sun, Lyu & Zhong 2022 (the seed paper, δ-SPHC), Antuono et
+al. 2010/2012 (δ-SPH).
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field
+
+from mpsfem.scenario.base import Point, Section
+
+
+class DeltaSPHSection(Section):
+    """δ-SPH numerics: kernel, equation of state, density diffusion, viscosity, integrator."""
+
+    smoothing_ratio: float = Field(
+        1.3,
+        ge=1.0,
+        le=2.5,
+        description="alpha_s = h / spacing of the Wendland C2 kernel (support 2h); the seed "
+        "paper uses 1.3 and 2.0",
+    )
+    gradient: Literal["corrected", "plain"] = Field(
+        "corrected",
+        description="pressure gradient: 'corrected', δ-SPHC's symmetric kernel-gradient-corrected "
+        "form sum (p_i M_i + p_j M_j) grad W_ij V_j (seed eq. 12); 'plain', δ-SPH's sum (p_i + "
+        "p_j) grad W_ij V_j (seed eq. 6)",
+    )
+    sound_speed: float | None = Field(
+        None,
+        gt=0.0,
+        le=1e5,
+        description="artificial sound speed c0, m/s (default: 10 max(reference_speed, sqrt(g H)), "
+        "H the tallest fluid block; seed eq. 1)",
+    )
+    reference_speed: float | None = Field(
+        None,
+        ge=0.0,
+        le=1e4,
+        description="largest flow speed expected, m/s, for the default c0 (default: 2 sqrt(g H), "
+        "the dam-break front speed of Ritter's solution)",
+    )
+    density_diffusion: float = Field(
+        0.1,
+        ge=0.0,
+        le=1.0,
+        description="delta of the density diffusion term delta h c0 D_i (seed eq. 2; 0 = off)",
+    )
+    viscosity_alpha: float = Field(
+        0.02,
+        ge=0.0,
+        le=10.0,
+        description="alpha of the artificial viscosity alpha h c0 (rho0 / rho_i) sum phi_ij "
+        "grad W_ij V_j (seed eq. 3) outside damping zones; fluid-wall pairs carry none (free "
+        "slip)",
+    )
+    damping_alpha: float = Field(
+        0.6,
+        ge=0.0,
+        le=100.0,
+        description="alpha at the outer edge of each fluid.sponges zone: alpha = max("
+        "viscosity_alpha, damping_alpha r), r rising 0 -> 1 across the zone (seed eq. 4; the "
+        "zones' coefficient is MPS's and unread here)",
+    )
+    integrator: Literal["rk4", "symplectic"] = Field(
+        "rk4",
+        description="time integrator: 'rk4', classical Runge-Kutta, four right-hand sides per "
+        "step (the seed paper's); 'symplectic', kick-drift-kick leapfrog, one per step but a "
+        "smaller stable Courant number (docs/fluid_sph.md)",
+    )
+    cfl: float | None = Field(
+        None,
+        gt=0.0,
+        le=3.0,
+        description="acoustic Courant number: dt <= cfl h / (c0 + u_max) (default 0.8 "
+        "rk4, 0.1 symplectic); also dt <= 0.25 sqrt(h / a_max), the artificial viscosity's "
+        "dt <= 0.15 h / (alpha_max c0) (0.1 symplectic) and fluid.time_step.dt_max",
+    )
+    max_mach: float = Field(
+        0.5,
+        gt=0.0,
+        le=1.0,
+        description="a run stops when the fastest fluid particle exceeds this fraction of c0 "
+        "(weak compressibility is lost; raise sound_speed)",
+    )
+    central_field_omega: float = Field(
+        0.0,
+        ge=0.0,
+        le=1e3,
+        description="Omega, 1/s, of a central body force f = -Omega^2 (r - central_field_center) "
+        "added to gravity (oscillating drop; 0 = off)",
+    )
+    central_field_center: Point | None = Field(
+        None, description="centre of the central body force, m (default: the origin)"
+    )
