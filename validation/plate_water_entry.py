@@ -55,7 +55,8 @@ Y_TOP_FLUID = 0.5 - L0 / 2  # top fluid row, m
 SEED_SPEED = 6.28  # m/s
 SWEEP = (1.0, 6.28, 15.0, 30.0)  # m/s
 SEED_END = 0.01  # s
-SWEEP_AFTER_CONTACT = 3e-3  # sweep cases run this long past contact, s
+SWEEP_AFTER_CONTACT = 1.5e-3  # sweep cases run this long past contact, s (V = 1 m/s: 3 ms)
+STIFF_AFTER_CONTACT = 3e-3  # the stiff control runs this long past contact, s
 
 
 def contact_time(v: float) -> float:
@@ -137,12 +138,13 @@ def main(argv: list[str] | None = None) -> int:
     if "seed" in which:
         plan.append((SEED_SPEED, SEED_END, True, False))
     if "stiff" in which:
-        plan.append((SEED_SPEED, SEED_END, False, True))
+        plan.append((SEED_SPEED, contact_time(SEED_SPEED) + STIFF_AFTER_CONTACT, False, True))
     if "sweep" in which:
         for v in SWEEP:
             if v == SEED_SPEED and "seed" in which:
                 continue  # the seed run is the sweep's 6.28 m/s case
-            plan.append((v, contact_time(v) + SWEEP_AFTER_CONTACT, False, False))
+            after = 3e-3 if v == 1.0 else SWEEP_AFTER_CONTACT  # the first run's, kept
+            plan.append((v, contact_time(v) + after, False, False))
     rows = []
     for v, end, seed, stiff in plan:
         out = case_path(v, stiff)
