@@ -296,3 +296,13 @@ def test_mpsfem_structure_runs_with_motion(tmp_path):
     np.testing.assert_allclose(d[:, -1, 1], s, atol=1e-15)
     # the stop at t = 1 ms throws the strip's middle on: it deflects relative to the supports
     assert np.abs(mid[-1, 1] - s[-1]) > 0.0
+
+
+def test_dumped_motion_validates_again():
+    """model_dump writes every key out (defaults too): the dump must be accepted again."""
+    from mpsfem.scenario.structure import StructureSection
+
+    for motion in (None, {"kind": "harmonic", "amplitude": 0.1, "period": 0.5}):
+        s = sc.section([beam(motion=motion)])
+        again = StructureSection.model_validate(s.model_dump())
+        assert again.members[0].motion == s.members[0].motion

@@ -100,8 +100,12 @@ class MemberMotion(Section):
 
     @model_validator(mode="after")
     def _check(self) -> MemberMotion:
+        # a key of another kind is refused when it differs from its default (a default written
+        # out, as model_dump does, is harmless and must validate again)
+        defaults = type(self).model_fields
+        given = {k for k in self.model_fields_set if getattr(self, k) != defaults[k].default}
         if self.kind == "none":
-            unused = sorted(self.model_fields_set - {"kind"})
+            unused = sorted(given - {"kind"})
             if unused:
                 raise InvalidValue(
                     unused[0],
@@ -111,7 +115,7 @@ class MemberMotion(Section):
                 )
             return self
         allowed = MOTION_KEYS[self.kind] | {"kind", "direction"}
-        unused = sorted(self.model_fields_set - allowed)
+        unused = sorted(given - allowed)
         if unused:
             raise InvalidValue(
                 unused[0],
