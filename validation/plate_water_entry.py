@@ -7,7 +7,7 @@ paper_mps_elastic_plate_water_entry.txt: steel, rho 7800 kg/m^3, E 2.1e11 Pa, nu
 What it measures, per case (docs/validation_plate_water_entry.md):
 
 * the impact impulse J(t) = int_0^t F_y dt of the fluid force on the plate (probe "slam_force",
-  interval means, so the samples integrate to the impulse exactly), at t_c + 0.5, 1 and 3 ms,
+  interval means, so the samples integrate to the impulse exactly), at t_c + 0.1, 0.5, 1, 3 ms,
   t_c = the geometric contact time (the plate's particles one l0 above the top fluid row);
   against von Karman's (1929) momentum of the flat plate's added mass, J_ref = m_a V with the
   high-frequency free-surface added mass of a flat plate of width L, m_a = rho pi L^2 / 8
@@ -104,7 +104,7 @@ def analyse(path: Path, v: float, seed: bool, case: str | None = None) -> dict:
     J = np.cumsum(f * dt)
     ref = added_mass() * v
     row["J_ref_Ns_per_m"] = ref
-    for tau in (0.5e-3, 1e-3, 3e-3):
+    for tau in (0.1e-3, 0.5e-3, 1e-3, 3e-3):
         key = f"J_{tau * 1e3:g}ms"
         if t[-1] >= tc + tau - 1e-12:
             row[key] = float(np.interp(tc + tau, t, J))
