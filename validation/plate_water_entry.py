@@ -73,14 +73,17 @@ def added_mass() -> float:
 STIFF_FACTOR = 1000.0
 
 
-def case_path(v: float, rigid: bool = False) -> Path:
-    return RESULTS_DIR / f"plate_water_entry_v{v:g}{'_stiff' if rigid else ''}.h5"
+def case_path(v: float, rigid: bool = False, corotational: bool = False) -> Path:
+    tag = "_stiff" if rigid else ("_corotational" if corotational else "")
+    return RESULTS_DIR / f"plate_water_entry_v{v:g}{tag}.h5"
 
 
-def overrides(v: float, end: float, rigid: bool = False) -> list[str]:
+def overrides(v: float, end: float, rigid: bool = False, corotational: bool = False) -> list[str]:
     out = [f"structure.members.0.motion.velocity={v!r}", f"run.end_time={end!r}"]
     if rigid:
         out.append(f"structure.members.0.material.youngs_modulus={2.1e11 * STIFF_FACTOR!r}")
+    if corotational:
+        out.append('structure.members.0.kinematics="corotational"')
     return out
 
 
@@ -128,13 +131,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--cases",
         default="seed,sweep",
-        help="comma list of seed, sweep, stiff (the seed case with a 1000 times stiffer plate)",
+        help="comma list of seed, sweep, stiff (the seed case with a 1000 times stiffer plate), "
+        "corotational (the 30 m/s sweep case with a co-rotational, large-rotation member)",
     )
     case_runner.add_run_options(ap)
     a = ap.parse_args(argv)
     which = set(a.cases.split(","))
     RESULTS_DIR.mkdir(parents=True, exist_ok=True)
     plan: list[tuple[float, float, bool, bool]] = []  # speed, end time, seed?, stiff?
+    corot = "corotational" in which
     if "seed" in which:
         plan.append((SEED_SPEED, SEED_END, True, False))
     if "stiff" in which:
@@ -146,13 +151,16 @@ def main(argv: list[str] | None = None) -> int:
             after = 3e-3 if v == 1.0 else SWEEP_AFTER_CONTACT  # the first run's, kept
             plan.append((v, contact_time(v) + after, False, False))
     rows = []
-    for v, end, seed, stiff in plan:
-        out = case_path(v, stiff)
+    if corot:
+        plan.append((30.0, contact_time(30.0) + SWEEP_AFTER_CONTACT, False, False))
+    for k, (v, end, seed, stiff) in enumerate(plan):
+        co = corot and k == len(plan) - 1
+        out = case_path(v, stiff, co)
         t0 = time.perf_counter()
         status = case_runner.case_status(
             SCENARIO,
             out,
-            overrides(v, end, stiff),
+            overrides(v, end, stiff, co),
             a.threads,
             a.analyse_only,
             a.retry_failed,
@@ -160,10 +168,10 @@ def main(argv: list[str] | None = None) -> int:
         )
         print(f"V = {v:g} m/s: {status} ({time.perf_counter() - t0:.0f} s here)")
         if status is None or status == "locked" or not out.is_file():
-            case = "stiff" if stiff else ("seed" if seed else "sweep")
+            case = "corotational" if co else ("stiff" if stiff else ("seed" if seed else "sweep"))
             rows.append({"case": case, "speed": v, "status": status})
             continue
-        rows.append(analyse(out, v, seed, "stiff" if stiff else None))
+        rows.append(analyse(out, v, seed, "corotational" if co else ("stiff" if stiff else None)))
         if "seed" in which and "sweep" in which and seed:
             rows.append({**rows[-1], "case": "sweep"})
     for r in rows:
