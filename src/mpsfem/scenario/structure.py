@@ -22,6 +22,7 @@ from typing import Annotated, Literal
 from pydantic import Field, field_validator, model_validator
 
 from .base import InvalidValue, Section
+from .motion import MemberMotion
 
 __all__ = [
     "BoundaryName",
@@ -206,6 +207,16 @@ class _MemberCommon(Section):
     )
     self_weight: bool = Field(
         False, description="Load the member with its own weight (density x volume x gravity)."
+    )
+    motion: MemberMotion = Field(
+        default_factory=MemberMotion,
+        description=(
+            "Prescribed rigid translation of the whole member, supports included, "
+            "[structure.members.motion] (default: at rest). The elastic part is solved in the "
+            "moving frame under the inertial load -density x volume x frame acceleration; the "
+            "coupler and the records get the absolute displacement and velocity "
+            "(docs/structure.md, 'Support motion')."
+        ),
     )
 
     @property
@@ -740,6 +751,14 @@ class StructureSection(Section):
             raise InvalidValue(
                 "gravity", f"`gravity` needs {dim} components in a {dim}D scene", self.gravity
             )
+        for i, m in enumerate(self.members):
+            d = m.motion.direction
+            if d is not None and len(d) != dim:
+                raise InvalidValue(
+                    f"members[{i}].motion.direction",
+                    f"needs {dim} components in a {dim}D scene",
+                    d,
+                )
         by_name = {m.name: m for m in self.members}
         for i, load in enumerate(self.loads):
             where = f"loads[{i}]"

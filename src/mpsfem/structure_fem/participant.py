@@ -32,6 +32,15 @@ solves K u0 = F0 with them included), and they are the window-start value of the
 Self-weight acts always; the scenario's prescribed loads only when the participant is built with
 ``prescribed_loads=True`` (standalone runs).
 
+Support motion (``[structure.members.motion]``, :mod:`mpsfem.scenario.motion`): a moving member
+is solved in its frame, which translates rigidly by r(t): the elastic displacement u_e obeys the
+member's equations with the inertial load -M a_frame(t) added (the consistent load of the body
+force -rho a_frame per unit volume, exact for a translation; computed as the member's
+self-weight load under "gravity" -a_frame). Everything the participant reports is absolute:
+``read("displacement")`` = r(t) + u_e, ``"velocity"`` = r'(t) + u_e', ``"acceleration"`` =
+a_frame + u_e'' at the interface points, and so the members' records and displacement probes;
+the energies (:meth:`energy`) are those of the elastic motion relative to the frame.
+
 The full state (u, v, a over the free dofs, the time, the step count, the interface force of the
 window start and the last written forces; with Newton also the external load at t and the point
 at which the kept Jacobian was formed) is what :meth:`checkpoint` copies and :meth:`restore`
@@ -48,6 +57,8 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
+
+from mpsfem.scenario.motion import RigidTranslation
 
 from .alpha_method import NonlinearNewmark
 from .linsolve import factorize
@@ -165,6 +176,7 @@ class StructureParticipant:
                 self._linear_rotations.append((m.name, start + idx, m.dim == 3, remedy))
         self._warned: set[str] = set()
         self.probe_names: list[str] = []
+        self._P_member: list[str] = []  # member of each displacement probe
         rows = []
         for pr in probes:
             if pr.target not in sysm.names:
@@ -173,8 +185,25 @@ class StructureParticipant:
                     f"(members: {sysm.names})"
                 )
             self.probe_names.append(pr.name)
+            self._P_member.append(pr.target)
             rows.append(sysm.point_matrix(pr.target, pr.position))
+        self._last_h = self.dt  # length of the last step (the table's frame acceleration)
         self._P = sp.vstack(rows, format="csr") if rows else sp.csr_matrix((0, sysm.n))
+        # members with a prescribed rigid translation: (node slice, dof slice, motion law,
+        # consistent load of a unit body acceleration along each scene axis over its free dofs)
+        self._motions = []
+        for i, (cfg, m) in enumerate(zip(section.members, sysm.models, strict=True)):
+            if not cfg.motion.moves:
+                continue
+            law = RigidTranslation(
+                cfg.motion, self.dim, base_dir, key=f"structure.members[{i}].motion"
+            )
+            unit = np.stack(
+                [m.gravity_load(np.eye(self.dim)[k])[sysm.free_of(m.name)] for k in range(self.dim)]
+            )
+            self._motions.append(
+                (sysm.node_slices[m.name], sysm.dof_slices[m.name], law, unit, m.name)
+            )
         self._forces = np.zeros((sysm.n_points, self.dim))
         self._f_start = np.zeros(sysm.n)  # interface load at the start of the window
         self._f_new = np.zeros(sysm.n)  # interface load of the forces last written
@@ -241,11 +270,11 @@ class StructureParticipant:
         """Interface data at the current time: see the module docstring for names and shapes."""
         s = self.integrator.state
         if name == "displacement":
-            return self.system.nodal(s.u)
+            return self._add_rigid(self.system.nodal(s.u), "displacement")
         if name == "velocity":
-            return self.system.nodal(s.v)
+            return self._add_rigid(self.system.nodal(s.v), "velocity")
         if name == "acceleration":
-            return self.system.nodal(s.a)
+            return self._add_rigid(self.system.nodal(s.a), "acceleration")
         if name == "rotation":
             rot = self.system.rotation(s.u)
             r = 1 if self.dim == 2 else 2
@@ -255,6 +284,38 @@ class StructureParticipant:
                     out[sl] = rot[k]
             return out
         raise KeyError(f"structure participant has no {name!r}; readable: {READABLE}")
+
+    def _add_rigid(self, nodal: np.ndarray, what: str) -> np.ndarray:
+        """Add the members' rigid translation (``what``: displacement, velocity or the frame
+        acceleration of the last step) at the current time to elastic nodal values, in place."""
+        t = self.integrator.state.t
+        for nodes, _, law, _, _ in self._motions:
+            if what == "displacement":
+                nodal[nodes] += law.displacement(t)
+            elif what == "velocity":
+                nodal[nodes] += law.velocity(t)
+            else:
+                nodal[nodes] += law.acceleration(t, self._last_h)
+        return nodal
+
+    def rigid_displacement(self, member: str) -> np.ndarray:
+        """Rigid translation (m, scene vector) of a member's frame at the current time (zeros
+        for a member at rest)."""
+        t = self.integrator.state.t
+        for _, _, law, _, name in self._motions:
+            if name == member:
+                return law.displacement(t)
+        return np.zeros(self.dim)
+
+    def frame_load(self, t: float, h: float = 0.0) -> np.ndarray:
+        """Inertial load -M a_frame over the free dofs (N; N/m in 2D) of the members' moving
+        frames, for a step of length h ending at t (zeros when no member moves)."""
+        f = np.zeros(self.system.n)
+        for _, dofs, law, unit, _ in self._motions:
+            a = law.acceleration(t, h)
+            if a.any():
+                f[dofs] -= a @ unit  # d'Alembert: -rho a_frame per unit volume
+        return f
 
     def advance(self, dt: float) -> float:
         """Integrate over `dt` (sub-stepped to at most ``max_dt()``); returns the time advanced."""
@@ -269,8 +330,9 @@ class StructureParticipant:
             frac = j / n_sub
             f_if = f1 if j == n_sub else f0 + frac * (f1 - f0)
             t = t0 + frac * dt
-            self.integrator.step(h, self.external_load(t) + f_if)
+            self.integrator.step(h, self.external_load(t, h) + f_if)
         self.integrator.state.t = t0 + dt
+        self._last_h = h
         self._f_start = f1
         if self._linear_rotations:
             self._check_linear_rotation()
@@ -311,6 +373,7 @@ class StructureParticipant:
             "a": s.a.copy(),
             "f_start": self._f_start.copy(),
             "forces": self._forces.copy(),
+            "last_h": self._last_h,
         }
         if self.nonlinear:
             state.update(self.integrator.checkpoint_extra())
@@ -334,6 +397,7 @@ class StructureParticipant:
         else:
             self.integrator.state = restored
         self._f_start = np.array(state["f_start"], dtype=float)
+        self._last_h = float(state.get("last_h", self.dt))
         self._initial_data_pending = False
         self.write("forces", state["forces"])
 
@@ -342,11 +406,15 @@ class StructureParticipant:
     def time(self) -> float:
         return self.integrator.state.t
 
-    def external_load(self, t: float) -> np.ndarray:
-        """Self-weight plus (standalone) prescribed loads at time t, over the free dofs."""
+    def external_load(self, t: float, h: float = 0.0) -> np.ndarray:
+        """Self-weight plus (standalone) prescribed loads at time t, plus the inertial load of
+        moving members' frames for a step of length h ending at t, over the free dofs."""
+        f = self.system.constant_load
         if self.use_prescribed and len(self.system.prescribed):
-            return self.system.constant_load + self.system.prescribed(t)
-        return self.system.constant_load
+            f = f + self.system.prescribed(t)
+        if self._motions:
+            f = f + self.frame_load(t, h)
+        return f
 
     def member_displacements(self) -> dict[str, np.ndarray]:
         """Translational displacement of every member's nodes, name -> (n_nodes, dim)."""
@@ -360,6 +428,9 @@ class StructureParticipant:
     def probe_values(self) -> dict[str, np.ndarray]:
         """Displacement (m) at every displacement probe, name -> (dim,)."""
         vals = (self._P @ self.integrator.state.u).reshape(-1, self.dim)
+        if self._motions:
+            for i, member in enumerate(self._P_member):
+                vals[i] += self.rigid_displacement(member)
         return {n: vals[i] for i, n in enumerate(self.probe_names)}
 
     def energy(self, member: str | None = None) -> tuple[float, float]:
