@@ -50,10 +50,20 @@ def replace(h5, name, data) -> None:
     h5.create_dataset(name, data=data)
 
 
+def set_text(h5, name: str, text: str) -> None:
+    replace(h5, f"_text/{name}", np.frombuffer(text.encode(), dtype=np.uint8))
+
+
 def set_meta(h5, change) -> None:
-    meta = json.loads(h5.attrs["meta"])
+    meta = json.loads(h5["_text/meta"][()].tobytes())
     change(meta)
-    h5.attrs["meta"] = json.dumps(meta)
+    set_text(h5, "meta", json.dumps(meta))
+
+
+def _string_format(h5):
+    # a heap-stored (variable-length string) format: its type is refused before any value is read
+    del h5.attrs["format"]
+    h5.attrs["format"] = "2"
 
 
 def _indices_1e9(h5):
@@ -92,8 +102,11 @@ CASES = {
     "nan position": (_nan_position, "fluid/pos holds a non-finite value at index [3, 1]"),
     "text array": (lambda h5: replace(h5, "fluid/p", np.array([b"x"])), "a number array"),
     "wrong shape": (lambda h5: replace(h5, "fluid/p", np.zeros(3)), "fluid/p has shape (3,)"),
-    "no meta": (lambda h5: h5.attrs.__delitem__("meta"), "attribute 'meta' is missing"),
-    "meta not json": (lambda h5: h5.attrs.__setitem__("meta", "{"), "'meta' is not valid JSON"),
+    "no meta": (lambda h5: h5["_text"].__delitem__("meta"), "text 'meta' is missing"),
+    "meta not json": (lambda h5: set_text(h5, "meta", "{"), "'meta' is not valid JSON"),
+    "meta as floats": (lambda h5: replace(h5, "_text/meta", np.zeros(3)), "array of bytes"),
+    "string format": (_string_format, "not a checkpoint of format 2"),
+    "format 1": (lambda h5: h5.attrs.__setitem__("format", 1), "format 1 was written"),
     "dt_next zero": (
         lambda h5: set_meta(h5, lambda m: m["fluid"].update(dt_next=0.0)),
         "fluid.dt_next = 0.0",

@@ -4,6 +4,7 @@ import json
 from pathlib import Path
 
 import h5py
+import numpy as np
 import pytest
 
 from mpsfem.cli import main
@@ -77,9 +78,10 @@ def test_restart_may_change_output_and_is_recorded(first_run, tmp_path):
 def test_old_checkpoint_without_resolved_scenario_is_accepted_with_a_warning(first_run, tmp_path):
     out, ckpt = _copy(first_run, tmp_path)
     with h5py.File(ckpt, "a") as h5:
-        del h5.attrs["scenario_resolved"]
-        del h5.attrs["overrides"]
-        h5.attrs["scenario"] = "an older text"
+        del h5["_text/scenario_resolved"]
+        del h5["_text/overrides"]
+        del h5["_text/scenario"]
+        h5["_text"].create_dataset("scenario", data=np.frombuffer(b"an older text", np.uint8))
     logged: list[str] = []
     run_fluid(load_scenario(SCENE, COARSE), out, 2 * END, ckpt, progress=False, log=logged.append)
     assert any("predates storing the resolved scenario" in m for m in logged)

@@ -1,10 +1,15 @@
 """Checkpoints: the complete state needed to resume a run bit for bit.
 
-A checkpoint is a small HDF5 file with one dataset per state array and a JSON ``meta`` attribute
+A checkpoint is a small HDF5 file with one dataset per state array and a JSON ``meta`` text
 (time, step, next output times, ...), plus the scenario it ran: ``scenario`` (TOML text),
 ``overrides`` (JSON list of ``--set``) and ``scenario_resolved`` (JSON of the validated scenario),
 which a restart compares with its own. It is written to a temporary name and renamed, so a run
 killed while writing leaves the previous checkpoint intact.
+
+Texts are UTF-8 byte arrays in the group ``_text`` (format 2), not string attributes (format 1):
+a variable-length string lives in HDF5's global heap, and a damaged heap makes the library's
+reader loop forever (found by tests/foundation/test_fuzz_inputs.py). A byte array is read like
+any other array, after its size is checked. The only attribute is the integer ``format``.
 """
 
 from __future__ import annotations
@@ -22,7 +27,9 @@ import numpy as np
 from mpsfem import __version__
 from mpsfem.results import disk_space
 
-FORMAT = 1
+FORMAT = 2
+#: the group that holds a checkpoint's texts (UTF-8 bytes), not a participant's arrays
+TEXT_GROUP = "_text"
 
 
 def default_checkpoint_path(results_path: str | Path) -> Path:
@@ -56,14 +63,15 @@ def write_checkpoint(
 
 def _write_file(tmp, arrays, meta, scenario_text, scenario_resolved, overrides) -> None:
     with h5py.File(tmp, "w") as h5:
-        h5.attrs["format"] = FORMAT
-        h5.attrs["version"] = __version__
-        h5.attrs["meta"] = json.dumps(meta)
-        h5.attrs["scenario"] = scenario_text
+        h5.attrs["format"] = np.int64(FORMAT)
+        texts = {"version": __version__, "meta": json.dumps(meta), "scenario": scenario_text}
         if scenario_resolved is not None:
-            h5.attrs["scenario_resolved"] = json.dumps(scenario_resolved)
+            texts["scenario_resolved"] = json.dumps(scenario_resolved)
         if overrides is not None:
-            h5.attrs["overrides"] = json.dumps(list(overrides))
+            texts["overrides"] = json.dumps(list(overrides))
+        g = h5.create_group(TEXT_GROUP)
+        for name, text in texts.items():
+            g.create_dataset(name, data=np.frombuffer(text.encode("utf-8"), dtype=np.uint8))
         for group, items in arrays.items():
             g = h5.create_group(group)
             for name, arr in items.items():
@@ -89,31 +97,53 @@ def _open(path: str | Path) -> h5py.File:
         h5 = h5py.File(path, "r")
     except OSError as exc:
         raise CheckpointError(f"{path}: not a readable checkpoint ({exc})") from None
+    fmt = -1
     try:
-        fmt = int(np.asarray(h5.attrs.get("format", -1)).item())
-    except (TypeError, ValueError, OSError):
+        # the attribute's type is in the object header: check it before reading any value, so
+        # that a string (heap-stored) format is never read
+        if "format" in h5.attrs and h5.attrs.get_id("format").dtype.kind in "iu":
+            fmt = int(np.asarray(h5.attrs["format"]).reshape(-1)[0])
+    except (TypeError, ValueError, OSError, IndexError):
         fmt = -1
     if fmt != FORMAT:
         h5.close()
-        raise CheckpointError(f"{path}: not a checkpoint of format {FORMAT}")
+        older = " (format 1 was written by mpsfem before 2026-11-26)" if fmt == 1 else ""
+        raise CheckpointError(f"{path}: not a checkpoint of format {FORMAT}{older}")
     return h5
 
 
-def _attr_json(h5: h5py.File, name: str, path: Path, required: bool = True):
-    """The JSON attribute ``name`` decoded (None where absent and not required)."""
-    if name not in h5.attrs:
+def _text(h5: h5py.File, name: str, path: Path, required: bool = True) -> str | None:
+    """The text ``name`` of the ``_text`` group, decoded (None where absent and not required)."""
+    if TEXT_GROUP not in _hard_members(h5, path, ""):
+        raise CheckpointError(f"{path}: the group {TEXT_GROUP!r} of its texts is missing")
+    group = h5[TEXT_GROUP]
+    if not isinstance(group, h5py.Group):
+        raise CheckpointError(f"{path}: {TEXT_GROUP} is a dataset; a group of texts expected")
+    if name not in _hard_members(group, path, f"{TEXT_GROUP}/"):
         if required:
-            raise CheckpointError(f"{path}: attribute {name!r} is missing")
+            raise CheckpointError(f"{path}: text {name!r} is missing")
         return None
-    raw = h5.attrs[name]
-    if isinstance(raw, bytes):
-        raw = raw.decode("utf-8", errors="replace")
-    if not isinstance(raw, str):
-        raise CheckpointError(f"{path}: attribute {name!r} is not JSON text")
+    ds = group[name]
+    if not isinstance(ds, h5py.Dataset):
+        raise CheckpointError(f"{path}: {TEXT_GROUP}/{name} is no array of bytes")
+    raw = _read_dataset(ds, path, path.stat().st_size)
+    if raw.dtype != np.uint8 or raw.ndim != 1:
+        raise CheckpointError(
+            f"{path}: {TEXT_GROUP}/{name} has type {raw.dtype} and shape {raw.shape}; "
+            "a 1-D array of bytes (uint8) is expected"
+        )
+    return raw.tobytes().decode("utf-8", errors="replace")
+
+
+def _text_json(h5: h5py.File, name: str, path: Path, required: bool = True):
+    """The JSON text ``name`` decoded (None where absent and not required)."""
+    raw = _text(h5, name, path, required)
+    if raw is None:
+        return None
     try:
         return json.loads(raw)
     except (ValueError, RecursionError) as exc:
-        raise CheckpointError(f"{path}: attribute {name!r} is not valid JSON ({exc})") from None
+        raise CheckpointError(f"{path}: text {name!r} is not valid JSON ({exc})") from None
 
 
 def _hard_members(group: h5py.Group, path: Path, where: str) -> list[str]:
@@ -328,12 +358,13 @@ def read_checkpoint(
     path = Path(path)
     budget = path.stat().st_size
     with _damage_as_error(path), _open(path) as h5:
-        meta = _attr_json(h5, "meta", path)
-        text = h5.attrs.get("scenario", "")
-        text = text.decode("utf-8", errors="replace") if isinstance(text, bytes) else str(text)
+        meta = _text_json(h5, "meta", path)
+        text = _text(h5, "scenario", path, required=False) or ""
         arrays: dict[str, dict[str, np.ndarray]] = {}
         count = 0
         for g in _hard_members(h5, path, ""):
+            if g == TEXT_GROUP:
+                continue
             group = h5[g]
             if not isinstance(group, h5py.Group):
                 raise CheckpointError(f"{path}: {g} is a dataset; groups of arrays expected")
@@ -356,14 +387,13 @@ def read_checkpoint_scenario(path: str | Path) -> tuple[dict | None, str, list[s
     None where the checkpoint predates storing it."""
     path = Path(path)
     with _damage_as_error(path), _open(path) as h5:
-        resolved = _attr_json(h5, "scenario_resolved", path, required=False)
-        overrides = _attr_json(h5, "overrides", path, required=False)
-        text = h5.attrs.get("scenario", "")
-        text = text.decode("utf-8", errors="replace") if isinstance(text, bytes) else str(text)
+        resolved = _text_json(h5, "scenario_resolved", path, required=False)
+        overrides = _text_json(h5, "overrides", path, required=False)
+        text = _text(h5, "scenario", path, required=False) or ""
     if resolved is not None and not isinstance(resolved, dict):
-        raise CheckpointError(f"{path}: attribute 'scenario_resolved' is not a table")
+        raise CheckpointError(f"{path}: text 'scenario_resolved' is not a table")
     if overrides is not None and not (
         isinstance(overrides, list) and all(isinstance(o, str) for o in overrides)
     ):
-        raise CheckpointError(f"{path}: attribute 'overrides' is not a list of strings")
+        raise CheckpointError(f"{path}: text 'overrides' is not a list of strings")
     return resolved, text, overrides
