@@ -307,7 +307,9 @@ class CouplingScheme:
             if not self.implicit:
                 converged = True
                 break
-            if self.criterion.converged(residual, k):
+            if self.criterion.converged(residual, k) and not (
+                k < max_it and self._redecide_flags()
+            ):
                 converged = True
                 break
             if k == max_it:
@@ -398,6 +400,14 @@ class CouplingScheme:
         self.history.append(rec)
         self.index += 1
         return rec
+
+    def _redecide_flags(self) -> bool:
+        """At a converged iterate: True when the fluid's discrete flags, frozen in the window,
+        are not the iterate's own and it re-decides them from it (the window goes on; see
+        ``fluid_mps.surface_freeze``, rule "settled"). A fluid without frozen flags: False."""
+        freeze = getattr(self.fluid, "freeze", None)
+        request = getattr(freeze, "request_redecision", None)
+        return bool(request()) if request is not None else False
 
     def window_length(self, t0: float, t1: float) -> float:
         """Length of the window [t0, t1]: exactly ``self.window`` for a regular window (t1 - t0

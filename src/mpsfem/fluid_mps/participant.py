@@ -94,7 +94,7 @@ class FluidParticipant:
             fluid, base_dir, external=self.surface.patches(), neighbour_filter=self.filter
         )
         self.surface.bind(self.solver)
-        self.freeze = SurfaceFreeze()
+        self.freeze = SurfaceFreeze(fluid.surface.freeze_rule)
         if fluid.surface.freeze_in_coupling_window:
             self.solver.surface_freeze = self.freeze
         self.filter.bind(self.solver)
