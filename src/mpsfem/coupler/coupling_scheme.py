@@ -81,8 +81,8 @@ __all__ = [
 
 #: an implicit window whose residual grows this many times above its first one has diverged
 DIVERGENCE_GROWTH = 1e4
-#: an accelerated iterate that the fluid rejects (its ``iterate_errors``, e.g. a particle
-#: thrown out of the domain by an interface jump) is retried at RETREAT of its step from the last
+#: an accelerated iterate that a participant rejects (its ``iterate_errors``: a fluid particle
+#: thrown out of the domain by an interface jump, a structure's Newton failing) is retried at RETREAT of its step from the last
 #: iterate the fluid completed, at most MAX_RETREATS times an iteration; then the error stands
 RETREAT = 0.25
 MAX_RETREATS = 4
@@ -280,7 +280,9 @@ class CouplingScheme:
         max_it = cv.max_iterations if self.implicit else 1
         first_abs = None
         warning = ""
-        rejects = tuple(getattr(self.fluid, "iterate_errors", ()))
+        rejects = tuple(getattr(self.fluid, "iterate_errors", ())) + tuple(
+            getattr(self.structure, "iterate_errors", ())
+        )
         last = None  # (x, s) of the last iterate the fluid completed in this window
         for k in range(1, max_it + 1):
             if k > 1:
@@ -292,39 +294,42 @@ class CouplingScheme:
                 d_f1 = self.mapping.displacement_to_fluid(x)
                 v_f1 = self.mapping.velocity_to_fluid(s, x)
                 timings["mapping"] += time.perf_counter() - tic
-
-                tic = time.perf_counter()
                 try:
-                    F_f1, n_f = self._fluid_window(t0, t1, d_f0, v_f0, d_f1, v_f1)
+                    tic = time.perf_counter()
+                    try:
+                        F_f1, n_f = self._fluid_window(t0, t1, d_f0, v_f0, d_f1, v_f1)
+                    finally:
+                        timings["fluid"] += time.perf_counter() - tic
+                    tic = time.perf_counter()
+                    # the fluid saw the structure at x
+                    F_s1 = self.mapping.forces_to_structure(F_f1, x)
+                    timings["mapping"] += time.perf_counter() - tic
+                    tic = time.perf_counter()
+                    try:
+                        x_t, s_t, n_s = self._structure_window(t0, t1, F_s1)
+                    finally:
+                        timings["structure"] += time.perf_counter() - tic
                     break
                 except rejects as exc:
-                    # the accelerated iterate was one the fluid cannot take (e.g. an interface
-                    # jump far beyond its Courant limit): step back towards the last iterate it
-                    # completed, along the same direction (a backtracking line search)
+                    # the accelerated iterate was one a participant cannot take (e.g. an
+                    # interface jump far beyond the fluid's Courant limit, or the forces it
+                    # raised beyond the structure's Newton): step back towards the last iterate
+                    # both completed, along the same direction (a backtracking line search)
                     if last is None or retreats >= MAX_RETREATS:
                         raise
                     retreats += 1
                     self.retreats += 1
                     self.fluid.restore()
+                    self.structure.restore()
                     x = last[0] + RETREAT * (x - last[0])
                     s = last[1] + RETREAT * (s - last[1])
                     self._warn(
                         f"coupling window {self.index} ending at t = {t1:.9g} s, iteration {k}: "
-                        f"the fluid rejected the accelerated iterate ({exc}); retrying "
-                        f"{RETREAT:g} of the step from the last completed iterate "
-                        f"(retreat {retreats} of {MAX_RETREATS})"
+                        f"the accelerated iterate was rejected ({type(exc).__name__}: "
+                        f"{str(exc)[:200]}); retrying {RETREAT:g} of the step from the last "
+                        f"completed iterate (retreat {retreats} of {MAX_RETREATS})"
                     )
-                finally:
-                    timings["fluid"] += time.perf_counter() - tic
             last = (x.copy(), s.copy())
-
-            tic = time.perf_counter()
-            F_s1 = self.mapping.forces_to_structure(F_f1, x)  # the fluid saw the structure at x
-            timings["mapping"] += time.perf_counter() - tic
-
-            tic = time.perf_counter()
-            x_t, s_t, n_s = self._structure_window(t0, t1, F_s1)
-            timings["structure"] += time.perf_counter() - tic
             where = f"coupling window {self.index} ending at t = {t1:.9g} s, iteration {k}"
             check_finite(
                 where,

@@ -52,6 +52,7 @@ import scipy.sparse.linalg as sla
 from .alpha_method import NonlinearNewmark
 from .linsolve import factorize
 from .newmark import Newmark, NewmarkState
+from .newton import NewtonFailure
 from .system import StructureSystem
 
 __all__ = ["Interface", "LargeRotationWarning", "StructureParticipant"]
@@ -111,6 +112,10 @@ class StructureParticipant:
         scenario's ``[[probes]]`` of kind "displacement"); each reads the displacement of the
         member point nearest ``position``. See :meth:`probe_values`.
     """
+
+    #: errors of a step that condemn the coupling iterate (its forces), not the run: the
+    #: implicit scheme retries a smaller step (coupler.coupling_scheme, RETREAT)
+    iterate_errors = (NewtonFailure,)
 
     name = "structure"
 
