@@ -443,7 +443,12 @@ class CouplingScheme:
         ``fluid_mps.surface_freeze``, rule "settled"). A fluid without frozen flags: False."""
         freeze = getattr(self.fluid, "freeze", None)
         request = getattr(freeze, "request_redecision", None)
-        return bool(request()) if request is not None else False
+        if request is None or not request():
+            return False
+        # the iterations so far solved another discrete problem: their secant pairs would
+        # mislead the accelerator on the new one
+        self.acceleration.restart_window()
+        return True
 
     def window_length(self, t0: float, t1: float) -> float:
         """Length of the window [t0, t1]: exactly ``self.window`` for a regular window (t1 - t0
