@@ -23,7 +23,10 @@ at most 30 iterations, the scenario's ``on_divergence = "continue"`` (a window n
 accepted, recorded in /coupling/converged and counted here), and the discrete surface/wet-dry
 flags frozen per window with the "settled" rule (``fluid.surface.freeze_in_coupling_window``).
 A run that stops reports the error's type and the start of its message; a run whose
-displacement is not finite would be reported as such (none may be silent or NaN).
+displacement is not finite would be reported as such (none may be silent or NaN). The interface
+displacement is bounded by ``coupling.convergence.max_displacement`` (a tenth of the plate's
+span, the obstacle's length): a run flung beyond it by accepted unconverged windows stops with a
+named CouplingDivergedError.
 
 Writes one CSV row per run as it finishes (benchmarks/results/coupling_stress.csv): case,
 factor, value, mass_ratio, verdict, windows, iterations mean / max, windows_not_converged,
@@ -50,10 +53,13 @@ PLATE = ROOT / "scenarios" / "hydrostatic_plate_2d.toml"
 OBSTACLE = ROOT / "scenarios" / "dam_break_elastic_obstacle_2d.toml"
 RHO_W = 1000.0
 
-# (scene, H, h, probe, component, spacing, end time)
+# (scene, H, h, probe, component, spacing, end time, displacement bound): the bound, set as
+# coupling.convergence.max_displacement, stops a run whose interface moves beyond what the
+# member can (a tenth of the plate's 1 m span; the obstacle's length, 0.08 m) with a named
+# CouplingDivergedError instead of letting accepted unconverged windows fling it
 SCENES = {
-    "plate": (PLATE, 2.0, 0.05, "mid_deflection", 1, 0.05, 0.03),
-    "obstacle": (OBSTACLE, 0.292, 0.012, "tip", 0, 0.0073, 0.17),
+    "plate": (PLATE, 2.0, 0.05, "mid_deflection", 1, 0.05, 0.03, 0.1),
+    "obstacle": (OBSTACLE, 0.292, 0.012, "tip", 0, 0.0073, 0.17, 0.08),
 }
 
 
@@ -81,7 +87,7 @@ def run_one(scene: str, sets: list[str], end: float | None, accel: str, path: Pa
     from mpsfem.scenario.loader import load_scenario
     from mpsfem.simulation import RunFailed, run_coupled
 
-    toml, H, h, probe, comp, spacing, end0 = SCENES[scene]
+    toml, H, h, probe, comp, spacing, end0, bound = SCENES[scene]
     end = end0 if end is None else end
     base = [
         "run.threads=1",
@@ -95,6 +101,7 @@ def run_one(scene: str, sets: list[str], end: float | None, accel: str, path: Pa
         "coupling.convergence.relative_tolerance=0.001",
         "coupling.convergence.max_iterations=30",
         "fluid.surface.freeze_in_coupling_window=true",
+        f"coupling.convergence.max_displacement={bound!r}",
     ]
     loaded = load_scenario(toml, base + sets)
     m = loaded.scenario.structure.members[0]
@@ -138,6 +145,7 @@ def run_one(scene: str, sets: list[str], end: float | None, accel: str, path: Pa
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default=None, help="comma-separated sweeps (default: all four)")
+    ap.add_argument("--values", default=None, help="comma-separated factor values to keep")
     ap.add_argument("--acceleration", default="iqn-imvj")
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks/results/coupling_stress.csv")
     ap.add_argument("--append", action="store_true", help="add rows to an existing CSV")
@@ -149,6 +157,9 @@ def main(argv=None) -> int:
         if unknown:
             ap.error(f"--only {args.only!r}: unknown {sorted(unknown)}")
         runs = [r for r in runs if r[0] in keep]
+    if args.values:
+        vals = [float(v) for v in args.values.split(",")]
+        runs = [r for r in runs if any(abs(r[3] - v) <= 1e-12 * abs(v) for v in vals)]
     fields = ["sweep", "scene", "acceleration", "factor", "value", "mass_ratio", "verdict",
               "end_time_s", "windows", "iterations_mean", "iterations_max",
               "windows_not_converged", "displacement_m", "wall_s"]  # fmt: skip
