@@ -31,6 +31,8 @@ method does, and the remedy here is to decide the discrete flags once per window
   from its own iterate, or, after ``max_redecisions`` re-decisions in one window (a flag that
   flips back and forth at the converged state), the last ones recorded, counted in
   :attr:`unsettled_windows`.
+  The coupling scheme also restarts its accelerator's window at a re-decision (the secant
+  pairs gathered so far belong to the map with the old flags).
 
 The flags are the detector's ``free_surface`` array after the dry marks of the boundary (one
 int8 per particle and step; the particle count is fixed for a run). Buffers are kept across
