@@ -326,3 +326,28 @@ def test_auto_complement_relaxation_tracks_the_steepest_secant():
     rho = sch.acceleration.rho
     assert 0.5 * 1e3 < rho < 2.0 * 1e3
     assert sch.acceleration.omega_c() == pytest.approx(1.0 / rho)
+
+
+@pytest.mark.parametrize("kind", ["iqn-ils", "iqn-imvj"])
+def test_restart_window_forgets_only_the_current_windows_columns(kind):
+    """After a discrete change of the map inside a window (a re-decision of the fluid's frozen
+    flags), restart_window drops that window's secant pairs and keeps what earlier windows
+    taught (IQN-ILS: their reused columns; IMVJ: its Jacobian)."""
+    A, b, _ = problem()
+    acc = make(kind, reuse_windows=8, data=["displacement"])
+    x = np.zeros(len(b))
+    iterate(acc, A, b, x, tol=1e-6)  # window 0: converges
+    acc.iterations_converged(x, A @ x + b)
+    acc.end_window()
+    acc.start_window()
+    for _ in range(3):  # window 1: three iterations add columns tagged 1
+        xt = A @ x + b
+        x, _ = acc.compute(x, xt)
+    assert any(t == acc.window for t in acc.tags)
+    acc.restart_window()
+    assert all(t < acc.window for t in acc.tags)
+    assert acc._prev is None and acc.iteration == 0
+    if kind == "iqn-ils":  # (window 1's columns may have pushed some out: at most n are kept)
+        assert acc.tags
+    else:
+        assert acc.has_jacobian()

@@ -81,6 +81,11 @@ __all__ = [
 
 #: an implicit window whose residual grows this many times above its first one has diverged
 DIVERGENCE_GROWTH = 1e4
+#: an accelerated iterate that a participant rejects (its ``iterate_errors``: a fluid particle
+#: thrown out of the domain by an interface jump, a structure's Newton failing) is retried at RETREAT of its step from the last
+#: iterate the fluid completed, at most MAX_RETREATS times an iteration; then the error stands
+RETREAT = 0.25
+MAX_RETREATS = 4
 
 
 @dataclass
@@ -179,6 +184,7 @@ class CouplingScheme:
         self.criterion = ResidualCriterion.from_section(self.config.convergence)
         self.log = log
         self.history = CouplingHistory()
+        self.retreats = 0  # rejected iterates retried, over the run
         self.detector = InstabilityDetector(floor=self.config.convergence.absolute_tolerance)
         self.t = self.t0 = 0.0
         self.index = 0
@@ -274,26 +280,56 @@ class CouplingScheme:
         max_it = cv.max_iterations if self.implicit else 1
         first_abs = None
         warning = ""
+        rejects = tuple(getattr(self.fluid, "iterate_errors", ())) + tuple(
+            getattr(self.structure, "iterate_errors", ())
+        )
+        last = None  # (x, s) of the last iterate the fluid completed in this window
         for k in range(1, max_it + 1):
             if k > 1:
                 self.fluid.restore()
                 self.structure.restore()
-            tic = time.perf_counter()
-            d_f1 = self.mapping.displacement_to_fluid(x)
-            v_f1 = self.mapping.velocity_to_fluid(s, x)
-            timings["mapping"] += time.perf_counter() - tic
-
-            tic = time.perf_counter()
-            F_f1, n_f = self._fluid_window(t0, t1, d_f0, v_f0, d_f1, v_f1)
-            timings["fluid"] += time.perf_counter() - tic
-
-            tic = time.perf_counter()
-            F_s1 = self.mapping.forces_to_structure(F_f1, x)  # the fluid saw the structure at x
-            timings["mapping"] += time.perf_counter() - tic
-
-            tic = time.perf_counter()
-            x_t, s_t, n_s = self._structure_window(t0, t1, F_s1)
-            timings["structure"] += time.perf_counter() - tic
+            retreats = 0
+            while True:
+                tic = time.perf_counter()
+                d_f1 = self.mapping.displacement_to_fluid(x)
+                v_f1 = self.mapping.velocity_to_fluid(s, x)
+                timings["mapping"] += time.perf_counter() - tic
+                try:
+                    tic = time.perf_counter()
+                    try:
+                        F_f1, n_f = self._fluid_window(t0, t1, d_f0, v_f0, d_f1, v_f1)
+                    finally:
+                        timings["fluid"] += time.perf_counter() - tic
+                    tic = time.perf_counter()
+                    # the fluid saw the structure at x
+                    F_s1 = self.mapping.forces_to_structure(F_f1, x)
+                    timings["mapping"] += time.perf_counter() - tic
+                    tic = time.perf_counter()
+                    try:
+                        x_t, s_t, n_s = self._structure_window(t0, t1, F_s1)
+                    finally:
+                        timings["structure"] += time.perf_counter() - tic
+                    break
+                except rejects as exc:
+                    # the accelerated iterate was one a participant cannot take (e.g. an
+                    # interface jump far beyond the fluid's Courant limit, or the forces it
+                    # raised beyond the structure's Newton): step back towards the last iterate
+                    # both completed, along the same direction (a backtracking line search)
+                    if last is None or retreats >= MAX_RETREATS:
+                        raise
+                    retreats += 1
+                    self.retreats += 1
+                    self.fluid.restore()
+                    self.structure.restore()
+                    x = last[0] + RETREAT * (x - last[0])
+                    s = last[1] + RETREAT * (s - last[1])
+                    self._warn(
+                        f"coupling window {self.index} ending at t = {t1:.9g} s, iteration {k}: "
+                        f"the accelerated iterate was rejected ({type(exc).__name__}: "
+                        f"{str(exc)[:200]}); retrying {RETREAT:g} of the step from the last "
+                        f"completed iterate (retreat {retreats} of {MAX_RETREATS})"
+                    )
+            last = (x.copy(), s.copy())
             where = f"coupling window {self.index} ending at t = {t1:.9g} s, iteration {k}"
             check_finite(
                 where,
@@ -307,7 +343,9 @@ class CouplingScheme:
             if not self.implicit:
                 converged = True
                 break
-            if self.criterion.converged(residual, k):
+            if self.criterion.converged(residual, k) and not (
+                k < max_it and self._redecide_flags()
+            ):
                 converged = True
                 break
             if k == max_it:
@@ -398,6 +436,19 @@ class CouplingScheme:
         self.history.append(rec)
         self.index += 1
         return rec
+
+    def _redecide_flags(self) -> bool:
+        """At a converged iterate: True when the fluid's discrete flags, frozen in the window,
+        are not the iterate's own and it re-decides them from it (the window goes on; see
+        ``fluid_mps.surface_freeze``, rule "settled"). A fluid without frozen flags: False."""
+        freeze = getattr(self.fluid, "freeze", None)
+        request = getattr(freeze, "request_redecision", None)
+        if request is None or not request():
+            return False
+        # the iterations so far solved another discrete problem: their secant pairs would
+        # mislead the accelerator on the new one
+        self.acceleration.restart_window()
+        return True
 
     def window_length(self, t0: float, t1: float) -> float:
         """Length of the window [t0, t1]: exactly ``self.window`` for a regular window (t1 - t0

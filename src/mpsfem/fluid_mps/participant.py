@@ -38,7 +38,7 @@ import numpy as np
 from mpsfem.coupler.participant import InterfaceMesh, as_interface_mesh
 from mpsfem.fluid_mps import wall_boundary
 from mpsfem.fluid_mps.plate_surface import PlateSurface
-from mpsfem.fluid_mps.solver import FluidSolver
+from mpsfem.fluid_mps.solver import FluidRunError, FluidSolver
 from mpsfem.fluid_mps.structure_surface import StructureSurface
 from mpsfem.fluid_mps.surface_freeze import SurfaceFreeze
 from mpsfem.fluid_mps.thin_member import ThinMemberFilter
@@ -65,6 +65,10 @@ class FluidParticipant:
         2D: per member (free at the first node, free at the last); 3D: per plate, four flags
         (edges s1 = 0, s1 = L1, s2 = 0, s2 = L2); default: from the rigid walls.
     """
+
+    #: errors of a fluid window that condemn the iterate it was given, not the run: the implicit
+    #: scheme retries a smaller step (coupler.coupling_scheme, RETREAT)
+    iterate_errors = (FluidRunError,)
 
     name = "fluid"
 
@@ -94,7 +98,7 @@ class FluidParticipant:
             fluid, base_dir, external=self.surface.patches(), neighbour_filter=self.filter
         )
         self.surface.bind(self.solver)
-        self.freeze = SurfaceFreeze()
+        self.freeze = SurfaceFreeze(fluid.surface.freeze_rule)
         if fluid.surface.freeze_in_coupling_window:
             self.solver.surface_freeze = self.freeze
         self.filter.bind(self.solver)

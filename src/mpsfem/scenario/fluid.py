@@ -211,6 +211,15 @@ class SurfaceSection(Section):
         "first-contact windows of the elastic obstacle at mass ratio 0.03 but the IQN-ILS run at "
         "0.01 then ended with an escaped particle (docs/coupler.md)",
     )
+    freeze_rule: Literal["settled", "first_iterate"] = Field(
+        "settled",
+        description="with freeze_in_coupling_window: 'first_iterate' keeps the flags of the "
+        "window's first iterate for every iteration, the accepted one included (the original "
+        "rule); 'settled' also checks, once an iterate has converged, that the flags its own "
+        "steps would set are the replayed ones, and if not re-decides them from that iterate and "
+        "iterates on (at most 3 times a window), so an accepted window carries its own flags "
+        "(fluid_mps/surface_freeze.py)",
+    )
 
     @model_validator(mode="after")
     def _check(self) -> SurfaceSection:

@@ -63,6 +63,7 @@ from mpsfem.scenario.motion import RigidTranslation
 from .alpha_method import NonlinearNewmark
 from .linsolve import factorize
 from .newmark import Newmark, NewmarkState
+from .newton import NewtonFailure
 from .system import StructureSystem
 
 __all__ = ["Interface", "LargeRotationWarning", "StructureParticipant"]
@@ -122,6 +123,10 @@ class StructureParticipant:
         scenario's ``[[probes]]`` of kind "displacement"); each reads the displacement of the
         member point nearest ``position``. See :meth:`probe_values`.
     """
+
+    #: errors of a step that condemn the coupling iterate (its forces), not the run: the
+    #: implicit scheme retries a smaller step (coupler.coupling_scheme, RETREAT)
+    iterate_errors = (NewtonFailure,)
 
     name = "structure"
 

@@ -15,6 +15,15 @@ element kernels (einsum over the scikit-fem bases' gradients at the quadrature p
 quadrature, ``INTORDER``, for both bases) scattered by the bases' element dofs; the membrane
 energy is a scikit-fem Functional (an independent check of the kernels in the tests).
 
+Speed (benchmarks/bench_structure.py, ``vk_plate_800``): the internal force and the element
+tangents are numba loops over elements and quadrature points (:func:`_vk_forces`,
+:func:`_vk_tangent`) on element-major copies of the basis gradients, and the tangent is refilled
+into a sparsity pattern fixed at build time: each element entry knows its slot in the data array
+of ``K + M + K_nl`` over all dofs, and the free-dof matrix is a fixed gather of that array, so a
+Jacobian costs one kernel call and two array operations instead of a COO assembly and slicing.
+The einsum path (:meth:`VonKarmanPlateModel._fields`) stays for the strain energy and as the
+check of the kernels.
+
 Supports: a ``clamped`` or ``simply_supported`` edge also holds the in-plane displacements
 (u = v = 0, an immovable edge: stretching carries the load); a ``free`` edge holds nothing.
 Mass: ``rho h`` on w and on (u, v) (in-plane inertia). Loads are dead: a pressure along the
@@ -26,6 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+from numba import njit
 from skfem import (
     Basis,
     BilinearForm,
@@ -62,6 +72,115 @@ def _vector_mass_form(u, v, w):
 def _membrane_energy(w):
     """1/2 int N : eps dA."""
     return 0.5 * ddot(w.N, w.eps)
+
+
+@njit(cache=True)
+def _vk_strain(qw, qm, gw, es, e, p):
+    """(grad w, membrane strain [e11, e12, e22]) at quadrature point p of element e from the
+    element's local dofs qw (w), qm (u, v)."""
+    g0 = 0.0
+    g1 = 0.0
+    for i in range(qw.shape[0]):
+        g0 += qw[i] * gw[e, p, 0, i]
+        g1 += qw[i] * gw[e, p, 1, i]
+    e00 = 0.5 * g0 * g0
+    e01 = 0.5 * g0 * g1
+    e11 = 0.5 * g1 * g1
+    for i in range(qm.shape[0]):
+        e00 += qm[i] * es[e, p, 0, i]
+        e01 += qm[i] * es[e, p, 1, i]
+        e11 += qm[i] * es[e, p, 2, i]
+    return g0, g1, e00, e01, e11
+
+
+@njit(cache=True)
+def _vk_forces(q, ew, em, gw, es, dx, C, nu, f):
+    """Add the nonlinear internal force (N) to f: int grad(dw) . N grad w on the w dofs,
+    int N : eps(du) on (u, v), N = C [(1 - nu) eps + nu tr(eps) I] (T & W-K 1959, eq. 219)."""
+    nw = ew.shape[0]
+    nm = em.shape[0]
+    qw = np.empty(nw)
+    qm = np.empty(nm)
+    fw = np.empty(nw)
+    fm = np.empty(nm)
+    for e in range(dx.shape[0]):
+        for i in range(nw):
+            qw[i] = q[ew[i, e]]
+        for i in range(nm):
+            qm[i] = q[em[i, e]]
+        fw[:] = 0.0
+        fm[:] = 0.0
+        for p in range(dx.shape[1]):
+            g0, g1, e00, e01, e11 = _vk_strain(qw, qm, gw, es, e, p)
+            tr = nu * (e00 + e11)
+            w = dx[e, p]
+            n00 = w * C * ((1.0 - nu) * e00 + tr)
+            n01 = w * C * (1.0 - nu) * e01
+            n11 = w * C * ((1.0 - nu) * e11 + tr)
+            a0 = n00 * g0 + n01 * g1
+            a1 = n01 * g0 + n11 * g1
+            for i in range(nw):
+                fw[i] += a0 * gw[e, p, 0, i] + a1 * gw[e, p, 1, i]
+            n01 *= 2.0
+            for i in range(nm):
+                fm[i] += n00 * es[e, p, 0, i] + n01 * es[e, p, 1, i] + n11 * es[e, p, 2, i]
+        for i in range(nw):
+            f[ew[i, e]] += fw[i]
+        for i in range(nm):
+            f[em[i, e]] += fm[i]
+
+
+@njit(cache=True)
+def _vk_tangent(q, ew, em, gw, es, dx, C, nu, ck, slot_ww, slot_mw, slot_wm, data):
+    """Add ck x the nonlinear element tangents into data (the fixed pattern's slots): ww block
+    int grad(v) . Q grad(u), Q = N + C (1 - nu) / 2 |g|^2 I + C (1 + nu) / 2 g (x) g, and the
+    membrane-bending block int grad(d) . C [(1 - nu) eps(v) g + nu div(v) g] and its transpose
+    (derivation in :meth:`VonKarmanPlateModel.tangent_stiffness`)."""
+    nw = ew.shape[0]
+    nm = em.shape[0]
+    kww = np.empty((nw, nw))
+    kmw = np.empty((nm, nw))
+    ag = np.empty((nm, 2))
+    qw = np.empty(nw)
+    qm = np.empty(nm)
+    for e in range(dx.shape[0]):
+        for i in range(nw):
+            qw[i] = q[ew[i, e]]
+        for i in range(nm):
+            qm[i] = q[em[i, e]]
+        kww[:] = 0.0
+        kmw[:] = 0.0
+        for p in range(dx.shape[1]):
+            g0, g1, e00, e01, e11 = _vk_strain(qw, qm, gw, es, e, p)
+            tr = nu * (e00 + e11)
+            w = ck * dx[e, p]
+            gg = 0.5 * C * (1.0 - nu) * (g0 * g0 + g1 * g1)
+            q00 = w * (C * ((1.0 - nu) * e00 + tr) + 0.5 * C * (1.0 + nu) * g0 * g0 + gg)
+            q01 = w * (C * (1.0 - nu) * e01 + 0.5 * C * (1.0 + nu) * g0 * g1)
+            q11 = w * (C * ((1.0 - nu) * e11 + tr) + 0.5 * C * (1.0 + nu) * g1 * g1 + gg)
+            for j in range(nw):
+                b0 = q00 * gw[e, p, 0, j] + q01 * gw[e, p, 1, j]
+                b1 = q01 * gw[e, p, 0, j] + q11 * gw[e, p, 1, j]
+                for i in range(nw):
+                    kww[i, j] += gw[e, p, 0, i] * b0 + gw[e, p, 1, i] * b1
+            for i in range(nm):
+                d = nu * (es[e, p, 0, i] + es[e, p, 2, i])
+                ag[i, 0] = (
+                    w * C * ((1.0 - nu) * (es[e, p, 0, i] * g0 + es[e, p, 1, i] * g1) + d * g0)
+                )
+                ag[i, 1] = (
+                    w * C * ((1.0 - nu) * (es[e, p, 1, i] * g0 + es[e, p, 2, i] * g1) + d * g1)
+                )
+            for i in range(nm):
+                for j in range(nw):
+                    kmw[i, j] += ag[i, 0] * gw[e, p, 0, j] + ag[i, 1] * gw[e, p, 1, j]
+        for i in range(nw):
+            for j in range(nw):
+                data[slot_ww[e, i, j]] += kww[i, j]
+        for i in range(nm):
+            for j in range(nw):
+                data[slot_mw[e, i, j]] += kmw[i, j]
+                data[slot_wm[e, j, i]] += kmw[i, j]
 
 
 class VonKarmanPlateModel(PlateModel):
@@ -125,7 +244,78 @@ class VonKarmanPlateModel(PlateModel):
             (np.broadcast_to(ew.T[:, None, :], (ew.shape[1], nw_, nw_)).ravel(),
              np.broadcast_to(ew.T[:, None, :], (em.shape[1], nm_, nw_)).ravel()),
         )  # fmt: skip
+        model._build_kernels()
         return model
+
+    def _build_kernels(self) -> None:
+        """Element-major basis gradients for the numba kernels, and the fixed sparsity pattern
+        of ``K + M + K_nl`` (all dofs) with each element entry's slot in its data array."""
+        Gw, Em = self._Gw, self._Em
+        self._gw = np.ascontiguousarray(Gw.transpose(2, 3, 1, 0))  # (el, qp, 2, i)
+        es = np.stack([Em[:, 0, 0], Em[:, 0, 1], Em[:, 1, 1]], axis=-1)  # (i, el, qp, 3)
+        self._es = np.ascontiguousarray(es.transpose(1, 2, 3, 0))  # (el, qp, 3, i)
+        self._dxc = np.ascontiguousarray(self._dx)
+        self._ewi = np.ascontiguousarray(self._ew, dtype=np.int64)
+        self._emi = np.ascontiguousarray(self._em, dtype=np.int64)
+        n = self.n_dof
+        (rww, rmw), (cww, cmw) = self._pattern
+        rmw = rmw + self.Nw
+        rows = np.concatenate([rww, rmw, cmw])
+        cols = np.concatenate([cww, cmw, rmw])
+        nl = sp.csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
+        K1, M1 = self.K.tocsr(copy=True), self.M.tocsr(copy=True)
+        K1.data[:] = 1.0  # the stored entries, explicit zeros included
+        M1.data[:] = 1.0
+        S = (K1 + M1 + nl).tocsr()
+        S.sum_duplicates()
+        S.sort_indices()
+        indptr, indices = S.indptr.astype(np.int64), S.indices.astype(np.int64)
+        keys = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr)) * n + indices
+
+        def slots(r: np.ndarray, c: np.ndarray) -> np.ndarray:
+            k = np.searchsorted(keys, r.astype(np.int64) * n + c)
+            if not np.array_equal(keys[np.minimum(k, len(keys) - 1)], r.astype(np.int64) * n + c):
+                raise RuntimeError("von Karman plate: an element entry lies outside the pattern")
+            return k
+
+        def on_pattern(A: sp.csr_matrix) -> np.ndarray:
+            A = A.tocoo()
+            return np.bincount(slots(A.row, A.col), weights=A.data, minlength=len(keys))
+
+        nel, nw_, nm_ = self._ew.shape[1], self._ew.shape[0], self._em.shape[0]
+        self._slot_ww = slots(rww, cww).reshape(nel, nw_, nw_)
+        self._slot_mw = slots(rmw, cmw).reshape(nel, nm_, nw_)
+        self._slot_wm = np.ascontiguousarray(
+            slots(cmw, rmw).reshape(nel, nm_, nw_).transpose(0, 2, 1)
+        )
+        self._S = (S.indptr, S.indices)
+        self._K_on_S, self._M_on_S = on_pattern(self.K), on_pattern(self.M)
+        self._free_plan: tuple[np.ndarray, tuple] | None = None
+
+    def _reduction(self, free: np.ndarray) -> tuple:
+        """(indptr, indices, gather) of the pattern restricted to the `free` dofs: the reduced
+        matrix's data is the full data array at `gather` (computed once per `free`)."""
+        if self._free_plan is None or not np.array_equal(self._free_plan[0], free):
+            indptr, indices = self._S
+            n = self.n_dof
+            ids = sp.csr_matrix((np.arange(1.0, len(indices) + 1.0), indices, indptr), shape=(n, n))
+            R = ids[free][:, free].tocsr()
+            R.sort_indices()
+            gather = np.rint(R.data).astype(np.int64) - 1
+            self._free_plan = (free.copy(), (R.indptr.copy(), R.indices.copy(), gather))
+        return self._free_plan[1]
+
+    def _tangent_data(self, q: np.ndarray, ck: float, cm: float) -> np.ndarray:
+        """Data of ``ck K_t(q) + cm M`` on the fixed pattern (all dofs)."""
+        data = ck * self._K_on_S
+        if cm:
+            data += cm * self._M_on_S
+        _vk_tangent(
+            np.ascontiguousarray(q, dtype=np.float64), self._ewi, self._emi, self._gw, self._es,
+            self._dxc, self.C_membrane, self.nu, ck, self._slot_ww, self._slot_mw,
+            self._slot_wm, data,
+        )  # fmt: skip
+        return data
 
     # ------------------------------------------------------------------ state at quadrature points
     def _fields(self, q: np.ndarray) -> dict:
@@ -151,13 +341,32 @@ class VonKarmanPlateModel(PlateModel):
         return f
 
     def internal_force(self, q: np.ndarray) -> np.ndarray:
-        """Internal force over all dofs (N) at the full dof vector `q`."""
+        """Internal force over all dofs (N) at the full dof vector `q` (numba kernel)."""
+        q = np.ascontiguousarray(q, dtype=np.float64)
+        f = np.zeros(self.n_dof)
+        f[: self.Nw] = self.Kb @ q[: self.Nw]
+        _vk_forces(
+            q, self._ewi, self._emi, self._gw, self._es, self._dxc, self.C_membrane, self.nu, f
+        )
+        return f
+
+    def internal_force_einsum(self, q: np.ndarray) -> np.ndarray:
+        """:meth:`internal_force` by the einsum kernels (the reference the numba one is tested
+        against)."""
         f = self._element_forces(self._fields(q))
         f[: self.Nw] += self.Kb @ q[: self.Nw]
         return f
 
     def tangent_stiffness(self, q: np.ndarray) -> tuple[np.ndarray, sp.csr_matrix]:
-        """(internal force, consistent tangent) over all dofs at `q`.
+        """(internal force, consistent tangent) over all dofs at `q`, by the numba kernels on
+        the fixed pattern (formulas in :meth:`tangent_stiffness_einsum`)."""
+        indptr, indices = self._S
+        n = self.n_dof
+        K = sp.csr_matrix((self._tangent_data(q, 1.0, 0.0), indices, indptr), shape=(n, n))
+        return self.internal_force(q), K
+
+    def tangent_stiffness_einsum(self, q: np.ndarray) -> tuple[np.ndarray, sp.csr_matrix]:
+        """(internal force, consistent tangent) over all dofs at `q` (einsum reference).
 
         With g = grad w~ and S(a) = sym(g (x) a) (the variation of 1/2 g (x) g along a):
         S(a) : S(b) = 1/2 [(g.g)(a.b) + (g.a)(g.b)] and tr S(a) = g.a, so the ww block
@@ -185,18 +394,22 @@ class VonKarmanPlateModel(PlateModel):
         return f, K
 
     def reduced_tangent(self, q: np.ndarray, free: np.ndarray) -> tuple[np.ndarray, sp.csr_matrix]:
-        f, K = self.tangent_stiffness(q)
-        return f[free], K[free][:, free].tocsr()
+        indptr, indices, gather = self._reduction(free)
+        data = self._tangent_data(q, 1.0, 0.0)[gather]
+        K = sp.csr_matrix((data, indices, indptr), shape=(len(free), len(free)))
+        return self.internal_force(q)[free], K
 
     def reduced_effective(
         self, q: np.ndarray, free: np.ndarray, ck: float, cm: float, cc: float
     ) -> sp.csr_matrix:
-        """``ck K_t(q) + cm M + cc C`` over the `free` dofs (sparse)."""
-        _, K = self.tangent_stiffness(q)
-        J = ck * K + (cm + cc * self.rayleigh_a1) * self.M
+        """``ck K_t(q) + cm M + cc C`` over the `free` dofs (sparse), C = a1 M + a2 K (the
+        linear K), refilled into the fixed pattern."""
+        indptr, indices, gather = self._reduction(free)
+        data = self._tangent_data(q, ck, cm + cc * self.rayleigh_a1)
         if cc * self.rayleigh_a2:
-            J = J + (cc * self.rayleigh_a2) * self.K
-        return J.tocsr()[free][:, free].tocsr()
+            data += (cc * self.rayleigh_a2) * self._K_on_S
+        n = len(free)
+        return sp.csr_matrix((data[gather], indices, indptr), shape=(n, n))
 
     def strain_energy(self, q: np.ndarray) -> float:
         """Bending plus membrane strain energy (J)."""

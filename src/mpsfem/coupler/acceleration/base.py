@@ -39,6 +39,11 @@ class Acceleration(ABC):
         """A new window begins (its first iteration follows)."""
         self.iteration = 0
 
+    def restart_window(self) -> None:
+        """The window's fixed-point map changed discretely (its fluid re-decided its frozen
+        flags): forget what this window's iterations taught, start as at the window's start."""
+        self.start_window()
+
     def compute(
         self, x: np.ndarray, x_tilde: np.ndarray, secondary: Secondary | None = None
     ) -> tuple[np.ndarray, dict[str, np.ndarray]]:

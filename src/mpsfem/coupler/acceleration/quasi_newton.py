@@ -158,6 +158,12 @@ class QuasiNewton(Acceleration):
         keep = [k for k, t in enumerate(self.tags) if t >= self.window - self.params.reuse_windows]
         self._select(keep)
 
+    def restart_window(self) -> None:
+        """Drop this window's columns (secant pairs of the map before the change) and its last
+        residual; the columns of earlier windows stay as :meth:`start_window` keeps them."""
+        self.start_window()
+        self._select([k for k, t in enumerate(self.tags) if t != self.window])
+
     def iterations_converged(self, x, x_tilde, secondary=None) -> None:
         """Add the last iteration's differences to V and W, as preCICE does when a window's
         iterations converge (the accepted iterate's residual is secant information like any

@@ -1,0 +1,184 @@
+"""Coupling stress sweeps, one factor at a time (issue 21): mass ratio, Young's modulus, window.
+
+    .venv/bin/python benchmarks/bench_coupling_stress.py [--only plate_ratio,obstacle_E,...]
+        [--acceleration iqn-imvj] [--out benchmarks/results/coupling_stress.csv]
+
+Sweeps (each row one coupled MPS run; every other setting is the scenario's own):
+
+* ``plate_ratio``: scenarios/hydrostatic_plate_2d.toml at l0 = 0.05 m (as the added-mass sweep
+  of bench_coupling_overhead.py), 0.03 s = 150 windows of 0.2 ms, the plate's density set so
+  that the mass ratio (rho_s h) / (rho_w H) (h = 0.05 m, H = 2 m) is 10, 1, 0.1, 1e-2, 1e-3,
+  1e-4; self-weight off.
+* ``plate_window``: the same plate at its own mass ratio (2.7e3 x 0.05 / 2e3 = 0.0675), windows
+  of 0.25, 1 and 4 ms (structure dt 0.25 ms, so it sub-cycles 1, 4 and 16 steps), 0.04 s.
+* ``obstacle_ratio``: scenarios/dam_break_elastic_obstacle_2d.toml at l0 = L/20 = 0.0073 m,
+  shortened to 0.17 s (the surge reaches the plate at about 0.15 s: the first-contact windows,
+  where wet/dry switching is, are in; the first tip peak, at about 0.2 s, is not), mass ratio
+  (h = 0.012 m, H = 0.292 m) 10, 0.103 (the scenario's), 1e-2, 1e-4; self-weight off.
+* ``obstacle_E``: the same obstacle run at its own mass ratio with E = 1e5, 1e6 (the
+  scenario's), 1e8, 2e11 Pa.
+
+All runs: implicit coupling with ``--acceleration`` (default iqn-imvj, its defaults), rtol 1e-3,
+at most 30 iterations, the scenario's ``on_divergence = "continue"`` (a window not converged is
+accepted, recorded in /coupling/converged and counted here), and the discrete surface/wet-dry
+flags frozen per window with the "settled" rule (``fluid.surface.freeze_in_coupling_window``).
+A run that stops reports the error's type and the start of its message; a run whose
+displacement is not finite would be reported as such (none may be silent or NaN). The interface
+displacement is bounded by ``coupling.convergence.max_displacement`` (a tenth of the plate's
+span, the obstacle's length): a run flung beyond it by accepted unconverged windows stops with a
+named CouplingDivergedError.
+
+Writes one CSV row per run as it finishes (benchmarks/results/coupling_stress.csv): case,
+factor, value, mass_ratio, verdict, windows, iterations mean / max, windows_not_converged,
+displacement (plate: mean mid deflection over the second half; obstacle: peak tip dx), wall_s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "src"))
+
+PLATE = ROOT / "scenarios" / "hydrostatic_plate_2d.toml"
+OBSTACLE = ROOT / "scenarios" / "dam_break_elastic_obstacle_2d.toml"
+RHO_W = 1000.0
+
+# (scene, H, h, probe, component, spacing, end time, displacement bound): the bound, set as
+# coupling.convergence.max_displacement, stops a run whose interface moves beyond what the
+# member can (a tenth of the plate's 1 m span; the obstacle's length, 0.08 m) with a named
+# CouplingDivergedError instead of letting accepted unconverged windows fling it
+SCENES = {
+    "plate": (PLATE, 2.0, 0.05, "mid_deflection", 1, 0.05, 0.03, 0.1),
+    "obstacle": (OBSTACLE, 0.292, 0.012, "tip", 0, 0.0073, 0.17, 0.08),
+}
+
+
+def sweeps() -> list[tuple[str, str, str, float, list[str], float | None]]:
+    """(sweep, scene, factor, value, --set overrides, end time or None) of every run."""
+    out = []
+    for r in (10.0, 1.0, 0.1, 1e-2, 1e-3, 1e-4):
+        rho = r * RHO_W * 2.0 / 0.05
+        sets = [f"structure.members.0.material.density={rho!r}"]
+        out.append(("plate_ratio", "plate", "mass_ratio", r, sets, None))
+    for T in (2.5e-4, 1e-3, 4e-3):
+        sets = ["structure.time.dt=0.00025", f"coupling.window={T!r}"]
+        out.append(("plate_window", "plate", "window_s", T, sets, 0.04))
+    for r in (10.0, 0.103, 1e-2, 1e-4):
+        rho = r * RHO_W * 0.292 / 0.012
+        sets = [f"structure.members.0.material.density={rho!r}"]
+        out.append(("obstacle_ratio", "obstacle", "mass_ratio", r, sets, None))
+    for E in (1e5, 1e6, 1e8, 2e11):
+        sets = [f"structure.members.0.material.youngs_modulus={E!r}"]
+        out.append(("obstacle_E", "obstacle", "youngs_modulus_Pa", E, sets, None))
+    return out
+
+
+def run_one(scene: str, sets: list[str], end: float | None, accel: str, path: Path) -> dict:
+    from mpsfem.scenario.loader import load_scenario
+    from mpsfem.simulation import RunFailed, run_coupled
+
+    toml, H, h, probe, comp, spacing, end0, bound = SCENES[scene]
+    end = end0 if end is None else end
+    base = [
+        "run.threads=1",
+        f"fluid.spacing={spacing}",
+        "structure.members.0.self_weight=false",
+        "output.snapshot_interval=0",
+        "output.checkpoint_interval=0",
+        "output.probe_interval=0",
+        'coupling.scheme="implicit"',
+        f'coupling.acceleration={{kind = "{accel}"}}',
+        "coupling.convergence.relative_tolerance=0.001",
+        "coupling.convergence.max_iterations=30",
+        "fluid.surface.freeze_in_coupling_window=true",
+        f"coupling.convergence.max_displacement={bound!r}",
+    ]
+    loaded = load_scenario(toml, base + sets)
+    m = loaded.scenario.structure.members[0]
+    ratio = m.material.density * h / (RHO_W * H)
+    verdict = "converged every window"
+    tic = time.perf_counter()
+    try:
+        run_coupled(loaded, path, end, progress=False, log=lambda msg: None)
+    except RunFailed as exc:
+        cause = exc.__cause__ or exc
+        verdict = f"stopped: {type(cause).__name__}: {str(cause)[:160]}"
+    wall = time.perf_counter() - tic
+    with h5py.File(path, "r") as h5:
+        it = h5["coupling/iterations"][:] if "coupling" in h5 else np.zeros(0)
+        conv = h5["coupling/converged"][:] if "coupling" in h5 else np.zeros(0)
+        w = h5[f"probes/{probe}/value"][:, comp] if f"probes/{probe}" in h5 else np.zeros(0)
+        tw = h5[f"probes/{probe}/time"][:] if f"probes/{probe}" in h5 else np.zeros(0)
+    if not np.isfinite(w).all():
+        verdict = f"NOT FINITE displacement ({verdict})"
+    elif verdict.startswith("converged") and (conv == 0).any():
+        verdict = f"ran to the end, {int((conv == 0).sum())} windows not converged"
+    if w.size and scene == "plate":
+        disp = float(w[tw >= 0.5 * tw[-1]].mean())
+    elif w.size:
+        disp = float(w[np.argmax(np.abs(w))])
+    else:
+        disp = math.nan
+    return {
+        "mass_ratio": round(ratio, 6),
+        "verdict": verdict,
+        "end_time_s": end,
+        "windows": int(it.size),
+        "iterations_mean": round(float(it.mean()), 3) if it.size else "",
+        "iterations_max": int(it.max()) if it.size else "",
+        "windows_not_converged": int((conv == 0).sum()),
+        "displacement_m": disp,
+        "wall_s": round(wall, 1),
+    }
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", default=None, help="comma-separated sweeps (default: all four)")
+    ap.add_argument("--values", default=None, help="comma-separated factor values to keep")
+    ap.add_argument("--acceleration", default="iqn-imvj")
+    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks/results/coupling_stress.csv")
+    ap.add_argument("--append", action="store_true", help="add rows to an existing CSV")
+    args = ap.parse_args(argv)
+    runs = sweeps()
+    if args.only:
+        keep = set(args.only.split(","))
+        unknown = keep - {r[0] for r in runs}
+        if unknown:
+            ap.error(f"--only {args.only!r}: unknown {sorted(unknown)}")
+        runs = [r for r in runs if r[0] in keep]
+    if args.values:
+        vals = [float(v) for v in args.values.split(",")]
+        runs = [r for r in runs if any(abs(r[3] - v) <= 1e-12 * abs(v) for v in vals)]
+    fields = ["sweep", "scene", "acceleration", "factor", "value", "mass_ratio", "verdict",
+              "end_time_s", "windows", "iterations_mean", "iterations_max",
+              "windows_not_converged", "displacement_m", "wall_s"]  # fmt: skip
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    new = not (args.append and args.out.exists())
+    with args.out.open("w" if new else "a", newline="") as fh, tempfile.TemporaryDirectory() as tmp:
+        wr = csv.DictWriter(fh, fieldnames=fields)
+        if new:
+            wr.writeheader()
+        for k, (sweep, scene, factor, value, sets, end) in enumerate(runs):
+            row = {"sweep": sweep, "scene": scene, "acceleration": args.acceleration,
+                   "factor": factor, "value": value}  # fmt: skip
+            row.update(run_one(scene, sets, end, args.acceleration, Path(tmp) / f"r{k}.h5"))
+            wr.writerow(row)
+            fh.flush()
+            print(row, flush=True)
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
