@@ -729,7 +729,7 @@ def write_doc(l0_label: str, csv_path: Path, out: Path) -> None:
     )
     L.append(
         "Every run below was also made before the fluid's wall boxes lined up with the fluid "
-        "lattice at their wetted face (commit 801485d; docs/fluid.md, \"Particles from the "
+        'lattice at their wetted face (commit 801485d; docs/fluid.md, "Particles from the '
         "scenario's boxes\"): the 0.06 m paddle's pressure layer sat 0.737 l0 from the first fluid "
         "particle at t = 0, inside the collision distance (now a whole spacing: the paddle's face "
         "moved 1.07 mm), and the end wall 0.93 mm further out; the plate is where it was. Not "

@@ -33,7 +33,12 @@ RESULTS = ROOT / "validation" / "results"
 SCENARIO = RESULTS / "delta_sph_dam_break.toml"
 CSV = RESULTS / "delta_sph_dam_break.csv"
 MPS_CSV = ROOT / "docs" / "figures" / "dam_break_front_convergence.csv"
-CASES = ((20, "corrected"), (40, "corrected"), (80, "corrected"), (40, "plain"))  # (L / l0, fluid.sph.gradient)
+CASES = (
+    (20, "corrected"),
+    (40, "corrected"),
+    (80, "corrected"),
+    (40, "plain"),
+)  # (L / l0, fluid.sph.gradient)
 MAX_SHIFT_S = 0.030  # the bound on the gate-lag shift, s
 TARGET = 0.07  # the bound on the shifted RMS error
 

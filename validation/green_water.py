@@ -915,7 +915,7 @@ def write_doc(
         "each window's converged state within the coupling tolerance; not re-run (hours of runs).",
         "",
         "Every run below was also made before the fluid's wall boxes lined up with the fluid "
-        "lattice at their wetted face (commit 801485d; docs/fluid.md, \"Particles from the "
+        'lattice at their wetted face (commit 801485d; docs/fluid.md, "Particles from the '
         "scenario's boxes\"): the paddle's face then sat 0.52 mm (0.105 l0) in front of x = 0, "
         "its pressure layer 1.105 l0 from the first fluid particle (now 1.0), and the rigid plate "
         "0.35 mm to the left of where it is now (it keeps its face x = 1.47, the nearer to the "
