@@ -114,6 +114,34 @@ def test_force_is_what_the_fluid_loses():
     assert np.allclose(fl.read("forces").sum(axis=0), s.reaction.sum(axis=0), rtol=1e-12)
 
 
+@pytest.mark.parametrize("integrator", ["rk4", "symplectic"])
+def test_step_force_weights_the_stages(integrator):
+    """The force read after a step is the integrator's weighted mean of the right-hand sides'
+    reactions, the one that makes dt F the fluid's momentum loss over the step: RK4 (F1 + 2 F2
+    + 2 F3 + F4) / 6, leapfrog (F_start + F_end) / 2 (its two half kicks)."""
+    fl, st, scheme = _coupled([f'fluid.sph={{integrator="{integrator}"}}'])
+    s = fl.solver
+    scheme.advance_window()  # the plate moving
+    seen = [s.reaction.copy()]  # the reaction of the state the step starts from
+    rhs = s.rhs
+
+    def recording():
+        rhs()
+        seen.append(s.reaction.copy())
+
+    s.rhs = recording
+    fl.write("displacement", fl._d + 1e-6)  # the plate moves during the step
+    fl.advance(s.dt_next)
+    if integrator == "rk4":
+        expect = (seen[1] + 2 * seen[2] + 2 * seen[3] + seen[4]) / 6.0
+        assert len(seen) == 5
+    else:
+        expect = 0.5 * (seen[0] + seen[1])
+        assert len(seen) == 2
+    assert np.allclose(s.reaction_step, expect, rtol=1e-13, atol=1e-12 * RHO * G * H)
+    assert not np.array_equal(seen[0], seen[-1])
+
+
 def test_restart_is_bit_identical(tmp_path):
     """A coupled δ-SPH run restarted from its checkpoint at window 3 repeats the uninterrupted
     run's results bit for bit (implicit windows restore the fluid each iteration, too)."""
