@@ -1,8 +1,8 @@
 """The fluid-method seam: the protocol every particle method implements, and its registry.
 
 ``fluid.method`` picks the solver class by name, the way mappings and accelerations are picked
-(``coupler/registry.py``): a new method is one package plus one line in :data:`FLUID_METHODS`
-and one in :data:`METHOD_TABLES` (the ``[fluid]`` sub-tables of numerical keys it owns; a table
+(``coupler/registry.py``): a new method is one package plus one line in :data:`FLUID_METHODS`,
+one in :data:`METHOD_TABLES` (and one in :data:`FLUID_PARTICIPANTS` if it couples) (the ``[fluid]`` sub-tables of numerical keys it owns; a table
 of another method is refused by the schema). The run loop (``simulation.py``), the results file,
 the checkpoints and the probes talk to a solver only through :class:`FluidMethod`.
 
@@ -25,6 +25,16 @@ FLUID_METHODS = Registry(
     {
         "mps": "mpsfem.fluid_mps.solver:FluidSolver",
         "delta-sph": "mpsfem.fluid_sph.solver:DeltaSPHSolver",
+    },
+)
+
+#: method name -> its coupled participant (``coupler.participant`` protocol; imported only when
+#: asked for): the fluid side of ``simulation.run_coupled``
+FLUID_PARTICIPANTS = Registry(
+    "coupled fluid participant",
+    {
+        "mps": "mpsfem.fluid_mps.participant:FluidParticipant",
+        "delta-sph": "mpsfem.fluid_sph.participant:SPHParticipant",
     },
 )
 
@@ -103,3 +113,9 @@ class FluidMethod(Protocol):
 def create_fluid_solver(spec, base_dir: Path | None = None, **kwargs: Any) -> FluidMethod:
     """The solver of ``spec.method`` (``fluid.method``) for the ``[fluid]`` section ``spec``."""
     return FLUID_METHODS.create(spec.method, spec, base_dir, **kwargs)
+
+
+def create_fluid_participant(spec, structure_interface, **kwargs: Any) -> Any:
+    """The coupled participant of ``spec.method`` around the structure's interface mesh;
+    ``kwargs``: ``base_dir``, ``member_names``, ``free_ends`` (see the participants)."""
+    return FLUID_PARTICIPANTS.create(spec.method, spec, structure_interface, **kwargs)

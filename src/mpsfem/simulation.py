@@ -25,9 +25,13 @@ from mpsfem.coupler.launch import connect_structure, participant_role, spawn_str
 from mpsfem.coupler.mapping.shape_function import project
 from mpsfem.coupler.participant import InterfaceMesh, as_interface_mesh
 from mpsfem.coupler.time_window import TIME_EPS
-from mpsfem.fluid_methods import FluidMethod, create_fluid_solver
+from mpsfem.fluid_methods import (
+    FLUID_PARTICIPANTS,
+    FluidMethod,
+    create_fluid_participant,
+    create_fluid_solver,
+)
 from mpsfem.fluid_mps.geometry import lattice_notes
-from mpsfem.fluid_mps.participant import FluidParticipant
 from mpsfem.fluid_mps.probes import PROBE_UNITS, probe_unit
 from mpsfem.progress import Progress
 from mpsfem.results.checkpoint import (
@@ -472,10 +476,10 @@ def run_coupled(
     sc = loaded.scenario
     if sc.fluid is None or sc.structure is None:
         raise ValueError("a coupled run needs a [fluid] and a [structure] section")
-    if sc.fluid.method != "mps":
+    if sc.fluid.method not in FLUID_PARTICIPANTS:
         raise ValueError(
-            f"fluid.method = {sc.fluid.method!r}: coupled runs take fluid.method = 'mps' only "
-            "so far (the δ-SPH fluid has no structure surfaces yet, docs/fluid_sph.md)"
+            f"fluid.method = {sc.fluid.method!r} has no coupled participant; coupled runs take "
+            f"fluid.method = {' or '.join(repr(m) for m in FLUID_PARTICIPANTS)}"
         )
     log = log or (lambda msg: print(msg, file=sys.stderr, flush=True))
     config = coupling_config(sc, transport)
@@ -533,7 +537,7 @@ def _fluid_side(
             )
         if restart is None:
             log_lattice_notes(sc.fluid, log)
-        fluid = FluidParticipant(
+        fluid = create_fluid_participant(
             sc.fluid, mesh, base_dir=loaded.path.parent, member_names=[m for m, _ in members]
         )
         members = [(f.name, f.nodes) for f in fluid.surface.frames]

@@ -258,3 +258,50 @@ def pair_terms(pos, vel, rho, vol, p, indptr, indices, n_fluid, h, inv_h, coef, 
         acc[i, 1] = -gp1 * inv_rho + gravity[1] - omega2 * (pos[i, 1] - center[1]) + visc * vi1
         if dim == 3:
             acc[i, 2] = -gp2 * inv_rho + gravity[2] - omega2 * (pos[i, 2] - center[2]) + visc * vi2
+
+
+@njit(cache=True)
+def wall_reaction(pos, rho, vol, p, indptr, indices, n_fluid, inv_h, coef, corrected, M, slot,
+                  out):  # fmt: skip
+    """Force of the fluid on each externally driven wall particle (``slot[j] >= 0``), N (N/m in
+    2D): the reaction to the pressure pair term the fluid particle i received from j in
+    :func:`pair_terms`, F_j = sum_i V_i (p_i + p_j) M_i grad_i W_ij V_j (δ-SPHC, seed eq. 12
+    with M_j = M_i at a wall; without M for δ-SPH, eq. 6): m_i du_i/dt loses exactly -F_j, so
+    the fluid's and the wall's momentum balance pair by pair (Newton's third law). Wall pairs
+    carry no viscous force (free slip). Serial over the fluid rows (a scatter), in the
+    neighbour list's order: deterministic."""
+    dim = pos.shape[1]
+    out[:] = 0.0
+    for i in range(n_fluid):
+        vi = vol[i]
+        for k in range(indptr[i + 1] - 1, indptr[i] - 1, -1):
+            j = indices[k]
+            if j < n_fluid:
+                break  # ascending rows: walls last
+            s = slot[j]
+            if s < 0:
+                continue
+            d0 = pos[i, 0] - pos[j, 0]
+            d1 = pos[i, 1] - pos[j, 1]
+            d2 = pos[i, 2] - pos[j, 2] if dim == 3 else 0.0
+            f = gradient_factor_fast(np.sqrt(d0 * d0 + d1 * d1 + d2 * d2), inv_h, coef)
+            if f == 0.0:
+                continue
+            fv = f * vol[j] * (p[i] + p[j]) * vi  # V_i (p_i + p_j) F V_j
+            g0 = fv * d0
+            g1 = fv * d1
+            g2 = fv * d2
+            if corrected:
+                out[s, 0] += (
+                    M[i, 0, 0] * g0 + M[i, 0, 1] * g1 + (M[i, 0, 2] * g2 if dim == 3 else 0.0)
+                )
+                out[s, 1] += (
+                    M[i, 1, 0] * g0 + M[i, 1, 1] * g1 + (M[i, 1, 2] * g2 if dim == 3 else 0.0)
+                )
+                if dim == 3:
+                    out[s, 2] += M[i, 2, 0] * g0 + M[i, 2, 1] * g1 + M[i, 2, 2] * g2
+            else:
+                out[s, 0] += g0
+                out[s, 1] += g1
+                if dim == 3:
+                    out[s, 2] += g2

@@ -80,8 +80,11 @@ class DeltaSPHSolver:
     """Weakly compressible δ-SPH fluid. Units SI; arrays (N, dim) float64, kinds int8.
 
     ``particles``: a ready particle set (fluid first, then walls), e.g. a circular drop; default
-    the scenario's blocks and walls. ``external`` / ``neighbour_filter`` (coupled structure
-    surfaces) are not supported yet and are refused.
+    the scenario's blocks and walls. ``external``: patches driven by another participant (coupled
+    structure surfaces, ``fluid_sph.participant``): moving dummy walls whose end-of-step position
+    and velocity :meth:`set_patch_state` sets, and whose pair forces with the fluid are booked
+    (:attr:`reaction_step`). ``neighbour_filter(nb, pos, kind) -> nb``: applied after every
+    neighbour search (``fluid_mps.thin_member``: nothing interacts through a member).
     """
 
     def __init__(
@@ -92,11 +95,6 @@ class DeltaSPHSolver:
         neighbour_filter=None,
         particles: ParticleSet | None = None,
     ) -> None:
-        if len(external) or neighbour_filter is not None:
-            raise ValueError(
-                "fluid.method = 'delta-sph' does not yet couple to a [structure] (its members' "
-                "surfaces are MPS particles); use fluid.method = 'mps' for coupled runs"
-            )
         self.spec = spec
         self.sph = sph = spec.sph if spec.sph is not None else DeltaSPHSection()
         self.dim = dim = spec.dim
@@ -119,7 +117,9 @@ class DeltaSPHSolver:
             if spec.dummy_layers is None:  # enough layers to fill the kernel's support 2h
                 layers = default_dummy_layers(2.0 * sph.smoothing_ratio)
                 layered = spec.model_copy(update={"dummy_layers": layers - 1})
-            particles = build_particles(layered)
+            particles = build_particles(layered, external)
+        elif len(external):
+            raise ValueError("external patches come with the scenario's particles, not a given set")
         ps = particles
         self.pos = np.ascontiguousarray(ps.pos, dtype=np.float64)
         self.vel = np.ascontiguousarray(ps.vel, dtype=np.float64)
@@ -128,6 +128,25 @@ class DeltaSPHSolver:
         self.n_fluid = nf = ps.n_fluid
         self.n = n = len(self.pos)
         self.patches = ps.patches
+        self._patch = {pt.name: pt for pt in self.patches}
+        self.neighbour_filter = neighbour_filter
+        if neighbour_filter is not None and hasattr(neighbour_filter, "bind"):
+            neighbour_filter.bind(self)  # needs n and patch(); before the first search
+        # externally driven rows (patch order): state at the step's start and its end
+        ext = [np.arange(pt.start, pt.stop) for pt in self.patches if pt.spec is None]
+        self.ext_rows = np.concatenate(ext) if ext else np.zeros(0, dtype=np.int64)
+        self._ext_pos0 = self.pos[self.ext_rows].copy()
+        self._ext_vel0 = self.vel[self.ext_rows].copy()
+        self._ext_pos1 = self.pos[self.ext_rows].copy()
+        self._ext_vel1 = self.vel[self.ext_rows].copy()
+        #: slot of every particle in ext_rows (-1: not external), for the reaction kernel
+        self.ext_slot = np.full(self.n, -1, dtype=np.int64)
+        self.ext_slot[self.ext_rows] = np.arange(self.ext_rows.size)
+        #: force of the fluid on each external particle at the last right-hand side, and its
+        #: mean over the last step with the integrator's weights (exactly the momentum the
+        #: fluid lost to it over the step, divided by dt), N (N/m in 2D)
+        self.reaction = np.zeros((self.ext_rows.size, self.dim))
+        self.reaction_step = np.zeros((self.ext_rows.size, self.dim))
         self.mass = self.rho0 * dx**dim  # kg (kg/m in 2D)
 
         self.c0 = self._sound_speed()
@@ -189,6 +208,7 @@ class DeltaSPHSolver:
         self._gauge_work: np.ndarray | None = None
         self.move_walls(0.0)
         self.rhs()  # the first kick's right-hand side (state from here on)
+        self.reaction_step[...] = self.reaction  # the load before the first step
         ts = spec.time_step
         self.dt_next = min(ts.dt_initial or ts.dt_max, self.stable_dt())
 
@@ -249,6 +269,8 @@ class DeltaSPHSolver:
         """acc and drho/dt of the fluid at the current (pos, vel, rho); walls where they are."""
         tic = time.perf_counter()
         nb = self.search.update(self.pos)
+        if self.neighbour_filter is not None:
+            nb = self.neighbour_filter(nb, self.pos, self.kind)
         toc = time.perf_counter()
         self.times.neighbours += toc - tic
         nf = self.n_fluid
@@ -273,6 +295,11 @@ class DeltaSPHSolver:
             self.corrected, self.M, self.grad_rho, self.alpha, self.gravity, self.omega2,
             self.center, self.acc, self.drho,
         )  # fmt: skip
+        if self.ext_rows.size:
+            delta_sph.wall_reaction(
+                self.pos, self.rho, self.vol, self.p, nb.indptr, nb.indices, nf, self.inv_h,
+                self.grad_coef, self.corrected, self.M, self.ext_slot, self.reaction,
+            )  # fmt: skip
         self._last_neighbours = nb
         self.times.rhs += time.perf_counter() - toc
         self.times.rhs_calls += 1
@@ -299,8 +326,37 @@ class DeltaSPHSolver:
             self.vel[sl] = v * law.direction
 
     def set_patch_state(self, name: str, pos: np.ndarray, vel: np.ndarray) -> None:
-        """Not supported (no external patches under δ-SPH yet)."""
-        raise ValueError(f"patch {name!r}: δ-SPH has no externally driven patches yet")
+        """Position (m) and velocity (m/s) of an external patch's particles at the end of the next
+        step (the driving participant calls this before :meth:`step`); over the step they move
+        linearly from where they are, and their acceleration (v_end - v_start) / dt enters the
+        Adami wall pressure."""
+        pt = self._patch.get(name)
+        if pt is None or pt.spec is not None:
+            raise ValueError(f"{name!r} is not an external patch of this δ-SPH fluid")
+        rows = self.ext_slot[pt.start : pt.stop]
+        self._ext_pos1[rows] = pos
+        self._ext_vel1[rows] = vel
+
+    def patch(self, name: str):
+        """The index range of the patch ``name`` (a WallPatch)."""
+        return self._patch[name]
+
+    def _begin_external(self, dt: float) -> None:
+        """Start a step of the external patches: their start state and constant acceleration."""
+        r = self.ext_rows
+        np.copyto(self._ext_pos0, self.pos[r])
+        np.copyto(self._ext_vel0, self.vel[r])
+        self.wall_acc[r - self.n_fluid] = (self._ext_vel1 - self._ext_vel0) / dt
+
+    def _place_external(self, frac: float) -> None:
+        """External patches at the fraction ``frac`` of the step (linear in time)."""
+        r = self.ext_rows
+        if frac == 1.0:
+            self.pos[r] = self._ext_pos1
+            self.vel[r] = self._ext_vel1
+        else:
+            self.pos[r] = self._ext_pos0 + frac * (self._ext_pos1 - self._ext_pos0)
+            self.vel[r] = self._ext_vel0 + frac * (self._ext_vel1 - self._ext_vel0)
 
     def _wall_acceleration(self, dt: float) -> None:
         """a_w = (v(t + dt) - v(t)) / dt of every moving wall particle, constant over the step
@@ -317,14 +373,23 @@ class DeltaSPHSolver:
         nf = self.n_fluid
         if self.moving:
             self._wall_acceleration(dt)
+        ext = self.ext_rows.size > 0
+        if ext:
+            self._begin_external(dt)
         if self.integrator == "symplectic":
             tic = time.perf_counter()
+            if ext:  # leapfrog: the fluid's momentum changes by dt (F_start + F_end) / 2
+                np.multiply(self.reaction, 0.5, out=self.reaction_step)
             time_stepping.kick(self.vel, self.rho, self.acc, self.drho, nf, 0.5 * dt)
             time_stepping.drift(self.pos, self.vel, nf, dt)
             self.move_walls(self.t + dt)
+            if ext:
+                self._place_external(1.0)
             self.times.integrate += time.perf_counter() - tic
             self.rhs()
             tic = time.perf_counter()
+            if ext:
+                self.reaction_step += 0.5 * self.reaction
             time_stepping.kick(self.vel, self.rho, self.acc, self.drho, nf, 0.5 * dt)
         else:
             self._rk4(dt)
@@ -350,10 +415,19 @@ class DeltaSPHSolver:
         np.copyto(v0, self.vel)
         np.copyto(r0, self.rho)
         t = self.t
+        ext = self.ext_rows.size > 0
         for stage, (w, c) in enumerate(((1.0, 0.5), (2.0, 0.5), (2.0, 1.0), (1.0, 0.0))):
             if stage > 0:
-                self.move_walls(t + (0.5 if stage < 3 else 1.0) * dt)
+                frac = 0.5 if stage < 3 else 1.0
+                self.move_walls(t + frac * dt)
+                if ext:
+                    self._place_external(frac)
             self.rhs()
+            if ext:  # RK4: the fluid's momentum changes by dt (F1 + 2 F2 + 2 F3 + F4) / 6
+                if stage == 0:
+                    np.multiply(self.reaction, w / 6.0, out=self.reaction_step)
+                else:
+                    self.reaction_step += (w / 6.0) * self.reaction
             tic = time.perf_counter()
             time_stepping.rk_accumulate(sp, sv, sr, self.vel, self.acc, self.drho, nf, w,
                                         stage == 0)  # fmt: skip
@@ -400,7 +474,7 @@ class DeltaSPHSolver:
     # ------------------------------------------------------------------ state
     def state(self) -> dict[str, np.ndarray]:
         """Arrays that, with :meth:`meta`, restore the solver bit for bit (views)."""
-        return {
+        arrays = {
             "pos": self.pos,
             "vel": self.vel,
             "p": self.p,
@@ -409,6 +483,10 @@ class DeltaSPHSolver:
             "drho": self.drho,
             "patch_impulse": self.patch_impulse,
         }
+        if self.ext_rows.size:  # coupled: the forces read after a restore
+            arrays["reaction"] = self.reaction
+            arrays["reaction_step"] = self.reaction_step
+        return arrays
 
     def meta(self) -> dict:
         return {
@@ -436,6 +514,9 @@ class DeltaSPHSolver:
         self.dt_next = float(meta["dt_next"])
         self.max_speed = float(meta.get("max_speed", 0.0))
         self.force_marks = {k: list(v) for k, v in meta.get("force_marks", {}).items()}
+        # undriven external patches stay where the state put them
+        self._ext_pos1[...] = self.pos[self.ext_rows]
+        self._ext_vel1[...] = self.vel[self.ext_rows]
 
     def preconditioner_state(self) -> None:
         """δ-SPH is explicit: no reused solver data."""
