@@ -1,12 +1,22 @@
 """What ``mpsfem validate`` tells a user before a run: particle counts by kind, memory and run
 time estimates, contact problems between members and walls, and a one-line verdict.
 
-Counts are exact for the fluid scene (the particles are built, as a run builds them; a coupled
-member's surface particles are estimated from its length, thickness and the wall layers).
-Memory is the per-particle footprint the dam-break benchmark measured (2D; the 3D figure is a
-guess, scenario/limits.py). Run time: a rough estimate, steps = end time / dt with dt from the
-Courant number at the free-fall speed of the highest fluid (or the blocks' initial speed) and the
-dam-break benchmark's one-thread cost per particle-step; coupled windows add the structure.
+Counts are exact for the fluid scene (the particles are built, as a run of the scenario's
+``fluid.method`` builds them: δ-SPH lays wall layers for its 2h support; a coupled member's
+surface particles are estimated from its length, thickness and the wall layers). Memory is the
+per-particle footprint the benchmarks measured for the method (scenario/limits.py; the 3D figures
+are guesses). Run time: a rough estimate, steps = end time / dt and the one-thread cost of a
+particle-step:
+
+- MPS: dt from the Courant number at the free-fall speed of the highest fluid (or the blocks'
+  initial speed) and the viscous limit; the dam-break benchmark's cost per particle-step;
+- δ-SPH: explicit, dt from the artificial sound speed c0 (fluid.sph.sound_speed or the default
+  10 max(U, sqrt(g H)), seed eq. 1): dt = cfl h / (c0 + u), the force and artificial-viscosity
+  limits and dt_max, as the solver takes them (fluid_sph/solver.py ``stable_dt``); each step
+  costs 4 right-hand sides with RK4 (1 with the leapfrog) at the cost per particle and right-hand
+  side that benchmarks/bench_delta_sph.py measured.
+
+Coupled windows add the structure.
 """
 
 from __future__ import annotations
@@ -16,14 +26,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mpsfem.fluid_mps.geometry import build_particles, default_dummy_layers, scene_corners
+from mpsfem.fluid_mps.geometry import build_particles, scene_corners
 from mpsfem.fluid_mps.particle_kinds import KIND_NAMES
-from mpsfem.scenario.limits import BYTES_PER_PARTICLE
+from mpsfem.fluid_sph.solver import DEFAULT_CFL, VISCOUS_LIMIT
+from mpsfem.scenario.limits import bytes_per_particle, wall_layers
 from mpsfem.scenario.schema import Scenario
 
-#: one-thread cost of a fluid particle-step, s (benchmarks/results/dam_break.md: 3.9 us in 2D
+#: one-thread cost of an MPS particle-step, s (benchmarks/results/dam_break.md: 3.9 us in 2D
 #: at 64.8k; 3D from benchmarks/results/still_water_3d.md, rounded up)
 COST_PER_PARTICLE_STEP = {2: 4e-6, 3: 1.5e-5}
+#: one-thread cost of a δ-SPH right-hand side per particle (all particles), s: 2D 1.17 us at 68k
+#: particles, 0.96 us at 5k (benchmarks/results/delta_sph_rhs.csv, δ-SPHC h = 1.3 l0), rounded
+#: up; 3D not measured: the 2D figure times MPS's 3D / 2D ratio (3.75)
+COST_PER_PARTICLE_RHS = {2: 1.2e-6, 3: 4.5e-6}
+#: right-hand sides per δ-SPH step of each fluid.sph.integrator
+RHS_PER_STEP = {"rk4": 4, "symplectic": 1}
 
 
 @dataclass
@@ -44,15 +61,68 @@ def _fluid_height(scenario: Scenario) -> float:
     return hi - lo
 
 
-def _time_estimate(scenario: Scenario, n_all: int) -> tuple[int, float, str]:
-    """(steps, seconds on one thread, how dt was estimated)."""
+def _flow_speed(scenario: Scenario) -> float:
+    """The free-fall speed from the fluid's height or the blocks' fastest initial speed, m/s."""
     f = scenario.fluid
-    ts = f.time_step
     g = float(np.linalg.norm(f.gravity))
     speed = math.sqrt(2.0 * g * _fluid_height(scenario))
     for b in f.blocks:
         if b.velocity is not None:
             speed = max(speed, float(np.linalg.norm(b.velocity)))
+    return speed
+
+
+def sound_speed(scenario: Scenario) -> float:
+    """δ-SPH's artificial sound speed c0, m/s, as the solver sets it (fluid_sph/solver.py
+    ``_sound_speed``): fluid.sph.sound_speed, else 10 max(U, U_block, sqrt(g H)) (seed eq. 1),
+    H the tallest block, U fluid.sph.reference_speed (default 2 sqrt(g H)); 0 where the solver
+    would refuse the scenario (no gravity, no speeds)."""
+    f = scenario.fluid
+    sph = f.sph
+    if sph.sound_speed is not None:
+        return float(sph.sound_speed)
+    g = float(np.linalg.norm(f.gravity))
+    up = f.vertical_axis
+    height = max(b.upper[up] - b.lower[up] for b in f.blocks)
+    u_block = max((float(np.linalg.norm(b.velocity)) for b in f.blocks if b.velocity), default=0.0)
+    u_ref = sph.reference_speed if sph.reference_speed is not None else 2.0 * math.sqrt(g * height)
+    return 10.0 * max(u_ref, u_block, math.sqrt(g * height))  # seed eq. 1
+
+
+def _delta_sph_time_estimate(scenario: Scenario, n_all: int) -> tuple[int, float, str]:
+    """(steps, seconds on one thread, how dt was estimated) of a δ-SPH run: the limits of the
+    solver's ``stable_dt`` with u the free-fall speed and a = |g|."""
+    f = scenario.fluid
+    sph = f.sph
+    h = sph.smoothing_ratio * f.spacing
+    c0 = sound_speed(scenario)
+    speed = _flow_speed(scenario)
+    cfl = sph.cfl if sph.cfl is not None else DEFAULT_CFL[sph.integrator]
+    dt = f.time_step.dt_max
+    why = "dt_max"
+    if c0 > 0.0 and cfl * h / (c0 + speed) < dt:  # acoustic Courant condition
+        dt = cfl * h / (c0 + speed)
+        why = f"acoustic Courant {cfl:g} h / (c0 + u), c0 = {c0:.3g} m/s, u = {speed:.3g} m/s"
+    g = float(np.linalg.norm(f.gravity))
+    if g > 0.0 and 0.25 * math.sqrt(h / g) < dt:  # force condition (Monaghan 1992)
+        dt = 0.25 * math.sqrt(h / g)
+        why = "the force condition 0.25 sqrt(h / g)"
+    alpha = max(sph.viscosity_alpha, sph.damping_alpha if f.sponges else 0.0)
+    if alpha > 0.0 and c0 > 0.0:
+        limit = VISCOUS_LIMIT[sph.integrator] * h / (alpha * c0)  # artificial viscosity
+        if limit < dt:
+            dt = limit
+            why = f"the artificial viscosity's limit (alpha {alpha:g}, c0 = {c0:.3g} m/s)"
+    steps = math.ceil(scenario.run.end_time / dt)
+    rhs = RHS_PER_STEP[sph.integrator]
+    return steps, steps * rhs * n_all * COST_PER_PARTICLE_RHS[f.dim], why
+
+
+def _time_estimate(scenario: Scenario, n_all: int) -> tuple[int, float, str]:
+    """(steps, seconds on one thread, how dt was estimated) of an MPS run."""
+    f = scenario.fluid
+    ts = f.time_step
+    speed = _flow_speed(scenario)
     dt = ts.dt_max
     why = "dt_max"
     if speed > 0.0 and ts.courant * f.spacing / speed < dt:
@@ -141,17 +211,12 @@ def report(scenario: Scenario, title: str = "") -> Report:
     time_text = ""
     if scenario.fluid is not None:
         f = scenario.fluid
-        ps = build_particles(f)
+        layers = wall_layers(f)
+        delta = f.method == "delta-sph"
+        # the δ-SPH solver fills its 2h support with dummy layers (fluid_sph/solver.py)
+        ps = build_particles(f.model_copy(update={"dummy_layers": layers - 1}) if delta else f)
         kinds, counts = np.unique(ps.kind, return_counts=True)
         by_kind = {KIND_NAMES[int(k)]: int(c) for k, c in zip(kinds, counts, strict=True)}
-        k = f.kernel
-        layers = (
-            f.dummy_layers + 1
-            if f.dummy_layers
-            else default_dummy_layers(
-                max(k.re_density, k.re_gradient, k.re_laplacian, k.re_pressure)
-            )
-        )
         members = _member_particles(scenario, layers)
         if members:
             by_kind["structure surfaces (estimate)"] = members
@@ -159,15 +224,26 @@ def report(scenario: Scenario, title: str = "") -> Report:
         lines.append(
             "particles: " + ", ".join(f"{v} {k}" for k, v in by_kind.items()) + f" ({n_all} in all)"
         )
-        mem = n_all * BYTES_PER_PARTICLE[f.dim]
+        each = bytes_per_particle(f)
+        method = "δ-SPH" if delta else "MPS"
         lines.append(
-            f"memory: about {mem / 2**20:.0f} MiB ({BYTES_PER_PARTICLE[f.dim]} B per particle)"
+            f"memory: about {n_all * each / 2**20:.0f} MiB ({each} B per particle, {method})"
         )
-        steps, seconds, why = _time_estimate(scenario, n_all)
+        if delta:
+            steps, seconds, why = _delta_sph_time_estimate(scenario, n_all)
+            rhs = RHS_PER_STEP[f.sph.integrator]
+            cost = (
+                f"δ-SPH, explicit: {rhs} right-hand side(s) a step ({f.sph.integrator}) at "
+                f"{COST_PER_PARTICLE_RHS[f.dim] * 1e6:g} us per particle each "
+                "(benchmarks/bench_delta_sph.py)"
+            )
+        else:
+            steps, seconds, why = _time_estimate(scenario, n_all)
+            cost = "MPS, the dam-break benchmark's cost per particle-step"
         time_text = f"{seconds / 60:.1f} min" if seconds >= 60 else f"{seconds:.0f} s"
         lines.append(
             f"run time: about {steps} fluid steps (dt from {why}), roughly {time_text} on one "
-            "thread (the dam-break benchmark's cost per particle-step; splashing flows take more)"
+            f"thread ({cost}; splashing flows take more)"
         )
     if scenario.structure is not None:
         lines.append(f"structure: {len(scenario.structure.members)} member(s)")

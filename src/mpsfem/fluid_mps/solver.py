@@ -22,7 +22,8 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -65,7 +66,11 @@ class FluidRunError(RuntimeError):
 
 @dataclass
 class StageTimes:
-    """Accumulated wall time per stage, s."""
+    """Accumulated wall time per stage, s (:meth:`FluidSolver.step` names each stage's
+    counter): ``neighbours`` the searches and short lists (and the wall motion before them),
+    ``explicit`` the prediction, collision, density, surface, correction and end-of-step work,
+    ``assembly`` and ``solve`` the pressure solver's own split, ``other`` the pressure
+    equation's boundary terms (dry flags, ghost source, surface values)."""
 
     neighbours: float = 0.0
     explicit: float = 0.0
@@ -82,6 +87,15 @@ class StageTimes:
             "solve": self.solve,
             "other": self.other,
         }
+
+    @contextmanager
+    def timed(self, name: str) -> Iterator[None]:
+        """Add the wall time of the ``with`` block to the counter ``name`` (s)."""
+        tic = time.perf_counter()
+        try:
+            yield
+        finally:
+            setattr(self, name, getattr(self, name) + time.perf_counter() - tic)
 
 
 #: the largest particle shift of fluid.pressure.shifting, x l0
@@ -439,23 +453,52 @@ class FluidSolver:
             self._viscous_laplacian(self._neighbours())
 
     def step(self, dt: float) -> None:
-        """Advance the fluid by dt (s)."""
+        """Advance the fluid by dt (s): the stages of the module docstring, in order, each timed
+        on the :class:`StageTimes` counter named beside it."""
+        self._refuse_dt(dt)
+        tm = self.times
+        with tm.timed("neighbours"):  # (counted here since the first benchmarks)
+            self._stage_walls(dt)
+        with tm.timed("explicit"):
+            self._stage_prediction(dt)
+        with tm.timed("neighbours"):
+            nb = self._stage_search()
+        with tm.timed("explicit"):
+            moved = self._stage_collision(nb, dt)
+        with tm.timed("neighbours"):
+            near = self._short_list(nb, moved)
+        with tm.timed("explicit"):
+            self._stage_density_and_surface(near)
+        with tm.timed("other"):
+            self._stage_pressure_boundary(nb, near, dt)
+        self._stage_pressure_solve(nb, near, dt)  # books its own assembly and solve times
+        with tm.timed("explicit"):
+            self._stage_correction(nb, near, dt)
+        with tm.timed("explicit"):
+            self._stage_close(nb, dt)
+
+    # ------------------------------------------------------------------ stages of a step
+    def _refuse_dt(self, dt: float) -> None:
+        """Stop a run whose step has fallen below fluid.time_step.dt_min (s)."""
         if not dt >= self.spec.time_step.dt_min:
             raise FluidRunError(
                 f"time step {dt:.3e} s at t = {self.t:.6g} s is below fluid.time_step.dt_min = "
                 f"{self.spec.time_step.dt_min:.3e} s (the flow has become too fast; check the "
                 "scenario or lower the Courant number)"
             )
-        tm = self.times
-        c0 = time.perf_counter()
+
+    def _stage_walls(self, dt: float) -> None:
+        """1. Walls to their position at t + dt; their acceleration over the step (if read);
+        lap u of the start state on the first step (a neighbour search)."""
         self.move_walls(self.t + dt)
         if self.wall_acceleration:  # over the step: the walls' new velocity against the last
             np.subtract(self.vel[self.n_fluid :], self.wall_vel_prev, out=self.wall_acc)
             self.wall_acc /= dt
         if self.nu > 0.0:
             self._ensure_lap_u()  # the first step only: later steps leave it at their end
-        c1 = time.perf_counter()
-        tm.neighbours += c1 - c0
+
+    def _stage_prediction(self, dt: float) -> None:
+        """2. Sponge (if any) and the explicit prediction u*, r* (gravity, viscosity)."""
         budget = self.budget
         budget.begin(self.vel, self.kind)
         if self.sponge.active:  # thesis eq. 3-9, explicit with u^n
@@ -468,15 +511,20 @@ class FluidSolver:
         else:
             time_integration.predict_inviscid(self.pos, self.vel, self.kind, self.gravity, dt)
         budget.stage(VISCOUS, self.vel, self.kind)
-        c2 = time.perf_counter()
-        tm.explicit += c2 - c1
+
+    def _stage_search(self):
+        """3. The step's neighbour search at r* (filtered where a filter is set)."""
         nb = self._neighbours()
         self._last_neighbours = nb
-        c3 = time.perf_counter()
-        tm.neighbours += c3 - c2
+        return nb
+
+    def _stage_collision(self, nb, dt: float) -> float:
+        """3. The collision model on approaching fluid pairs (if on); returns the largest shift
+        it made, m (0 when off)."""
         col = self.spec.collision
         moved = 0.0
         if col.enabled:
+            budget = self.budget
             self.vel_before[:] = self.vel
             pairs = self._collision_list(nb, col.distance * self.l0)
             dv = collide(
@@ -497,15 +545,18 @@ class FluidSolver:
                 self.pos, self.vel, self.vel_before, self.kind, dt
             )
             moved = dt * time_integration.max_speed(dv, self.kind)  # the largest shift, m
-        c4 = time.perf_counter()
-        near = self._short_list(nb, moved)
-        c5 = time.perf_counter()
-        tm.neighbours += c5 - c4
+        return moved
+
+    def _stage_density_and_surface(self, near) -> None:
+        """4. Particle number density n* and the free-surface flags."""
         operators.number_density(
             self.pos, near.indptr, near.indices, self.re_n, self.wcode, self.number_density
         )
         self.surface.detect(self.pos, self.kind, self.number_density, near, self.free_surface)
-        tm.explicit += (c4 - c3) + (time.perf_counter() - c5)
+
+    def _stage_pressure_boundary(self, nb, near, dt: float) -> None:
+        """5. The pressure equation's boundary terms: dry flags and ghost source (Neumann
+        walls), frozen flags (implicit coupling), surface values half a spacing out."""
         if self.neumann:
             wall_boundary.mark_dry(
                 self.pos,
@@ -556,6 +607,10 @@ class FluidSolver:
                 self.ppe_coef,
                 self.ghost_rhs,
             )
+
+    def _stage_pressure_solve(self, nb, near, dt: float) -> None:
+        """5. The pressure Poisson equation; books the solver's assembly and solve times and
+        its iterations."""
         info = self.pressure.solve(
             self.pos,
             self.vel,
@@ -569,11 +624,16 @@ class FluidSolver:
             density_nb=near,
             surface_values=self.p_surface if self.surface_offset else None,
         )
+        tm = self.times
         tm.assembly += info.assembly_time
         tm.solve += info.solve_time
         tm.iterations.append(info.iterations)
         self.last_iterations = info.iterations
-        c6 = time.perf_counter()
+
+    def _stage_correction(self, nb, near, dt: float) -> None:
+        """6. Surface values and clamp, the pressure gradient (and wall pressures), the
+        correction of u and r, dynamic stabilisation and shifting (each if on)."""
+        budget = self.budget
         if self.surface_offset:
             surface_pressure.write_surface_values(
                 self.kind, self.free_surface, self.p_surface, self.p
@@ -643,7 +703,11 @@ class FluidSolver:
                 SHIFT_CAP * self.l0, self.shift_work,
             )  # fmt: skip
         budget.stage(PRESSURE, self.vel, self.kind)
-        budget.finish(dt, None if self.exchange else self._pressure_integrals())
+
+    def _stage_close(self, nb, dt: float) -> None:
+        """7-8. The step's momentum ledger, time and checks; lap u^{n+1} for the next step
+        (if nu > 0) and the next stable dt."""
+        self.budget.finish(dt, None if self.exchange else self._pressure_integrals())
         if self.wall_acceleration:
             self.wall_vel_prev[:] = self.vel[self.n_fluid :]
         self.t += dt
@@ -652,7 +716,6 @@ class FluidSolver:
         if self.nu > 0.0:  # nu lap u^{n+1} for the next step's prediction, on this step's list
             self._viscous_laplacian(nb)
         self.dt_next = self.stable_dt()
-        tm.explicit += time.perf_counter() - c6
 
     def _gradient_args(self) -> tuple:
         """The pressure gradient's arguments of this wall model, as

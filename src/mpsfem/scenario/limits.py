@@ -29,6 +29,12 @@ MEMORY_FRACTION = 0.5
 #: bytes per particle of a run (measured 1930 B at 64.8k particles in 2D, benchmarks/; 3D
 #: particles have about three times the neighbours)
 BYTES_PER_PARTICLE = {2: 2048, 3: 6144}
+#: bytes per particle of a δ-SPH run (fluid.method = "delta-sph": explicit, no pressure matrix;
+#: RK4 keeps two more copies of the state): measured 512 B in 2D, the peak-RSS slope between 68k
+#: and 120k particles of a still-water tank, h = 1.3 l0, RK4 (benchmarks/bench_delta_sph_memory.py,
+#: benchmarks/results/delta_sph_memory.csv), taken x 1.5 for splashing flows' longer neighbour
+#: lists; 3D three times 2D, as for MPS (not measured)
+BYTES_PER_PARTICLE_DELTA_SPH = {2: 768, 3: 2304}
 #: bytes per neighbour-grid cell (its start index, int64)
 BYTES_PER_CELL = 8
 #: bytes per structure element (matrices and their factorisation, generous)
@@ -93,13 +99,36 @@ def _cells(extent: float, l0: float) -> float:
     return max(1.0, math.floor(extent / l0) + 1.0)
 
 
+def kernel_support(fluid: FluidSection) -> float:
+    """The largest kernel radius of the fluid's method, in spacings: MPS's largest r_e, δ-SPH's
+    Wendland support 2h = 2 smoothing_ratio l0."""
+    if fluid.method == "delta-sph":
+        return 2.0 * fluid.sph.smoothing_ratio
+    k = fluid.kernel
+    return max(k.re_density, k.re_gradient, k.re_laplacian, k.re_pressure)
+
+
+def wall_layers(fluid: FluidSection) -> int:
+    """Wall particle layers (pressure layer included): fluid.dummy_layers + 1, else enough to
+    fill the method's kernel support (fluid_mps/geometry.py default_dummy_layers; the δ-SPH
+    solver lays them the same way for its 2h)."""
+    if fluid.dummy_layers:
+        return fluid.dummy_layers + 1
+    return math.ceil(kernel_support(fluid) - 0.5) + 1
+
+
+def bytes_per_particle(fluid: FluidSection) -> int:
+    """Memory per particle of the fluid's method and dimension, B."""
+    table = BYTES_PER_PARTICLE_DELTA_SPH if fluid.method == "delta-sph" else BYTES_PER_PARTICLE
+    return table[fluid.dim]
+
+
 def fluid_parts(fluid: FluidSection, extra: list[list[float]] = ()) -> list[Part]:
     """Estimated particles of each block and wall and the neighbour-grid cells."""
-    d, l0 = fluid.dim, fluid.spacing
-    k = fluid.kernel
-    max_re = max(k.re_density, k.re_gradient, k.re_laplacian, k.re_pressure)
-    layers = (fluid.dummy_layers + 1) if fluid.dummy_layers else math.ceil(max_re - 0.5) + 1
-    each = BYTES_PER_PARTICLE[d]
+    l0 = fluid.spacing
+    max_re = kernel_support(fluid)
+    layers = wall_layers(fluid)
+    each = bytes_per_particle(fluid)
     parts = []
     for i, b in enumerate(fluid.blocks):
         n = math.prod(_cells(u - lo, l0) for lo, u in zip(b.lower, b.upper, strict=False))
