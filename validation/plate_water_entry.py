@@ -19,6 +19,13 @@ What it measures, per case (docs/validation_plate_water_entry.md):
   absolute; positive upwards), its largest value and when;
 * the wall time and the run's final status (finished, or the named error that stopped it).
 
+Case ``pressure`` (``pressure_stiff``: E x 1000): the seed set-up to t_c + 1 ms, for the plate
+pressure probes that ride with the plate on its wetted face ("p_centre" at x = 0, "p_quarter" at
+x = L/4, each the mean of 4 face particles, sampled every step): the pressure impulse
+int p dt against the flat-plate impact impulse rho V sqrt((L/2)^2 - x^2) (von Karman 1929;
+Faltinsen 1990), its shape (centre / mean, quarter / centre) and the centre's peak, which does
+not converge (the impulse is compared). Its own CSV: plate_water_entry_pressure.csv.
+
 The seed paper's Table 1 (peak plate-centre pressures, experiment and MPS, several speeds) and
 Figs. 5-6 (centre pressure and deflection histories at 6.28 m/s) are images that our copy of the
 paper lacks: no number of theirs can be quoted, and the CSV says so.
@@ -145,13 +152,78 @@ def analyse(path: Path, v: float, seed: bool, case: str | None = None) -> dict:
     return row
 
 
+#: the plate-pressure case: the seed set-up to about t_c + 1 ms (docs: the run's length)
+PRESSURE_END = 0.0034  # s
+#: the attached pressure probes on the wetted face (scenario "p_centre", "p_quarter"): reference
+#: x (m) and the x of the four particles each averages (1 l0 around it, particles at half spacings)
+PRESSURE_PROBES = {"centre": 0.0, "quarter": 0.1}
+SOUND_SPEED = 1500.0  # water, m/s: the acoustic bound rho c V of a compressible flat impact
+
+
+def pressure_impulse_ref(x: float, v: float) -> float:
+    """Flat-plate impact pressure impulse at x (Pa s), averaged over the probe's four particles:
+    P(x) = rho V sqrt((L/2)^2 - x^2), the potential of the plate's added-mass flow at impact
+    (von Karman 1929; Faltinsen 1990, Sea Loads, ch. 9: phi = -V sqrt(c^2 - x^2), P = -rho phi);
+    its integral over the span is rho V pi L^2 / 8 = J_ref."""
+    xs = x + np.array([-1.5, -0.5, 0.5, 1.5]) * L0
+    return float(np.mean(RHO * v * np.sqrt((L / 2) ** 2 - xs**2)))
+
+
+def analyse_pressure(path: Path, v: float) -> dict:
+    """Plate-centre and quarter-span pressure of the attached probes: impulses int p dt from 0
+    (the probes read 0 in air) to t_c + tau against :func:`pressure_impulse_ref`, their ratio
+    against the force impulse's mean pressure J / L (theory: 4 / pi at the centre), the
+    quarter/centre ratio (theory sqrt(3)/2), and the centre's peak for the record."""
+    row: dict = {"case": "pressure", "speed": v}
+    with h5py.File(path, "r") as h5:
+        row["status"] = str(h5.attrs.get("status", "unknown"))
+        row["wall_time_s"] = float(h5.attrs.get("wall_time", float("nan")))
+        tp = h5["probes/p_centre/time"][()]
+        pc = h5["probes/p_centre/value"][()]
+        pq = h5["probes/p_quarter/value"][()]
+        tf = h5["probes/slam_force/time"][()]
+        f = h5["probes/slam_force/value"][()][:, 1]
+    tc = contact_time(v)
+    row["t_contact_ms"] = tc * 1e3
+    row["t_end_ms"] = float(tp[-1]) * 1e3
+    row["t_onset_ms"] = float(tp[np.argmax(pc > 0.0)]) * 1e3
+    # samples every step (interval = dt): trapezoidal int p dt; the force samples are means
+    jf = np.cumsum(f * np.diff(np.concatenate([[0.0], tf])))
+    cum = {}
+    for name, p in (("centre", pc), ("quarter", pq)):
+        cum[name] = np.concatenate([[0.0], np.cumsum(0.5 * (p[1:] + p[:-1]) * np.diff(tp))])
+        row[f"P_ref_{name}_Pa_s"] = pressure_impulse_ref(PRESSURE_PROBES[name], v)
+    for tau in (0.1e-3, 0.5e-3, 1e-3):
+        if tp[-1] < tc + tau - 1e-12:
+            continue
+        ms = f"{tau * 1e3:g}ms"
+        for name in PRESSURE_PROBES:
+            val = float(np.interp(tc + tau, tp, cum[name]))
+            row[f"P_{name}_{ms}"] = val
+            row[f"P_{name}_{ms}_over_ref"] = val / row[f"P_ref_{name}_Pa_s"]
+        mean_p = float(np.interp(tc + tau, tf, jf)) / L
+        row[f"P_centre_{ms}_over_J_per_L"] = row[f"P_centre_{ms}"] / mean_p
+        row[f"P_quarter_over_centre_{ms}"] = row[f"P_quarter_{ms}"] / row[f"P_centre_{ms}"]
+    row["P_centre_over_J_per_L_theory"] = 4.0 / math.pi
+    row["P_quarter_over_centre_theory"] = math.sqrt(3.0) / 2.0
+    k = int(np.argmax(pc))
+    row["p_centre_peak_Pa"] = float(pc[k])
+    row["t_p_centre_peak_ms"] = float(tp[k]) * 1e3
+    row["p_centre_peak_impulse_Pa_s"] = float(pc[k]) * float(np.median(np.diff(tp)))
+    row["rho_c_V_Pa"] = RHO * SOUND_SPEED * v  # acoustic bound, not reached by a physical peak
+    row["rho_V_l0_over_dt_Pa"] = RHO * v * L0 / float(np.median(np.diff(tp)))
+    return row
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
         "--cases",
         default="seed,sweep",
         help="comma list of seed, sweep, stiff (the seed case with a 1000 times stiffer plate), "
-        "corotational (the 30 m/s sweep case with a co-rotational, large-rotation member)",
+        "corotational (the 30 m/s sweep case with a co-rotational, large-rotation member), "
+        "pressure (the seed case to t_c + 1 ms for the plate pressure probes; its own CSV, "
+        "plate_water_entry_pressure.csv), pressure_stiff (the same, E x 1000)",
     )
     case_runner.add_run_options(ap)
     a = ap.parse_args(argv)
@@ -168,6 +240,41 @@ def main(argv: list[str] | None = None) -> int:
             if v == SEED_SPEED and "seed" in which:
                 continue  # the seed run is the sweep's 6.28 m/s case
             plan.append((v, contact_time(v) + SWEEP_AFTER_CONTACT, False, False))
+    pressure_cases = [c for c in ("pressure", "pressure_stiff") if c in which]
+    prows = []
+    for c in pressure_cases:
+        stiff = c == "pressure_stiff"
+        out = RESULTS_DIR / f"plate_water_entry_v6.28_probes{'_stiff' if stiff else ''}.h5"
+        status = case_runner.case_status(
+            SCENARIO,
+            out,
+            overrides(SEED_SPEED, PRESSURE_END, rigid=stiff),
+            a.threads,
+            a.analyse_only,
+            a.retry_failed,
+            tag=c,
+        )
+        print(f"{c}: {status}")
+        if status == "finished":
+            prows.append({**analyse_pressure(out, SEED_SPEED), "case": c})
+        which.discard(c)
+    for r in prows:
+        print(
+            ", ".join(
+                f"{k} = {v:.4g}" if isinstance(v, float) else f"{k} = {v}" for k, v in r.items()
+            )
+        )
+    if prows:
+        write_csv(
+            prows,
+            RESULTS_DIR / "plate_water_entry_pressure.csv",
+            list(prows[0]),
+            comment="validation/plate_water_entry.py --cases pressure[,pressure_stiff]: "
+            "plate-centre and quarter-span pressure (attached probes on the wetted face); "
+            "P = int p dt in Pa s from t = 0 to t_c + tau, ref rho V sqrt((L/2)^2 - x^2)",
+        )
+    if pressure_cases and not which:
+        return 0
     rows = []
     if corot:
         plan.append((30.0, contact_time(30.0) + SWEEP_AFTER_CONTACT, False, False))

@@ -32,7 +32,7 @@ from mpsfem.fluid_methods import (
     create_fluid_solver,
 )
 from mpsfem.fluid_mps.geometry import lattice_notes
-from mpsfem.fluid_mps.probes import PROBE_UNITS, probe_unit
+from mpsfem.fluid_mps.probes import PROBE_UNITS, attach_pressure_probes, probe_unit
 from mpsfem.progress import Progress
 from mpsfem.results.checkpoint import (
     default_checkpoint_path,
@@ -146,6 +146,7 @@ def run_fluid(
     probes = [
         p for p in sc.probes if p.kind in ("pressure", "wave_gauge", "front", "force", "energy")
     ]
+    attached = attach_pressure_probes(probes, solver.patches, solver.pos, solver.kind, solver.l0)
     interval = {
         p.name: (p.interval if p.interval is not None else outs.probe_interval) for p in probes
     }
@@ -175,7 +176,8 @@ def run_fluid(
         results = ResultsFile.create(out, loaded.text, loaded.overrides, resolved, xdmf=sidecar)
     for p in probes:
         unit, comps = _probe_meta(p, solver.dim)
-        results.add_probe(p.name, p.kind, unit, comps, getattr(p, "position", None))
+        at = {"attach": p.attach} if p.name in attached else None
+        results.add_probe(p.name, p.kind, unit, comps, getattr(p, "position", None), at)
     _declare_budget(results, solver)
 
     def checkpoint() -> Path:
@@ -205,7 +207,8 @@ def run_fluid(
         for p in probes:
             take, off = take_sample(last_t, p.name, t, next_probe[p.name], interval[p.name], force)
             if take:
-                results.append_probe(p.name, t, solver.probe_value(p))
+                val = attached[p.name].value(solver.p) if p.name in attached else None
+                results.append_probe(p.name, t, solver.probe_value(p) if val is None else val)
                 next_probe[p.name] = next_due(t, interval[p.name])
                 extra += [f"probes/{p.name}"] if off else []
         snap = outs.snapshot_interval
@@ -558,6 +561,7 @@ def _fluid_side(
         if p.kind in fluid_kinds and not (p.kind == "energy" and p.target in slices)
     ]
     member_energy = [p for p in sc.probes if p.kind == "energy" and p.target in slices]
+    attached = attach_pressure_probes(probes, solver.patches, solver.pos, solver.kind, solver.l0)
     disp = [
         DisplacementProbe(p, mesh, slices[p.target]) for p in sc.probes if p.kind == "displacement"
     ]
@@ -604,7 +608,8 @@ def _fluid_side(
         results = ResultsFile.create(out, loaded.text, loaded.overrides, resolved, xdmf=sidecar)
     for p in probes:
         unit, comps = _probe_meta(p, solver.dim)
-        results.add_probe(p.name, p.kind, unit, comps, getattr(p, "position", None))
+        at = {"attach": p.attach} if p.name in attached else None
+        results.add_probe(p.name, p.kind, unit, comps, getattr(p, "position", None), at)
     for p in member_energy:
         results.add_probe(
             p.name,
@@ -663,6 +668,8 @@ def _fluid_side(
                 val = d.value(scheme.d)
             elif p.kind == "energy" and p.target in slices:
                 val = _member_energy(structure, p.target)
+            elif p.name in attached:
+                val = attached[p.name].value(solver.p)
             else:
                 val = fluid.probe_value(p)
             results.append_probe(p.name, t, val)

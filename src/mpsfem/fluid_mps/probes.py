@@ -8,6 +8,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from mpsfem.scenario.base import InvalidValue
+
 # probe kind -> (unit in 3D, components); in 2D forces and energies are per metre of width
 PROBE_UNITS = {
     "pressure": ("Pa", ()),
@@ -46,6 +48,101 @@ def pressure_at(pos, p, kind, point, radius):
             acc += p[i]
             cnt += 1
     return acc / cnt if cnt > 0 else np.nan
+
+
+@njit(cache=True)
+def particles_near(pos, kind, start, stop, point, radius):
+    """Indices (int32) of the pressure-carrying boundary particles (WALL 1, STRUCTURE 3) of
+    ``start:stop`` within ``radius`` (m) of ``point`` (m)."""
+    r2 = radius * radius
+    dim = pos.shape[1]
+    out = np.empty(stop - start, np.int32)
+    n = 0
+    for i in range(start, stop):
+        k = kind[i]
+        if k != 1 and k != 3:
+            continue
+        d2 = 0.0
+        for a in range(dim):
+            dx = pos[i, a] - point[a]
+            d2 += dx * dx
+        if d2 <= r2:
+            out[n] = i
+            n += 1
+    return out[:n]
+
+
+@njit(cache=True)
+def mean_pressure(p, index):
+    """Mean pressure (Pa) of the particles ``index``."""
+    acc = 0.0
+    for c in range(index.shape[0]):
+        acc += p[index[c]]
+    return acc / index.shape[0]
+
+
+class AttachedPressure:
+    """A pressure probe that rides with a wall or structure member (``attach``).
+
+    At set-up (the particles in their reference configuration, t = 0) it takes the
+    pressure-carrying boundary particles (WALL or STRUCTURE kind, the layer whose pressure is
+    the load) of the attached patches within ``radius`` of ``position``; its value at any later
+    time is the mean pressure (Pa) of those same particles, which move with the wall's motion
+    or with the member (rigid support motion plus elastic deflection). Instantaneous, like a
+    fixed pressure probe: sample every step (``interval`` <= dt) to integrate an impulse.
+
+    ``patches``: the solver's patches (``.name``, ``.start``, ``.stop``); a member ``m`` has
+    the two faces ``m+`` and ``m-`` (``attach = "m"`` takes both, ``"m-"`` one face)."""
+
+    def __init__(self, probe, patches, pos, kind, l0: float) -> None:
+        self.name = probe.name
+        names = {pt.name: pt for pt in patches}
+        target = probe.attach
+        chosen = [names[target]] if target in names else []
+        chosen += [names[f"{target}{s}"] for s in "+-" if f"{target}{s}" in names]
+        if not chosen:
+            faces = sorted(names) + sorted({n[:-1] for n in names if n[-1:] in "+-"})
+            raise InvalidValue(
+                f"probes.{probe.name}.attach",
+                f"names no wall or structure member face of this run; have {faces}",
+                target,
+            )
+        radius = probe.radius or l0
+        point = np.asarray(probe.position, float)
+        found = [particles_near(pos, kind, pt.start, pt.stop, point, radius) for pt in chosen]
+        self.index = np.concatenate(found).astype(np.int32)
+        if self.index.size == 0:
+            gaps = [
+                float(np.min(np.linalg.norm(pos[pt.start : pt.stop] - point, axis=1)))
+                for pt in chosen
+                if pt.stop > pt.start
+            ]
+            gap = f"; the nearest particle of it is {min(gaps):.4g} m away" if gaps else ""
+            raise InvalidValue(
+                f"probes.{probe.name}.position",
+                f"has no pressure-layer particle of {target!r} within radius {radius:.4g} m "
+                f"(the point is off the {target!r} surface in its reference configuration"
+                f"{gap}); give a point on its wetted face or a larger radius",
+                list(probe.position),
+            )
+
+    def value(self, p: np.ndarray) -> float:
+        """Mean pressure of the attached particles, Pa."""
+        return float(mean_pressure(p, self.index))
+
+    def where(self, pos: np.ndarray) -> np.ndarray:
+        """Current centroid of the attached particles, m."""
+        return pos[self.index].mean(axis=0)
+
+
+def attach_pressure_probes(probes, patches, pos, kind, l0: float) -> dict[str, AttachedPressure]:
+    """:class:`AttachedPressure` of every ``pressure`` probe with ``attach``, by probe name;
+    call with the particles in their reference configuration (before a restart's state)."""
+    return {
+        p.name: AttachedPressure(p, patches, pos, kind, l0)
+        for p in probes
+        if p.kind == "pressure" and getattr(p, "attach", None)
+    }
 
 
 @njit(cache=True)

@@ -36,11 +36,21 @@ class _Probe(Section):
 
 
 class PressureProbe(_Probe):
-    """Pressure at a point: mean over fluid and pressure-wall particles within a radius."""
+    """Pressure at a point: mean over fluid and pressure-wall particles within a radius; with
+    ``attach``, over the attached wall's or member's pressure-layer particles, riding with it."""
 
     kind: Literal["pressure"]
     position: Vector = Field(description="gauge point, m; inside the fluid domain")
     radius: float | None = Field(None, gt=0.0, description="averaging radius, m (default 1.0 l0)")
+    attach: str | None = Field(
+        None,
+        min_length=1,
+        description="wall (fluid.walls[].name) or structure member the probe rides with: a "
+        "member 'm' takes both faces, 'm+' / 'm-' one face. Then ``position`` is in the "
+        "reference configuration (t = 0) and the value is the mean pressure of that patch's "
+        "pressure-layer particles within ``radius`` of it there, followed as they move (rigid "
+        "motion and elastic deflection); unset: a fixed point (fluid and wall particles)",
+    )
 
 
 class WaveGaugeProbe(_Probe):

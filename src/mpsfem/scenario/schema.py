@@ -94,6 +94,20 @@ class Scenario(Section):
                         f"names no wall patch or structure member; have {sorted(walls)}",
                         p.target,
                     )
+                attach = getattr(p, "attach", None)
+                member_names = {m.name for m in self.structure.members} if self.structure else set()
+                face = attach is not None and attach[-1:] in ("+", "-")
+                if (
+                    attach is not None
+                    and attach not in walls
+                    and not (face and attach[:-1] in member_names)
+                ):
+                    raise InvalidValue(
+                        f"probes[{i}].attach",
+                        f"names no wall or structure member (a member's face: its name + '+' "
+                        f"or '-'); have {sorted(walls)}",
+                        attach,
+                    )
         members = {m.name for m in self.structure.members} if self.structure else set()
         for i, p in enumerate(self.probes):
             if p.kind == "displacement" and p.target not in members:

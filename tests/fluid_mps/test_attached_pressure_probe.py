@@ -1,0 +1,175 @@
+"""Pressure probes that ride with a wall or member (``[[probes]] attach``).
+
+Case: still water 0.3 m deep in a 0.3 m wide tank (l0 = 0.02 m) whose left side wall slides down
+along itself at U = 0.2 m/s (after a 0.05 s constant-acceleration ramp): the water stays at rest
+and hydrostatic, so a probe riding on the wall at reference height y0 reads
+rho g (H - y0 + s(t)), s the wall's travel. Tolerance: half of rho g l0 for 0.025 s means (the
+pressure layer stands for the wall face half a spacing away: its depth is known to l0/2); the
+measured error is at most 0.34 rho g l0. Still wall: the riding probe is the fixed probe on the
+same particles (bit-identical), and within 0.25 rho g l0 of the fixed probe that also averages
+the adjacent fluid."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from mpsfem.scenario.base import ScenarioError
+from mpsfem.scenario.loader import load_scenario, load_scenario_text
+from mpsfem.simulation import run_fluid
+
+ROOT = Path(__file__).resolve().parents[2]
+RHO, G, H, L0 = 1000.0, 9.81, 0.3, 0.02
+U, RAMP = 0.2, 0.05  # wall speed (m/s), ramp time (s)
+
+CASE = """
+title = "a side wall sliding down along itself in still water"
+[run]
+end_time = 0.25
+progress = false
+[output]
+probe_interval = 0
+snapshot_interval = 0
+checkpoint_interval = 0
+[fluid]
+dim = 2
+spacing = 0.02
+hydrostatic_start = true
+gravity = [0.0, -9.81]
+[fluid.time_step]
+courant = 0.2
+dt_max = 5e-4
+[[fluid.blocks]]
+lower = [0.0, 0.0]
+upper = [0.3, 0.3]
+[[fluid.walls]]
+name = "floor"
+shape = "box"
+lower = [0.0, -0.1]
+upper = [0.3, 0.0]
+[[fluid.walls]]
+name = "right"
+shape = "box"
+lower = [0.3, -0.1]
+upper = [0.4, 0.4]
+[[fluid.walls]]
+name = "left"
+shape = "box"
+lower = [-0.1, -0.1]
+upper = [0.0, 0.5]
+[fluid.walls.motion]
+kind = "{kind}"
+direction = [0.0, -1.0]
+{file}
+[[probes]]
+name = "riding"
+kind = "pressure"
+attach = "{attach}"
+position = [{x}, 0.15]
+radius = 0.03
+[[probes]]
+name = "fixed"
+kind = "pressure"
+position = [0.0, 0.15]
+radius = 0.03
+[[probes]]
+name = "riding_one"
+kind = "pressure"
+attach = "left"
+position = [-0.01, 0.15]
+radius = 0.015
+[[probes]]
+name = "fixed_one"
+kind = "pressure"
+position = [-0.01, 0.15]
+radius = 0.015
+"""
+
+
+def travel(t: np.ndarray) -> np.ndarray:
+    """The wall's downward travel (m): constant acceleration to U over RAMP, then U."""
+    return np.where(t < RAMP, 0.5 * U * t * t / RAMP, 0.5 * U * RAMP + U * (t - RAMP))
+
+
+def scenario(tmp: Path, moving: bool, attach: str = "left", x: float = 0.0):
+    rows = [(t, 0.5 * U * t * t / RAMP) for t in np.linspace(0.0, RAMP, 11)]
+    rows.append((1.0, float(travel(np.array(1.0)))))
+    (tmp / "ramp.csv").write_text("".join(f"{float(a)!r},{float(b)!r}\n" for a, b in rows))
+    text = CASE.format(
+        kind="table" if moving else "none",
+        file='file = "ramp.csv"' if moving else "",
+        attach=attach,
+        x=x,
+    )
+    (tmp / "case.toml").write_text(text)
+    return load_scenario(tmp / "case.toml")
+
+
+def series(path: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    with h5py.File(path, "r") as h5:
+        return {n: (g["time"][()], g["value"][()]) for n, g in h5["probes"].items()}
+
+
+@pytest.fixture(scope="module")
+def moving(tmp_path_factory) -> dict:
+    tmp = tmp_path_factory.mktemp("sliding")
+    run_fluid(scenario(tmp, True), tmp / "out.h5")
+    return series(tmp / "out.h5")
+
+
+def test_riding_probe_reads_the_hydrostatic_pressure_at_its_moving_depth(moving):
+    t, p = moving["riding"]
+    y0 = 0.15  # the mean height of its particles at t = 0 (the lattice rows 0.13 .. 0.17)
+    expected = RHO * G * (H - y0 + travel(t))
+    assert p[0] == pytest.approx(RHO * G * (H - y0), rel=1e-9)  # the hydrostatic start
+    errors = []
+    for a in np.arange(RAMP, 0.25, 0.025):
+        s = (t >= a) & (t < a + 0.025)
+        errors.append(np.mean(p[s] - expected[s]) / (RHO * G * L0))
+    print("WINDOW_ERRORS (rho g l0):", np.round(errors, 3))
+    assert np.max(np.abs(errors)) < 1.0
+    # it follows the wall: after two spacings of travel it reads > rho g l0 more than a probe
+    # left at its starting point
+    late = t > 0.2
+    tf, pf = moving["fixed"]
+    assert np.mean(p[late]) - np.nanmean(pf[tf > 0.2]) > RHO * G * L0
+
+
+def test_still_wall_riding_probe_matches_the_fixed_probe(tmp_path):
+    run_fluid(scenario(tmp_path, False), tmp_path / "out.h5")
+    s = series(tmp_path / "out.h5")
+    # the same single wall particle: identical
+    np.testing.assert_array_equal(s["riding_one"][1], s["fixed_one"][1])
+    # the wall's particles alone against the wall's and the adjacent fluid's
+    diff = s["riding"][1] - s["fixed"][1]
+    assert abs(np.mean(diff)) < 0.25 * RHO * G * L0
+
+
+def test_unknown_attach_target_is_refused(tmp_path):
+    with pytest.raises(ScenarioError, match=r"probes\[0\]\.attach.*'nowhere'"):
+        scenario(tmp_path, True, attach="nowhere")
+
+
+def test_point_off_the_wall_is_refused_before_the_run(tmp_path):
+    sc = scenario(tmp_path, True, x=0.15)  # mid-tank: no wall particle within 0.03 m
+    with pytest.raises(ValueError, match=r"probes\.riding\.position.*no pressure-layer"):
+        run_fluid(sc, tmp_path / "out.h5")
+    assert not (tmp_path / "out.h5").exists() or "probes/riding" not in h5py.File(
+        tmp_path / "out.h5", "r"
+    )
+
+
+def test_member_faces_are_accepted_and_other_names_refused():
+    text = (ROOT / "scenarios" / "plate_water_entry_2d.toml").read_text()
+    sc = load_scenario_text(text).scenario
+    assert {p.attach for p in sc.probes if p.kind == "pressure"} == {"plate-"}
+    for bad in ("plateX", "plate", "tank+"):
+        wrong = text.replace('attach = "plate-"', f'attach = "{bad}"', 1)
+        if bad == "plate":  # a member's name (both faces) is allowed
+            load_scenario_text(wrong)
+            continue
+        with pytest.raises(ScenarioError, match=r"attach"):
+            load_scenario_text(wrong)
