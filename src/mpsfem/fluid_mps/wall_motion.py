@@ -21,12 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from mpsfem.fluid_mps.wavemaker import RegularPaddle, SolitaryPaddle
-from mpsfem.scenario.base import COORDINATE_LIMIT
 from mpsfem.scenario.fluid import WallMotion
-
-#: largest displacement a motion table may give, m (the scenario's coordinate bound,
-#: scenario/limits.py: a paddle moved 1e300 m ran and "finished" with the water untouched)
-MAX_TABLE_DISPLACEMENT = COORDINATE_LIMIT
+from mpsfem.scenario.motion import read_motion_table
 
 
 class MotionLaw:
@@ -57,42 +53,8 @@ class MotionLaw:
         self.spec = spec
         self.paddle: SolitaryPaddle | RegularPaddle | None = None
         if spec.kind == "table":
-            path = Path(spec.file)
-            if base_dir is not None and not path.is_absolute():
-                path = base_dir / path
-            if not path.is_file():
-                raise ValueError(f"{key}.file = {spec.file!r}: no such file")
-            try:
-                data = np.loadtxt(path, delimiter=",", comments="#", ndmin=2)
-            except ValueError as exc:
-                raise ValueError(
-                    f"{key}.file = {spec.file!r}: not a table of numbers ({exc})"
-                ) from None
-            if data.shape[0] < 2 or data.shape[1] < 2:
-                raise ValueError(
-                    f"{key}.file = {spec.file!r}: needs two columns (t s, x m) and at least two "
-                    f"rows; it has {data.shape[0]} rows of {data.shape[1]} columns"
-                )
-            bad = np.flatnonzero(~np.isfinite(data[:, :2]).all(axis=1))
-            if bad.size:
-                raise ValueError(
-                    f"{key}.file = {spec.file!r}: data row {bad[0] + 1} {data[bad[0], :2].tolist()} "
-                    "is not finite (nan or inf); every t and x must be a finite number"
-                )
-            far = np.flatnonzero(np.abs(data[:, 1]) > MAX_TABLE_DISPLACEMENT)
-            if far.size:
-                raise ValueError(
-                    f"{key}.file = {spec.file!r}: data row {far[0] + 1} moves the wall by "
-                    f"x = {data[far[0], 1]:.6g} m; allowed |x| <= {MAX_TABLE_DISPLACEMENT:g} m "
-                    "(the scene's coordinate bound): a wall that far leaves the fluid behind"
-                )
+            data = read_motion_table(spec.file, base_dir, key, body="wall", coord="x")
             step = np.diff(data[:, 0])
-            if np.any(step <= 0):
-                r = int(np.flatnonzero(step <= 0)[0]) + 2
-                raise ValueError(
-                    f"{key}.file = {spec.file!r}: t must increase from row to row (data row {r}: "
-                    f"t = {data[r - 1, 0]} after {data[r - 2, 0]})"
-                )
             self.t_table, self.s_table = data[:, 0].copy(), data[:, 1].copy()
             self.v_table = np.diff(self.s_table) / step
             self._knot_eps = 1e-9 * float(step.min())

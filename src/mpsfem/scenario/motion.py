@@ -183,7 +183,7 @@ class RigidTranslation:
             if spec.points is not None:
                 data = np.asarray(spec.points, dtype=np.float64)
             else:
-                data = _read_table(spec.file, base_dir, key)
+                data = read_motion_table(spec.file, base_dir, key)
             self.t_table, self.s_table = data[:, 0].copy(), data[:, 1].copy()
             step = np.diff(self.t_table)
             self.v_table = np.diff(self.s_table) / step
@@ -247,7 +247,12 @@ class RigidTranslation:
         return self.step_acceleration(t, h) * self.direction
 
 
-def _read_table(file: str, base_dir: Path | str | None, key: str) -> np.ndarray:
+def read_motion_table(
+    file: str, base_dir: Path | str | None, key: str, body: str = "member", coord: str = "s"
+) -> np.ndarray:
+    """The (t s, displacement m) rows of a motion table, checked: two finite columns, at least
+    two rows, t increasing, |displacement| within the coordinate bound. Errors name ``key``,
+    the file, the row and the ``body`` (member or wall) it moves; ``coord`` names the column."""
     path = Path(file)
     if base_dir is not None and not path.is_absolute():
         path = Path(base_dir) / path
@@ -259,20 +264,21 @@ def _read_table(file: str, base_dir: Path | str | None, key: str) -> np.ndarray:
         raise ValueError(f"{key}.file = {file!r}: not a table of numbers ({exc})") from None
     if data.shape[0] < 2 or data.shape[1] < 2:
         raise ValueError(
-            f"{key}.file = {file!r}: needs two columns (t s, s m) and at least two rows; it has "
-            f"{data.shape[0]} rows of {data.shape[1]} columns"
+            f"{key}.file = {file!r}: needs two columns (t s, {coord} m) and at least two rows; "
+            f"it has {data.shape[0]} rows of {data.shape[1]} columns"
         )
     bad = np.flatnonzero(~np.isfinite(data[:, :2]).all(axis=1))
     if bad.size:
         raise ValueError(
-            f"{key}.file = {file!r}: data row {bad[0] + 1} is not finite; every t and s must be "
-            "a finite number"
+            f"{key}.file = {file!r}: data row {bad[0] + 1} {data[bad[0], :2].tolist()} is not "
+            f"finite (nan or inf); every t and {coord} must be a finite number"
         )
     far = np.flatnonzero(np.abs(data[:, 1]) > COORDINATE_LIMIT)
     if far.size:
         raise ValueError(
-            f"{key}.file = {file!r}: data row {far[0] + 1} moves the member by "
-            f"s = {data[far[0], 1]:.6g} m; allowed |s| <= {COORDINATE_LIMIT:g} m"
+            f"{key}.file = {file!r}: data row {far[0] + 1} moves the {body} by "
+            f"{coord} = {data[far[0], 1]:.6g} m; allowed |{coord}| <= {COORDINATE_LIMIT:g} m "
+            "(the scene's coordinate bound)"
         )
     step = np.diff(data[:, 0])
     if np.any(step <= 0):
