@@ -39,7 +39,7 @@ from mpsfem.coupler.participant import InterfaceMesh, as_interface_mesh
 from mpsfem.fluid_mps import wall_boundary
 from mpsfem.fluid_mps.plate_surface import PlateSurface
 from mpsfem.fluid_mps.solver import FluidRunError, FluidSolver
-from mpsfem.fluid_mps.structure_surface import StructureSurface
+from mpsfem.fluid_mps.structure_surface import InterfaceMotionInputs, StructureSurface
 from mpsfem.fluid_mps.surface_freeze import SurfaceFreeze
 from mpsfem.fluid_mps.thin_member import ThinMemberFilter
 from mpsfem.fluid_mps.thin_plate import ThinPlateFilter
@@ -48,7 +48,7 @@ from mpsfem.scenario.fluid import FluidSection
 __all__ = ["FluidParticipant"]
 
 
-class FluidParticipant:
+class FluidParticipant(InterfaceMotionInputs):
     """The MPS fluid around structure members (2D beams or 3D plates), for the coupler.
 
     Parameters
@@ -146,21 +146,6 @@ class FluidParticipant:
     def interface(self) -> InterfaceMesh:
         """Pressure-layer particles of every member face, reference configuration."""
         return self._mesh
-
-    def write(self, name: str, array: np.ndarray) -> None:
-        """``"displacement"`` (m) or ``"velocity"`` (m/s), (n_interface, dim), for the end of
-        the next step."""
-        arr = np.array(array, dtype=np.float64)
-        if arr.shape != self._d.shape:
-            raise ValueError(f"fluid {name} of shape {arr.shape}, expected {self._d.shape}")
-        if not np.isfinite(arr).all():
-            raise FloatingPointError(f"non-finite {name} written to the fluid")
-        if name == "displacement":
-            self._d = arr
-        elif name == "velocity":
-            self._v = arr
-        else:
-            raise KeyError(f"the fluid takes 'displacement' or 'velocity', not {name!r}")
 
     def read(self, name: str) -> np.ndarray:
         """``"forces"``: fluid on structure at the interface points, N (N/m in 2D)."""

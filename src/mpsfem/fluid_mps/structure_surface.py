@@ -59,10 +59,39 @@ from mpsfem.fluid_mps.particle_kinds import STRUCTURE, STRUCTURE_DUMMY
 from mpsfem.fluid_mps.thin_member import body_half
 from mpsfem.scenario.fluid import FluidSection
 
-__all__ = ["MemberFrame", "SideLayout", "StructureSurface", "members_from_interface"]
+__all__ = [
+    "InterfaceMotionInputs",
+    "MemberFrame",
+    "SideLayout",
+    "StructureSurface",
+    "members_from_interface",
+]
 
 #: fluid particles closer than this fraction of l0 to a face (or a free end) are not generated
 FACE_MARGIN = 0.5 - 1e-6
+
+
+class InterfaceMotionInputs:
+    """The fluid participants' ``write``: the structure's interface displacement and velocity
+    for the end of the next step, checked (shape, finiteness) and kept in ``_d`` / ``_v``."""
+
+    _d: np.ndarray
+    _v: np.ndarray
+
+    def write(self, name: str, array: np.ndarray) -> None:
+        """``"displacement"`` (m) or ``"velocity"`` (m/s), (n_interface, dim), for the end of
+        the next step."""
+        arr = np.array(array, dtype=np.float64)
+        if arr.shape != self._d.shape:
+            raise ValueError(f"fluid {name} of shape {arr.shape}, expected {self._d.shape}")
+        if not np.isfinite(arr).all():
+            raise FloatingPointError(f"non-finite {name} written to the fluid")
+        if name == "displacement":
+            self._d = arr
+        elif name == "velocity":
+            self._v = arr
+        else:
+            raise KeyError(f"the fluid takes 'displacement' or 'velocity', not {name!r}")
 
 
 @dataclass(frozen=True)

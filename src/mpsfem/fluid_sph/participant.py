@@ -39,7 +39,7 @@ import numpy as np
 
 from mpsfem.coupler.participant import InterfaceMesh, as_interface_mesh
 from mpsfem.fluid_mps.geometry import default_dummy_layers
-from mpsfem.fluid_mps.structure_surface import StructureSurface
+from mpsfem.fluid_mps.structure_surface import InterfaceMotionInputs, StructureSurface
 from mpsfem.fluid_mps.thin_member import ThinMemberFilter
 from mpsfem.fluid_sph.solver import DeltaSPHSolver, SPHRunError
 from mpsfem.scenario.fluid import FluidSection
@@ -48,7 +48,7 @@ from mpsfem.scenario.fluid_sph import DeltaSPHSection
 __all__ = ["SPHParticipant"]
 
 
-class SPHParticipant:
+class SPHParticipant(InterfaceMotionInputs):
     """The δ-SPH fluid around 2D beam members, for the coupler.
 
     Parameters as :class:`mpsfem.fluid_mps.participant.FluidParticipant`: ``fluid`` the
@@ -121,21 +121,6 @@ class SPHParticipant:
     def interface(self) -> InterfaceMesh:
         """Pressure-layer particles of every member face, reference configuration."""
         return self._mesh
-
-    def write(self, name: str, array: np.ndarray) -> None:
-        """``"displacement"`` (m) or ``"velocity"`` (m/s), (n_interface, 2), for the end of the
-        next step."""
-        arr = np.array(array, dtype=np.float64)
-        if arr.shape != self._d.shape:
-            raise ValueError(f"fluid {name} of shape {arr.shape}, expected {self._d.shape}")
-        if not np.isfinite(arr).all():
-            raise FloatingPointError(f"non-finite {name} written to the fluid")
-        if name == "displacement":
-            self._d = arr
-        elif name == "velocity":
-            self._v = arr
-        else:
-            raise KeyError(f"the fluid takes 'displacement' or 'velocity', not {name!r}")
 
     def read(self, name: str) -> np.ndarray:
         """``"forces"``: fluid on structure at the interface points over the last step, N/m."""
