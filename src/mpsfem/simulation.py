@@ -32,7 +32,12 @@ from mpsfem.fluid_methods import (
     create_fluid_solver,
 )
 from mpsfem.fluid_mps.geometry import lattice_notes
-from mpsfem.fluid_mps.probes import PROBE_UNITS, attach_pressure_probes, probe_unit
+from mpsfem.fluid_mps.probes import (
+    PROBE_UNITS,
+    AttachedPressureLedger,
+    attach_pressure_probes,
+    probe_unit,
+)
 from mpsfem.progress import Progress
 from mpsfem.results.checkpoint import (
     default_checkpoint_path,
@@ -147,6 +152,8 @@ def run_fluid(
         p for p in sc.probes if p.kind in ("pressure", "wave_gauge", "front", "force", "energy")
     ]
     attached = attach_pressure_probes(probes, solver.patches, solver.pos, solver.kind, solver.l0)
+    ledger = AttachedPressureLedger(attached)  # accumulated by every step; solver state
+    solver.attach_pressure_ledger(ledger)
     interval = {
         p.name: (p.interval if p.interval is not None else outs.probe_interval) for p in probes
     }
@@ -207,7 +214,7 @@ def run_fluid(
         for p in probes:
             take, off = take_sample(last_t, p.name, t, next_probe[p.name], interval[p.name], force)
             if take:
-                val = attached[p.name].value(solver.p) if p.name in attached else None
+                val = ledger.sample(p.name, solver.p, t) if p.name in attached else None
                 results.append_probe(p.name, t, solver.probe_value(p) if val is None else val)
                 next_probe[p.name] = next_due(t, interval[p.name])
                 extra += [f"probes/{p.name}"] if off else []
@@ -562,6 +569,8 @@ def _fluid_side(
     ]
     member_energy = [p for p in sc.probes if p.kind == "energy" and p.target in slices]
     attached = attach_pressure_probes(probes, solver.patches, solver.pos, solver.kind, solver.l0)
+    ledger = AttachedPressureLedger(attached)  # per fluid step; in the participant's state
+    solver.attach_pressure_ledger(ledger)
     disp = [
         DisplacementProbe(p, mesh, slices[p.target]) for p in sc.probes if p.kind == "displacement"
     ]
@@ -669,7 +678,7 @@ def _fluid_side(
             elif p.kind == "energy" and p.target in slices:
                 val = _member_energy(structure, p.target)
             elif p.name in attached:
-                val = attached[p.name].value(solver.p)
+                val = ledger.sample(p.name, solver.p, t)
             else:
                 val = fluid.probe_value(p)
             results.append_probe(p.name, t, val)

@@ -7,16 +7,25 @@ rho g (H - y0 + s(t)), s the wall's travel. Tolerance: half of rho g l0 for 0.02
 pressure layer stands for the wall face half a spacing away: its depth is known to l0/2); the
 measured error is at most 0.34 rho g l0. Still wall: the riding probe is the fixed probe on the
 same particles (bit-identical), and within 0.25 rho g l0 of the fixed probe that also averages
-the adjacent fluid."""
+the adjacent fluid.
+
+Interval averages (``average``, the default; ``probes.AttachedPressureLedger``: I = sum dt_n p_n,
+a sample (I(t) - I(t_prev)) / (t - t_prev)). References: a constant pressure averages to itself
+and a +A / -A step-to-step alternation to zero (exact identities, to rounding: 1e-12 relative);
+in a run, coarse averaged samples times their intervals sum to the impulse of the every-step
+instantaneous series (the same identity, 1e-12 relative); a run restarted from a checkpoint
+taken between two samples continues bit for bit (the ledger is solver state)."""
 
 from __future__ import annotations
 
 from pathlib import Path
+from types import SimpleNamespace
 
 import h5py
 import numpy as np
 import pytest
 
+from mpsfem.fluid_mps.probes import AttachedPressure, AttachedPressureLedger
 from mpsfem.scenario.base import ScenarioError
 from mpsfem.scenario.loader import load_scenario, load_scenario_text
 from mpsfem.simulation import run_fluid
@@ -81,6 +90,7 @@ kind = "pressure"
 attach = "left"
 position = [-0.01, 0.15]
 radius = 0.015
+average = false
 [[probes]]
 name = "fixed_one"
 kind = "pressure"
@@ -173,3 +183,129 @@ def test_member_faces_are_accepted_and_other_names_refused():
             continue
         with pytest.raises(ScenarioError, match=r"attach"):
             load_scenario_text(wrong)
+
+
+def ledger(average: bool = True) -> tuple[AttachedPressureLedger, np.ndarray]:
+    """A ledger of one probe on the three wall particles 1..3 of a five-particle row."""
+    pos = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0], [9.0, 0.0]])
+    kind = np.array([0, 1, 1, 1, 1], np.int8)
+    patch = SimpleNamespace(name="w", start=1, stop=5)
+    probe = SimpleNamespace(name="a", attach="w", position=[2.0, 0.0], radius=1.0, average=average)
+    a = AttachedPressure(probe, [patch], pos, kind, 1.0)
+    assert a.index.tolist() == [1, 2, 3]
+    return AttachedPressureLedger({"a": a}), np.zeros(5)
+
+
+def test_constant_pressure_reads_the_same_averaged_or_not():
+    led, p = ledger()
+    p[1:4] = 1234.5
+    p[4] = -7.0e6  # a particle outside the probe: ignored
+    assert led.sample("a", p, 0.0) == 1234.5  # the first sample: instantaneous
+    t = 0.0
+    for dt in (1e-4, 3e-4, 2.5e-4, 7e-5):
+        led.accumulate(p, dt)
+        t += dt
+    assert led.sample("a", p, t) == pytest.approx(1234.5, rel=1e-12)
+    assert led.impulse("a") == pytest.approx(1234.5 * t, rel=1e-12)
+    assert led.sample("a", p, t) == 1234.5  # again at the same time: instantaneous
+
+
+def test_alternating_pressure_averages_out_but_not_instantaneously():
+    inst, _ = ledger(average=False)
+    led, p = ledger()
+    led.sample("a", p, 0.0)
+    inst.sample("a", p, 0.0)
+    t, amp, dt = 0.0, 5.0e4, 2e-4
+    for n in range(10):  # five +A / -A pairs of equal steps
+        p[1:4] = amp if n % 2 == 0 else -amp
+        led.accumulate(p, dt)
+        inst.accumulate(p, dt)
+        t += dt
+    assert abs(led.sample("a", p, t)) < 1e-12 * amp
+    assert inst.sample("a", p, t) == -amp  # average = false: the last step's value
+
+
+def test_average_false_needs_attach():
+    text = scenario_text().replace('name = "fixed"\n', 'name = "fixed"\naverage = false\n', 1)
+    with pytest.raises(ScenarioError, match=r"average.*attach"):
+        load_scenario_text(text)
+
+
+def scenario_text() -> str:
+    return CASE.format(kind="none", file="", attach="left", x=0.0)
+
+
+PROBES = """
+[[probes]]
+name = "coarse"
+kind = "pressure"
+attach = "left"
+position = [0.0, 0.15]
+radius = 0.03
+interval = 0.01
+[[probes]]
+name = "every_step"
+kind = "pressure"
+attach = "left"
+position = [0.0, 0.15]
+radius = 0.03
+interval = 0
+average = false
+"""
+
+
+def sliding(tmp: Path, sets=()):
+    loaded = scenario(tmp, True)
+    text = loaded.text + PROBES
+    return load_scenario_text(text, ["run.end_time=0.06", *sets], path=tmp / "case.toml")
+
+
+def test_coarse_averages_integrate_to_the_every_step_impulse(tmp_path):
+    run_fluid(sliding(tmp_path), tmp_path / "out.h5", log=lambda m: None)
+    s = series(tmp_path / "out.h5")
+    tc, pc = s["coarse"]
+    tn, pn = s["every_step"]
+    assert tc[-1] == tn[-1] == pytest.approx(0.06) and len(tn) > 10 * len(tc)
+    impulse_coarse = np.sum(np.diff(tc) * pc[1:])
+    impulse_steps = np.sum(np.diff(tn) * pn[1:])  # I = sum dt_n p(t_n), the step's end pressure
+    assert impulse_coarse == pytest.approx(impulse_steps, rel=1e-12)
+    # the averages are not the instantaneous samples at the same times (the signal varies)
+    at = np.searchsorted(tn, tc[1:])
+    assert np.max(np.abs(pc[1:] - pn[at])) > 0.0
+
+
+def test_restart_between_samples_is_bit_identical(tmp_path, monkeypatch):
+    """Restart from the run's own checkpoint at ~0.025 s, between the coarse probe's samples at
+    0.02 and 0.03 s (kept aside as it is written): the resumed run, which drops the samples
+    after it (truncate_after), takes them again bit for bit."""
+    import shutil
+
+    from mpsfem import simulation
+    from mpsfem.results.checkpoint import read_checkpoint
+
+    write = simulation.write_checkpoint
+    kept = tmp_path / "first.ckpt.h5"
+
+    def keep_first(path, *args, **kwargs):
+        out = write(path, *args, **kwargs)
+        if not kept.exists():
+            shutil.copy(out, kept)
+        return out
+
+    monkeypatch.setattr(simulation, "write_checkpoint", keep_first)
+    sets = ["output.checkpoint_interval=0.025"]
+    full, part = tmp_path / "full.h5", tmp_path / "part.h5"
+    run_fluid(sliding(tmp_path, sets), full, log=lambda m: None)
+    shutil.copy(full, part)
+    run_fluid(sliding(tmp_path, sets), part, restart=kept, log=lambda m: None)
+    a, b = series(full), series(part)
+    arrays, meta, _ = read_checkpoint(kept)
+    t_ckpt = meta["fluid"]["t"]
+    assert 0.025 <= t_ckpt < 0.03
+    # rows (I, t, I(t)) at the last sample of the attached probes in scenario order: riding,
+    # riding_one (every step), coarse
+    coarse = arrays["fluid"]["attached_pressure"][2]
+    assert coarse[1] == pytest.approx(0.02) and coarse[0] > coarse[2] > 0.0
+    for name in ("coarse", "every_step"):
+        assert a[name][0].tobytes() == b[name][0].tobytes()
+        assert a[name][1].tobytes() == b[name][1].tobytes()

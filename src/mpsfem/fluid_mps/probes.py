@@ -88,14 +88,16 @@ class AttachedPressure:
     pressure-carrying boundary particles (WALL or STRUCTURE kind, the layer whose pressure is
     the load) of the attached patches within ``radius`` of ``position``; its value at any later
     time is the mean pressure (Pa) of those same particles, which move with the wall's motion
-    or with the member (rigid support motion plus elastic deflection). Instantaneous, like a
-    fixed pressure probe: sample every step (``interval`` <= dt) to integrate an impulse.
+    or with the member (rigid support motion plus elastic deflection). With ``average`` (the
+    default) a sample is the mean of that pressure over the interval since the probe's previous
+    sample (:class:`AttachedPressureLedger`); without it the instantaneous value.
 
     ``patches``: the solver's patches (``.name``, ``.start``, ``.stop``); a member ``m`` has
     the two faces ``m+`` and ``m-`` (``attach = "m"`` takes both, ``"m-"`` one face)."""
 
     def __init__(self, probe, patches, pos, kind, l0: float) -> None:
         self.name = probe.name
+        self.average = bool(getattr(probe, "average", True))
         names = {pt.name: pt for pt in patches}
         target = probe.attach
         chosen = [names[target]] if target in names else []
@@ -133,6 +135,45 @@ class AttachedPressure:
     def where(self, pos: np.ndarray) -> np.ndarray:
         """Current centroid of the attached particles, m."""
         return pos[self.index].mean(axis=0)
+
+
+class AttachedPressureLedger:
+    """The running pressure impulses of the attached pressure probes and their interval means.
+
+    ``ledger[k] = (I_k, t_k, I_k(t_k))``: I_k the time integral of probe k's mean pressure since
+    the start, Pa s, accumulated every step as I += dt p(t + dt) (the step's end pressure, the
+    one its pressure force uses, as the force probes' ``patch_impulse``); t_k (s) and I_k(t_k) at
+    its last sample (t_k = -1 before the first: checkpoints hold finite numbers only). A sample at t > t_k with ``average`` is
+    (I(t) - I(t_k)) / (t - t_k) (the mean pressure over the interval, Pa), so samples integrate to
+    the impulse however coarse they are; at a first sample or at t = t_k the instantaneous value.
+    ``ledger`` is solver state (restored by implicit coupling, written to checkpoints)."""
+
+    def __init__(self, probes: dict[str, AttachedPressure]) -> None:
+        self.probes = list(probes.values())
+        self.row = {a.name: k for k, a in enumerate(self.probes)}
+        self.ledger = np.zeros((len(self.probes), 3))
+        self.ledger[:, 1] = -1.0  # no sample yet
+
+    def accumulate(self, p: np.ndarray, dt: float) -> None:
+        """Add dt (s) times each probe's mean pressure of ``p`` (the state at the step's end)."""
+        for k, a in enumerate(self.probes):
+            self.ledger[k, 0] += dt * mean_pressure(p, a.index)  # I = sum dt_n p_n
+
+    def impulse(self, name: str) -> float:
+        """Running pressure impulse of probe ``name`` since the start of the run, Pa s."""
+        return float(self.ledger[self.row[name], 0])
+
+    def sample(self, name: str, p: np.ndarray, t: float) -> float:
+        """The probe's value at time ``t`` (s), Pa: the interval mean with ``average``, else the
+        instantaneous mean pressure of ``p``; marks ``t`` as the probe's last sample."""
+        k = self.row[name]
+        row = self.ledger[k]
+        t_mark, i_mark = row[1], row[2]
+        row[1], row[2] = t, row[0]
+        a = self.probes[k]
+        if not a.average or t_mark < 0.0 or not t > t_mark:  # first sample, or no interval
+            return a.value(p)
+        return float((row[0] - i_mark) / (t - t_mark))
 
 
 def attach_pressure_probes(probes, patches, pos, kind, l0: float) -> dict[str, AttachedPressure]:

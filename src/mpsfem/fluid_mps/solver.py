@@ -279,6 +279,8 @@ class FluidSolver:
         self._integrals = np.zeros((len(self.patches), self.dim))
         #: per force probe, [time, impulse...] at its last sample (interval means, state)
         self.force_marks: dict[str, list[float]] = {}
+        #: attached pressure probes' running impulses (:meth:`attach_pressure_ledger`; state)
+        self.pressure_ledger: probes.AttachedPressureLedger | None = None
         #: fluid.pressure.wall_acceleration: each boundary particle's acceleration over the step
         #: (m/s^2) in its ghosts, from its velocity at the end of the previous step (state)
         self.wall_acceleration = spec.pressure.wall_acceleration
@@ -710,6 +712,8 @@ class FluidSolver:
         self.budget.finish(dt, None if self.exchange else self._pressure_integrals())
         if self.wall_acceleration:
             self.wall_vel_prev[:] = self.vel[self.n_fluid :]
+        if self.pressure_ledger is not None:  # I += dt p^{n+1}, as patch_impulse
+            self.pressure_ledger.accumulate(self.p, dt)
         self.t += dt
         self.step_count += 1
         self._check()
@@ -843,7 +847,17 @@ class FluidSolver:
             "momentum_ledger": self.budget.ledger,
             "patch_impulse": self.budget.patch_impulse,
             **({"wall_velocity": self.wall_vel_prev} if self.wall_acceleration else {}),
+            **self._ledger_state(),
         }
+
+    def attach_pressure_ledger(self, ledger: probes.AttachedPressureLedger) -> None:
+        """Accumulate the attached pressure probes' impulses every step from now on; call
+        before :meth:`restore` (its ``ledger`` array is then part of :meth:`state`)."""
+        self.pressure_ledger = ledger if ledger.probes else None
+
+    def _ledger_state(self) -> dict[str, np.ndarray]:
+        led = self.pressure_ledger
+        return {"attached_pressure": led.ledger} if led is not None else {}
 
     def meta(self) -> dict:
         return {
@@ -868,6 +882,7 @@ class FluidSolver:
             "momentum_ledger": self.budget.ledger,
             "patch_impulse": self.budget.patch_impulse,
             **({"wall_velocity": self.wall_vel_prev} if self.wall_acceleration else {}),
+            **self._ledger_state(),
         }
         for name in ("pos", "vel", "p", "grad_p", "lap_u", *budget):
             if name not in ("pos", "vel", "p") and name not in arrays:

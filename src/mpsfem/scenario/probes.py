@@ -51,6 +51,25 @@ class PressureProbe(_Probe):
         "pressure-layer particles within ``radius`` of it there, followed as they move (rigid "
         "motion and elastic deflection); unset: a fixed point (fluid and wall particles)",
     )
+    average: bool = Field(
+        True,
+        description="with attach only: true: the mean pressure since the probe's previous "
+        "sample (its pressure impulse over the interval, accumulated every step, divided by "
+        "the interval), so that samples integrate to the impulse however coarse the "
+        "sampling; false: the pressure of the last step (the earlier behaviour; it aliases "
+        "the step-to-step pressure noise)",
+    )
+
+    @model_validator(mode="after")
+    def _average_needs_attach(self) -> PressureProbe:
+        if not self.average and self.attach is None:
+            raise InvalidValue(
+                "average",
+                "applies to attached pressure probes only (set attach); a fixed pressure "
+                "probe always reports the pressure of the last step",
+                self.average,
+            )
+        return self
 
 
 class WaveGaugeProbe(_Probe):
