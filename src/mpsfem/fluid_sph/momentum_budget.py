@@ -35,45 +35,62 @@ def split_forces(pos, vel, rho, p, indptr, indices, n_fluid, h, inv_h, coef, rho
     nvis = 2.0 * (dim + 2)
     internal[:] = 0.0
     wall[:] = 0.0
-    d = np.zeros(3)  # r_i - r_j
-    g = np.zeros(3)  # grad_i W_ij V_j
-    gp = np.zeros(3)  # the pair's term of <grad p>_i
     for i in range(n_fluid):
         inv_rho = 1.0 / rho[i]
         vi = mass * inv_rho  # V_i = m / rho_i
         visc = mass * h * c0 * rho0 * inv_rho  # m alpha h c0 rho0 / rho_i, seed eq. 3
+        pi = p[i]
         for k in range(indptr[i], indptr[i + 1]):
             j = indices[k]
-            r2 = 0.0
-            for a in range(dim):
-                d[a] = pos[i, a] - pos[j, a]
-                r2 += d[a] * d[a]
+            d0 = pos[i, 0] - pos[j, 0]
+            d1 = pos[i, 1] - pos[j, 1]
+            d2 = pos[i, 2] - pos[j, 2] if dim == 3 else 0.0
+            r2 = d0 * d0 + d1 * d1 + d2 * d2
             f = gradient_factor_fast(np.sqrt(r2), inv_h, coef)
             if f == 0.0:
                 continue
             fv = f * mass / rho[j]  # F V_j; grad_i W_ij V_j = F r_ij V_j
-            for a in range(dim):
-                g[a] = fv * d[a]
-                gp[a] = 0.0
+            g0 = fv * d0
+            g1 = fv * d1
+            g2 = fv * d2
+            pj = p[j]
             fluid_j = j < n_fluid
-            for a in range(dim):
-                for b in range(dim):
-                    if corrected:  # seed eq. 12, M_j = M_i at a wall
-                        mj = M[j, a, b] if fluid_j else M[i, a, b]
-                        gp[a] += (p[i] * M[i, a, b] + p[j] * mj) * g[b]
-                    elif a == b:
-                        gp[a] += (p[i] + p[j]) * g[b]  # seed eq. 6
-            if fluid_j:
-                u_d = 0.0
-                for a in range(dim):
-                    u_d += (vel[j, a] - vel[i, a]) * d[a]
-                w = 0.5 * (alpha[i] + alpha[j]) * (-nvis * u_d / (r2 + eta2))  # seed eq. 3
-                for a in range(dim):
-                    internal[0, a] -= vi * gp[a]
-                    internal[1, a] += visc * w * g[a]
+            if corrected:  # (p_i M_i + p_j M_j) grad_i W_ij V_j, seed eq. 12 (M_j = M_i at a wall)
+                jj = j if fluid_j else i
+                gp0 = (pi * M[i, 0, 0] + pj * M[jj, 0, 0]) * g0
+                gp0 += (pi * M[i, 0, 1] + pj * M[jj, 0, 1]) * g1
+                gp1 = (pi * M[i, 1, 0] + pj * M[jj, 1, 0]) * g0
+                gp1 += (pi * M[i, 1, 1] + pj * M[jj, 1, 1]) * g1
+                gp2 = 0.0
+                if dim == 3:
+                    gp0 += (pi * M[i, 0, 2] + pj * M[jj, 0, 2]) * g2
+                    gp1 += (pi * M[i, 1, 2] + pj * M[jj, 1, 2]) * g2
+                    gp2 = (pi * M[i, 2, 0] + pj * M[jj, 2, 0]) * g0
+                    gp2 += (pi * M[i, 2, 1] + pj * M[jj, 2, 1]) * g1
+                    gp2 += (pi * M[i, 2, 2] + pj * M[jj, 2, 2]) * g2
             else:
-                for a in range(dim):
-                    wall[j - n_fluid, a] += vi * gp[a]
+                s = pi + pj  # seed eq. 6
+                gp0 = s * g0
+                gp1 = s * g1
+                gp2 = s * g2
+            if fluid_j:
+                u_d = (vel[j, 0] - vel[i, 0]) * d0 + (vel[j, 1] - vel[i, 1]) * d1
+                if dim == 3:
+                    u_d += (vel[j, 2] - vel[i, 2]) * d2
+                w = visc * 0.5 * (alpha[i] + alpha[j]) * (-nvis * u_d / (r2 + eta2))  # eq. 3
+                internal[0, 0] -= vi * gp0
+                internal[0, 1] -= vi * gp1
+                internal[1, 0] += w * g0
+                internal[1, 1] += w * g1
+                if dim == 3:
+                    internal[0, 2] -= vi * gp2
+                    internal[1, 2] += w * g2
+            else:
+                t = j - n_fluid
+                wall[t, 0] += vi * gp0
+                wall[t, 1] += vi * gp1
+                if dim == 3:
+                    wall[t, 2] += vi * gp2
 
 
 @njit(cache=True)
