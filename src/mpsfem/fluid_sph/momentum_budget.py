@@ -23,7 +23,7 @@ from mpsfem.fluid_sph.wendland import gradient_factor_fast
 
 
 @njit(cache=True)
-def split_forces(pos, vel, rho, p, indptr, indices, n_fluid, h, inv_h, coef, rho0, c0, mass,
+def split_forces(pos, vel, rho, vol, p, indptr, indices, n_fluid, h, inv_h, coef, rho0, c0, mass,
                  corrected, M, alpha, internal, wall):  # fmt: skip
     """The pair forces of one right-hand side, split (N; N/m in 2D): ``internal[0]`` the sum over
     fluid-fluid pressure pairs of -V_i <grad p>_i's share, ``internal[1]`` the same for the
@@ -37,7 +37,7 @@ def split_forces(pos, vel, rho, p, indptr, indices, n_fluid, h, inv_h, coef, rho
     wall[:] = 0.0
     for i in range(n_fluid):
         inv_rho = 1.0 / rho[i]
-        vi = mass * inv_rho  # V_i = m / rho_i
+        vi = vol[i]  # V_i = m / rho_i
         visc = mass * h * c0 * rho0 * inv_rho  # m alpha h c0 rho0 / rho_i, seed eq. 3
         pi = p[i]
         for k in range(indptr[i], indptr[i + 1]):
@@ -49,7 +49,7 @@ def split_forces(pos, vel, rho, p, indptr, indices, n_fluid, h, inv_h, coef, rho
             f = gradient_factor_fast(np.sqrt(r2), inv_h, coef)
             if f == 0.0:
                 continue
-            fv = f * mass / rho[j]  # F V_j; grad_i W_ij V_j = F r_ij V_j
+            fv = f * vol[j]  # F V_j; grad_i W_ij V_j = F r_ij V_j
             g0 = fv * d0
             g1 = fv * d1
             g2 = fv * d2
@@ -155,7 +155,7 @@ class SPHMomentumBudget:
 
     def evaluate(self, s, nb) -> None:
         """Split the right-hand side just computed by the solver ``s`` on the list ``nb``."""
-        split_forces(s.pos, s.vel, s.rho, s.p, nb.indptr, nb.indices, s.n_fluid, s.h, s.inv_h,
+        split_forces(s.pos, s.vel, s.rho, s.vol, s.p, nb.indptr, nb.indices, s.n_fluid, s.h, s.inv_h,
                      s.grad_coef, s.rho0, s.c0, s.mass, s.corrected, s.M, s.alpha,
                      self._internal, self.wall_force)  # fmt: skip
         body_force(s.pos, s.n_fluid, s.mass, s.gravity, s.omega2, s.center, self.split[0])
