@@ -44,8 +44,7 @@ def test_delta_sph_gets_its_default_table_and_refuses_the_exchange_force():
     assert spec.sph is not None and spec.sph.smoothing_ratio == 1.3
     with pytest.raises(ValidationError, match="momentum_exchange"):
         FluidSection(**TANK, method="delta-sph", boundary_force="momentum_exchange")
-    with pytest.raises(ValidationError, match="momentum_budget"):
-        FluidSection(**TANK, method="delta-sph", momentum_budget=True)
+    assert FluidSection(**TANK, method="delta-sph", momentum_budget=True).momentum_budget
 
 
 def test_mps_has_no_sph_table():

@@ -26,6 +26,7 @@ from mpsfem.fluid_mps.neighbours import NeighbourSearch, build_neighbours
 from mpsfem.fluid_mps.time_integration import first_bad_particle
 from mpsfem.fluid_mps.wall_motion import MotionLaw
 from mpsfem.fluid_sph import delta_sph, time_stepping
+from mpsfem.fluid_sph.momentum_budget import SPHMomentumBudget
 from mpsfem.fluid_sph.wendland import gradient_coefficient, wendland_norm
 from mpsfem.scenario.fluid import FluidSection
 from mpsfem.scenario.fluid_sph import DeltaSPHSection
@@ -68,8 +69,8 @@ class SPHStageTimes:
 
 @dataclass
 class NoBudget:
-    """δ-SPH keeps no momentum budget yet (``/momentum_budget`` is MPS's); the run loop reads
-    ``full`` and the force model's name."""
+    """No momentum budget (``fluid.momentum_budget = false``); the run loop reads ``full`` and
+    the force model's name."""
 
     names: list[str]
     model: str
@@ -194,7 +195,19 @@ class DeltaSPHSolver:
         rigid = [pt for pt in self.patches if pt.spec is not None]
         self.moving = [(pt, m) for pt, m in zip(rigid, self.motions, strict=True) if m.moves]
         self.wall_origin = {pt.name: self.pos[pt.start : pt.stop].copy() for pt, _ in self.moving}
-        self.budget = NoBudget([pt.name for pt in self.patches], spec.boundary_force)
+        names = [pt.name for pt in self.patches]
+        # fluid_sph.momentum_budget, /momentum_budget: only when the scenario asks for it (the
+        # key's default true is MPS's; the δ-SPH split costs a serial pair pass per rhs)
+        if spec.momentum_budget and "momentum_budget" in spec.model_fields_set:
+            self.budget = SPHMomentumBudget(
+                names, [pt.start - nf for pt in self.patches],
+                [pt.stop - nf for pt in self.patches],
+                [pt.spec is None for pt in self.patches], dim, n - nf, self.mass,
+                spec.boundary_force,
+            )  # fmt: skip
+            self._patch_forces = np.zeros((len(self.patches), dim))
+        else:
+            self.budget = NoBudget(names, spec.boundary_force)
         self.force_marks: dict[str, list[float]] = {}
         #: per patch, the impulse of boundary_force since t = 0 (step-end force x dt), N s
         self.patch_impulse = np.zeros((len(self.patches), dim))
@@ -209,6 +222,8 @@ class DeltaSPHSolver:
         self.move_walls(0.0)
         self.rhs()  # the first kick's right-hand side (state from here on)
         self.reaction_step[...] = self.reaction  # the load before the first step
+        if self.budget.full:
+            self.budget.start(self.vel, nf)
         ts = spec.time_step
         self.dt_next = min(ts.dt_initial or ts.dt_max, self.stable_dt())
 
@@ -261,6 +276,8 @@ class DeltaSPHSolver:
             self.p[:nf] = p
             self.rho[:nf] = self.rho0 + self.p[:nf] / self.c0**2
         self.rhs()
+        if self.budget.full:
+            self.budget.start(self.vel, nf)
         self.dt_next = min(self.spec.time_step.dt_initial or self.spec.time_step.dt_max,
                            self.stable_dt())  # fmt: skip
 
@@ -300,6 +317,8 @@ class DeltaSPHSolver:
                 self.pos, self.rho, self.vol, self.p, nb.indptr, nb.indices, nf, self.inv_h,
                 self.grad_coef, self.corrected, self.M, self.ext_slot, self.reaction,
             )  # fmt: skip
+        if self.budget.full:
+            self.budget.evaluate(self, nb)
         self._last_neighbours = nb
         self.times.rhs += time.perf_counter() - toc
         self.times.rhs_calls += 1
@@ -380,6 +399,8 @@ class DeltaSPHSolver:
             tic = time.perf_counter()
             if ext:  # leapfrog: the fluid's momentum changes by dt (F_start + F_end) / 2
                 np.multiply(self.reaction, 0.5, out=self.reaction_step)
+            if self.budget.full:  # the first kick's right-hand side, the last step's end
+                self.budget.book(0.5 * dt)
             time_stepping.kick(self.vel, self.rho, self.acc, self.drho, nf, 0.5 * dt)
             time_stepping.drift(self.pos, self.vel, nf, dt)
             self.move_walls(self.t + dt)
@@ -390,6 +411,8 @@ class DeltaSPHSolver:
             tic = time.perf_counter()
             if ext:
                 self.reaction_step += 0.5 * self.reaction
+            if self.budget.full:
+                self.budget.book(0.5 * dt)
             time_stepping.kick(self.vel, self.rho, self.acc, self.drho, nf, 0.5 * dt)
         else:
             self._rk4(dt)
@@ -400,11 +423,24 @@ class DeltaSPHSolver:
         self.t += dt
         self.step_count += 1
         self._check()
+        if self.budget.full:
+            self._book_reported(dt)
         if self.force_marks:  # some probe averages: book each patch's impulse of this step
             for k, pt in enumerate(self.patches):
                 self.patch_impulse[k] += dt * self.boundary_force([pt.name])
         self.dt_next = self.stable_dt()
         self.times.other += time.perf_counter() - tic
+
+    def _book_reported(self, dt: float) -> None:
+        """The budget's reported impulse of this step: the pressure integral at the step's end
+        on a wall patch, the step-mean reaction on an externally driven patch."""
+        f = self._patch_forces
+        for k, pt in enumerate(self.patches):
+            if pt.spec is None:
+                f[k] = self.reaction_step[self.ext_slot[pt.start : pt.stop]].sum(axis=0)
+            else:
+                f[k] = self.boundary_force([pt.name])
+        self.budget.report(dt, f)
 
     def _rk4(self, dt: float) -> None:
         """Classical RK4 (weights 1, 2, 2, 1; stages at t, t + dt/2, t + dt/2, t + dt)."""
@@ -428,6 +464,8 @@ class DeltaSPHSolver:
                     np.multiply(self.reaction, w / 6.0, out=self.reaction_step)
                 else:
                     self.reaction_step += (w / 6.0) * self.reaction
+            if self.budget.full:  # the stage's weight in the velocity update
+                self.budget.book(w / 6.0 * dt)
             tic = time.perf_counter()
             time_stepping.rk_accumulate(sp, sv, sr, self.vel, self.acc, self.drho, nf, w,
                                         stage == 0)  # fmt: skip
@@ -486,6 +524,10 @@ class DeltaSPHSolver:
         if self.ext_rows.size:  # coupled: the forces read after a restore
             arrays["reaction"] = self.reaction
             arrays["reaction_step"] = self.reaction_step
+        if self.budget.full:  # the ledger, and the split the next first kick reuses
+            arrays["budget_ledger"] = self.budget.ledger
+            arrays["budget_split"] = self.budget.split
+            arrays["budget_wall_force"] = self.budget.wall_force
         return arrays
 
     def meta(self) -> dict:
