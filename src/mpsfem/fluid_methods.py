@@ -91,6 +91,10 @@ class FluidMethod(Protocol):
     def probe_value(self, probe) -> float | np.ndarray:
         """The current value of a fluid probe (``scenario.probes``)."""
 
+    def attach_pressure_ledger(self, ledger) -> None:
+        """Book the attached pressure probes' impulses (``fluid_mps.probes``
+        ``AttachedPressureLedger``) every step, as part of :meth:`state`."""
+
     def state(self) -> dict[str, np.ndarray]:
         """Arrays that, with :meth:`meta`, restore the solver bit for bit (views)."""
 

@@ -309,3 +309,21 @@ def test_restart_between_samples_is_bit_identical(tmp_path, monkeypatch):
     for name in ("coarse", "every_step"):
         assert a[name][0].tobytes() == b[name][0].tobytes()
         assert a[name][1].tobytes() == b[name][1].tobytes()
+
+
+def test_riding_probe_under_delta_sph_reads_the_hydrostatic_pressure(tmp_path):
+    """The same still-wall case with fluid.method = "delta-sph": the δ-SPH solver books the
+    attached probes' ledger too (a riding probe used to stop the run with an AttributeError).
+    Tolerance rho g l0, as for MPS: the wall's pressure layer stands for the face l0/2 away."""
+    scenario(tmp_path, False)  # writes case.toml
+    text = (tmp_path / "case.toml").read_text()
+    text = text.replace("[fluid]\ndim = 2", '[fluid]\nmethod = "delta-sph"\ndim = 2')
+    text = text.replace("end_time = 0.25", "end_time = 0.1")
+    (tmp_path / "sph.toml").write_text(text)
+    sc = load_scenario(tmp_path / "sph.toml")
+    run_fluid(sc, tmp_path / "sph.h5")
+    t, p = series(tmp_path / "sph.h5")["riding"]
+    late = t >= 0.05
+    assert late.any()
+    expected = RHO * G * (H - 0.15)
+    assert np.all(np.abs(p[late] - expected) <= RHO * G * L0), (p[late], expected)

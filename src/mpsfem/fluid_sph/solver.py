@@ -209,6 +209,8 @@ class DeltaSPHSolver:
         else:
             self.budget = NoBudget(names, spec.boundary_force)
         self.force_marks: dict[str, list[float]] = {}
+        #: attached pressure probes' running impulses (:meth:`attach_pressure_ledger`; state)
+        self.pressure_ledger: probes.AttachedPressureLedger | None = None
         #: per patch, the impulse of boundary_force since t = 0 (step-end force x dt), N s
         self.patch_impulse = np.zeros((len(self.patches), dim))
         self._patch_index = {pt.name: k for k, pt in enumerate(self.patches)}
@@ -428,6 +430,8 @@ class DeltaSPHSolver:
         if self.force_marks:  # some probe averages: book each patch's impulse of this step
             for k, pt in enumerate(self.patches):
                 self.patch_impulse[k] += dt * self.boundary_force([pt.name])
+        if self.pressure_ledger is not None:  # I += dt p^{n+1}, as MPS books it
+            self.pressure_ledger.accumulate(self.p, dt)
         self.dt_next = self.stable_dt()
         self.times.other += time.perf_counter() - tic
 
@@ -528,7 +532,14 @@ class DeltaSPHSolver:
             arrays["budget_ledger"] = self.budget.ledger
             arrays["budget_split"] = self.budget.split
             arrays["budget_wall_force"] = self.budget.wall_force
+        if self.pressure_ledger is not None:
+            arrays["attached_pressure"] = self.pressure_ledger.ledger
         return arrays
+
+    def attach_pressure_ledger(self, ledger: probes.AttachedPressureLedger) -> None:
+        """Accumulate the attached pressure probes' impulses every step from now on; call
+        before :meth:`restore` (its ``ledger`` array is then part of :meth:`state`)."""
+        self.pressure_ledger = ledger if ledger.probes else None
 
     def meta(self) -> dict:
         return {
