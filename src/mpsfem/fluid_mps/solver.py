@@ -56,7 +56,7 @@ from mpsfem.fluid_mps.particle_kinds import dummy_mask
 from mpsfem.fluid_mps.pressure_poisson import make_pressure_solver
 from mpsfem.fluid_mps.sponge import SpongeLayer
 from mpsfem.fluid_mps.surface import make_surface_detector
-from mpsfem.fluid_mps.wall_motion import MotionLaw
+from mpsfem.fluid_mps.wall_motion import MotionLaw, place_moving_walls
 from mpsfem.scenario.fluid import FluidSection
 
 
@@ -376,11 +376,7 @@ class FluidSolver:
 
     def move_walls(self, t: float) -> None:
         """Put the moving wall patches at their prescribed position and velocity for time t."""
-        for pt, law in self.moving:
-            s, v = law(t)
-            sl = slice(pt.start, pt.stop)
-            self.pos[sl] = self.wall_origin[pt.name] + s * law.direction
-            self.vel[sl] = v * law.direction
+        place_moving_walls(self.moving, self.wall_origin, t, self.pos, self.vel)
 
     def set_patch_state(self, name: str, pos: np.ndarray, vel: np.ndarray) -> None:
         """Position (m) and velocity (m/s) of an external patch's particles at the end of the next

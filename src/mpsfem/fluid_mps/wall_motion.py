@@ -103,3 +103,14 @@ class MotionLaw:
             v = float(self.v_table[k]) if 0 <= k < self.v_table.size else 0.0
             return x - self._s0, v
         return 0.0, 0.0
+
+
+def place_moving_walls(moving, origin: dict, t: float, pos: np.ndarray, vel: np.ndarray) -> None:
+    """Put each moving wall patch at its prescribed position (m) and velocity (m/s) at time
+    ``t`` (s): ``moving`` holds (patch, MotionLaw) pairs, ``origin`` each patch's particle
+    positions at s = 0; rows ``patch.start:patch.stop`` of ``pos`` / ``vel`` are written."""
+    for pt, law in moving:
+        s, v = law(t)
+        sl = slice(pt.start, pt.stop)
+        pos[sl] = origin[pt.name] + s * law.direction
+        vel[sl] = v * law.direction

@@ -24,7 +24,7 @@ from mpsfem.fluid_mps.geometry import ParticleSet, build_particles, default_dumm
 from mpsfem.fluid_mps.geometry import hydrostatic_pressure as hydrostatic_column_pressure
 from mpsfem.fluid_mps.neighbours import NeighbourSearch, build_neighbours
 from mpsfem.fluid_mps.time_integration import first_bad_particle
-from mpsfem.fluid_mps.wall_motion import MotionLaw
+from mpsfem.fluid_mps.wall_motion import MotionLaw, place_moving_walls
 from mpsfem.fluid_sph import delta_sph, time_stepping
 from mpsfem.fluid_sph.momentum_budget import SPHMomentumBudget
 from mpsfem.fluid_sph.wendland import gradient_coefficient, wendland_norm
@@ -340,11 +340,7 @@ class DeltaSPHSolver:
 
     def move_walls(self, t: float) -> None:
         """Put the moving wall patches at their prescribed position and velocity for time t."""
-        for pt, law in self.moving:
-            s, v = law(t)
-            sl = slice(pt.start, pt.stop)
-            self.pos[sl] = self.wall_origin[pt.name] + s * law.direction
-            self.vel[sl] = v * law.direction
+        place_moving_walls(self.moving, self.wall_origin, t, self.pos, self.vel)
 
     def set_patch_state(self, name: str, pos: np.ndarray, vel: np.ndarray) -> None:
         """Position (m) and velocity (m/s) of an external patch's particles at the end of the next
