@@ -1,0 +1,165 @@
+"""validation/work_precision.py: the error metrics on known inputs, the case grid and its filter,
+and the page and figure generated from a small synthetic CSV."""
+
+import numpy as np
+import pytest
+from validation_script import load
+
+wp = load("work_precision")
+dam_break = load("dam_break")
+plate_study = load("delta_sph_hydrostatic_plate")
+
+
+def _ko():
+    return dam_break.references()["Koshizuka & Oka 1996"]
+
+
+def _lagged_ko(lag_s: float):
+    """The experiment's curve itself, moved earlier by ``lag_s``: a simulation the experiment
+    lags by exactly that much."""
+    ref = _ko()
+    T = np.linspace(0.0, 3.2, 641)
+    Z = np.interp(T + lag_s * dam_break.T_SCALE, ref[:, 0], ref[:, 1])
+    return T, Z
+
+
+def test_dam_break_error_of_the_experiment_itself_is_zero():
+    T = np.union1d(np.linspace(0.0, 3.2, 641), _ko()[:, 0])  # the experiment's points exactly
+    Z = np.interp(T, _ko()[:, 0], _ko()[:, 1])
+    e = wp.dam_break_errors(T, Z, _ko())
+    assert e["error_raw"] < 1e-12
+    assert e["error_shifted"] < 1e-4  # the bounded search stops within 1e-5 in T
+
+
+def test_dam_break_shift_recovers_a_lag_within_the_30_ms_bound():
+    T, Z = _lagged_ko(0.020)
+    e = wp.dam_break_errors(T, Z, _ko())
+    assert e["error_raw"] > 0.03  # 20 ms ahead is a visible error unshifted
+    assert e["lag_ms"] == pytest.approx(20.0, abs=0.5)
+    assert e["error_shifted"] < 0.1 * e["error_raw"]
+
+
+def test_dam_break_shift_stops_at_30_ms():
+    T, Z = _lagged_ko(0.060)
+    e = wp.dam_break_errors(T, Z, _ko())
+    assert e["lag_ms"] == pytest.approx(30.0, abs=0.5)
+    assert e["error_shifted"] > 0.02  # half the 60 ms lead is left
+
+
+def test_dam_break_end_time_covers_the_metric_window():
+    end = wp.dam_break_end_time()
+    needed = _ko()[_ko()[:, 0] <= 3.0, 0].max() / dam_break.T_SCALE
+    assert needed + wp.PROBE_INTERVAL <= end < needed + 0.01
+
+
+def test_plate_error_of_a_decaying_oscillation_about_a_known_mean():
+    t = np.arange(0.0, 0.2, 2e-4)
+    mean = -plate_study.W_STATIC * 1.02  # 2 % too deep
+    w = mean * (1.0 - np.exp(-t / 0.02) * np.cos(2 * np.pi * 145.0 * t))
+    e = wp.plate_error(t, w)
+    assert e["error"] == pytest.approx(0.02, abs=1e-3)
+    assert e["mean_w_mid_m"] == pytest.approx(mean, rel=1e-3)
+
+
+def test_case_grid_and_filter():
+    cases = wp.all_cases("full", (1, 2), ())
+    assert len(cases) == 2 * 2 * 3 * 2
+    assert len({c.path for c in cases}) == len(cases)
+    only = wp.all_cases("full", (1, 2), ("mps", "plate", "2"))
+    assert [(c.method, c.case, c.threads) for c in only] == [("mps", "plate", 2)] * 3
+    both = wp.all_cases("full", (1,), ("dam_break", "fine"))
+    assert {c.method for c in both} == {"mps", "delta-sph"}
+    assert {c.spacing for c in both} == {dam_break.L / 40}
+    with pytest.raises(SystemExit, match="--only 'sph'"):
+        wp.all_cases("full", (1,), ("sph",))
+
+
+def _row(case, method, res, threads, error, cost, load=0.5, use=0.99):
+    return {
+        "config": "full",
+        "case": case,
+        "method": method,
+        "level": res,
+        "resolution": res,
+        "spacing_m": {"coarse": 3.0, "medium": 2.0, "fine": 1.0}[res],
+        "threads": str(threads),
+        "status": "finished",
+        "error": str(error),
+        "error_raw": str(2 * error) if case == "dam_break" else "",
+        "wall_per_sim_s": str(cost),
+        "cpu_s": "10",
+        "cpu_per_wall_thread": str(use),
+        "load_start": str(load),
+        "load_end": str(load),
+        "cpu_count": "2",
+        "particles": "100",
+        "steps": "10",
+    }
+
+
+def _synthetic(load=0.5, use=0.99):
+    rows = []
+    for threads, speed in ((1, 1.0), (2, 0.6)):
+        # dam break: MPS cheap, δ-SPH more accurate at its finest, dearer everywhere
+        for res, e_m, c_m, e_d, c_d in (
+            ("coarse", 0.08, 10, 0.09, 50),
+            ("medium", 0.06, 40, 0.05, 300),
+            ("fine", 0.055, 200, 0.03, 2000),
+        ):
+            rows.append(_row("dam_break", "mps", res, threads, e_m, c_m * speed, load, use))
+            rows.append(_row("dam_break", "delta-sph", res, threads, e_d, c_d * speed, load, use))
+        # plate: MPS both cheaper and more accurate at every level
+        for res, e_m, c_m, e_d, c_d in (
+            ("coarse", 0.01, 100, 0.02, 150),
+            ("medium", 0.005, 150, 0.012, 200),
+            ("fine", 0.003, 200, 0.008, 300),
+        ):
+            rows.append(_row("plate", "mps", res, threads, e_m, c_m * speed, load, use))
+            rows.append(_row("plate", "delta-sph", res, threads, e_d, c_d * speed, load, use))
+    rows.append({**_row("plate", "delta-sph", "fine", 1, 1, 1), "status": "failed: NaN"})
+    return rows
+
+
+def test_pareto_front_and_who_wins():
+    rows = [r for r in _synthetic() if r["threads"] == "1"]
+    dam = [r for r in rows if r["case"] == "dam_break"]
+    front = wp.pareto_front(wp.finished_rows(dam))
+    assert [(r["method"], r["level"]) for r in front] == [
+        ("mps", "coarse"),
+        ("mps", "medium"),
+        ("mps", "fine"),
+        ("delta-sph", "medium"),
+        ("delta-sph", "fine"),
+    ]
+    text = wp.who_wins(dam)
+    assert text.index("MPS at 10-200 s/s") < text.index("δ-SPH at 300-2e+03 s/s")
+    plate = wp.who_wins([r for r in rows if r["case"] == "plate"])
+    assert plate.startswith("MPS wins over the whole measured range")
+
+
+def test_page_and_figure_from_a_synthetic_csv(tmp_path):
+    csv = tmp_path / "wp.csv"
+    wp.write_csv(_synthetic(), csv, wp.COLUMNS)
+    rows = wp.read_csv(csv)
+    page, fig = tmp_path / "page.md", tmp_path / "wp.png"
+    wp.write_report(rows, page, fig)
+    text = page.read_text()
+    assert fig.stat().st_size > 10_000
+    assert "Generated by `validation/work_precision.py`" in text
+    assert text.count("| dam break | MPS |") == 6
+    assert "failed: NaN" in text
+    assert "coupled hydrostatic plate, 2 threads: MPS wins over the whole measured range" in text
+    assert "MPS dam break coarse 1.67" in text  # the two-thread speed-up, 1 / 0.6
+    assert "loaded machine" not in text
+    assert "quiet enough" in text
+
+
+@pytest.mark.parametrize("load, use", [(3.5, 0.99), (1.0, 0.6)])
+def test_page_says_when_the_machine_was_loaded(load, use):
+    assert "loaded machine" in wp.page(_synthetic(load, use))
+
+
+def test_estimate_covers_every_case_and_fits_the_budget():
+    full = wp.all_cases("full", (1, 2), ())
+    assert wp.estimate_seconds(full) + wp.WARMUP_S <= 15 * 60
+    assert wp.estimate_seconds(wp.all_cases("reduced", (1, 2), ())) < wp.estimate_seconds(full)
