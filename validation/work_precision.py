@@ -511,6 +511,7 @@ def figure(rows: list[dict], path: Path = FIGURE) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FormatStrFormatter, LogLocator
 
     markers = {"mps": "o", "delta-sph": "s"}
     colours = {"mps": "C0", "delta-sph": "C3"}
@@ -533,7 +534,7 @@ def figure(rows: list[dict], path: Path = FIGURE) -> None:
                 )
                 if not pts:
                     continue
-                x = [_num(r, "error") for r in pts]
+                x = [100 * _num(r, "error") for r in pts]
                 y = [_num(r, "wall_per_sim_s") for r in pts]
                 ax.plot(
                     x,
@@ -550,10 +551,15 @@ def figure(rows: list[dict], path: Path = FIGURE) -> None:
                                     textcoords="offset points")  # fmt: skip
         ax.set_xscale("log")
         ax.set_yscale("log")
+        for axis in (ax.xaxis, ax.yaxis):
+            axis.set_minor_locator(LogLocator(subs=(2.0, 3.0, 5.0)))
+            axis.set_major_formatter(FormatStrFormatter("%g"))
+            axis.set_minor_formatter(FormatStrFormatter("%g"))
+        ax.tick_params(which="minor", labelsize=7)
         ax.set_xlabel(
-            "RMS front error vs Koshizuka & Oka, after lag <= 30 ms"
+            "RMS front error vs Koshizuka & Oka after a lag <= 30 ms (%)"
             if case == "dam_break"
-            else "|mean mid deflection / beam theory - 1|"
+            else "|mean mid deflection / beam theory - 1| (%)"
         )
         ax.set_ylabel("wall time per simulated second (s/s)")
         ax.set_title(CASE_NAMES[case], fontsize=10)
