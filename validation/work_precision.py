@@ -16,8 +16,10 @@ under validation/results/work_precision/).
   with the clamped-beam deflection w_beam = 6.86e-5 m.
 
 Cost: wall time per simulated second (the results file's ``wall_time``, from opening the file to
-the end, JIT loading included), with the subprocess's wall and CPU time (user + system), the
-steps and the particles (fluid + wall). The 1-minute load average at the start and end of every
+the end, JIT loading included), with the fluid solver's own stage times (``stage_times``: the
+rest is set-up, output and, for the plate, the structure and the coupler), the subprocess's wall
+and CPU time (user + system, Python start-up included), the steps and the particles (fluid +
+wall). The 1-minute load average at the start and end of every
 run is recorded: the timings mean something only on a quiet machine, and CPU time / (wall x
 threads) below one says a run shared its cores. A warm-up (a few steps of each method on each
 case, untimed) fills numba's on-disk cache first, so no timed run compiles.
@@ -33,6 +35,7 @@ figure and page from the CSV alone). ``--reduced`` runs a smaller grid (the pipe
 from __future__ import annotations
 
 import argparse
+import ast
 import math
 import os
 import resource
@@ -339,6 +342,8 @@ def analyse_case(case: Case) -> dict:
             w = h5["probes/mid_deflection/value"][()][:, 1]
             iterations = h5["coupling/iterations"][()]
     wall = float(attrs["wall_time"])
+    stages = ast.literal_eval(str(attrs.get("stage_times", "{}")))
+    row["fluid_stages_s"] = sum(v for k, v in stages.items() if not k.endswith("_calls"))
     row.update(
         particles=particles,
         fluid_particles=fluid if fluid is not None else "",
@@ -374,7 +379,8 @@ def analyse_case(case: Case) -> dict:
 COLUMNS = (
     "config", "case", "method", "level", "resolution", "spacing_m", "threads", "t_end_s",
     "status", "particles", "fluid_particles", "steps", "error", "error_noise", "error_raw", "lag_ms",
-    "mean_w_mid_m", "std_w_mid_m", "coupling_iterations_mean", "run_wall_s", "wall_per_sim_s",
+    "mean_w_mid_m", "std_w_mid_m", "coupling_iterations_mean", "run_wall_s", "fluid_stages_s",
+    "wall_per_sim_s",
     "process_wall_s", "cpu_s", "cpu_per_wall_thread", "attempts", "load_start", "load_end",
     "cpu_count", "metric_T_max", "run",
 )  # fmt: skip
@@ -582,6 +588,12 @@ def _fmt(row: dict, key: str, scale: float = 1.0, digits: int = 3) -> str:
 def page(rows: list[dict], csv_name: str = "validation/results/work_precision.csv") -> str:
     """docs/validation_work_precision.md from the CSV's rows."""
     configs = sorted({r.get("config", "") for r in rows})
+
+    def listed(case: str, key: str) -> str:
+        values = [f"{_num(r, key):g}" if key != "resolution" else r[key] for r in rows
+                  if r["case"] == case and str(r.get(key, ""))]  # fmt: skip
+        return ", ".join(dict.fromkeys(values)) or "none"
+
     out = [
         "# Validation: work-precision of MPS and δ-SPH (issue 23)",
         "",
@@ -612,8 +624,11 @@ def page(rows: list[dict], csv_name: str = "validation/results/work_precision.cs
         "`validation/delta_sph_dam_break.py`); the raw (unshifted) error is in the table | "
         "\\|mean mid deflection over t >= 0.05 s / w_mid - 1\\| "
         "(`validation/delta_sph_hydrostatic_plate.py`'s window) |",
-        "| run | to 0.24 s: the last Koshizuka & Oka point with T <= 3 is T = 2.719 "
-        "(t = 0.2346 s), plus a probe interval | plate study's 0.2 s (reduced grid: 0.1 s) |",
+        f"| resolutions | {listed('dam_break', 'resolution')} | {listed('plate', 'resolution')} |",
+        f"| run to | {listed('dam_break', 't_end_s')} s: the last Koshizuka & Oka point with "
+        "T <= 3 is T = 2.719 (t = 0.2346 s), plus a probe interval | "
+        f"{listed('plate', 't_end_s')} s (the plate study's 0.2 s on the full grid) |",
+        f"| threads | {listed('dam_break', 'threads')} (numba) | {listed('plate', 'threads')} |",
         "| cost | wall time per simulated second: the results file's `wall_time` (set-up and "
         "numba's cache load included, compilation not: a warm-up run fills the cache first) "
         "/ end time | same |",

@@ -99,6 +99,7 @@ def _row(case, method, res, threads, error, cost, load=0.5, use=0.99):
         "resolution": res,
         "spacing_m": {"coarse": 3.0, "medium": 2.0, "fine": 1.0}[res],
         "threads": str(threads),
+        "t_end_s": "0.24" if case == "dam_break" else "0.2",
         "status": "finished",
         "error": str(error),
         "error_raw": str(2 * error) if case == "dam_break" else "",
@@ -175,6 +176,8 @@ def test_page_and_figure_from_a_synthetic_csv(tmp_path):
     assert "failed: NaN" in text
     assert "coupled hydrostatic plate, 2 threads: MPS wins over the whole measured range" in text
     assert "MPS dam break coarse 1.67" in text  # the two-thread speed-up, 1 / 0.6
+    assert "| run to | 0.24 s" in text
+    assert "| threads | 1, 2 (numba) |" in text
     assert "loaded machine" not in text
     assert "quiet enough" in text
 
