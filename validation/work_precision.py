@@ -74,7 +74,6 @@ PLATE_END = {"full": 0.2, "reduced": 0.1}  # s; full = the plate study's run
 PLATE_BATCHES = 5  # batch means for the plate mean's standard error
 SENSITIVITY_CSV = ROOT / "docs" / "figures" / "dam_break_front_sensitivity.csv"
 PROBE_INTERVAL = 0.002  # s: the dam-break scenarios' probe interval
-MAX_SHIFT_MS = 1e3 * delta_sph_dam_break.MAX_SHIFT_S  # the issue's bound on the gate lag
 #: 1-thread seconds per run of the full grid, start-up (~5 s) included, from the project's
 #: quiet-machine runs: the dam break's 4-6 us per particle and step (MPS
 #: docs/figures/dam_break_front_convergence.csv, δ-SPH validation/results/delta_sph_dam_break.csv
