@@ -431,6 +431,7 @@ def noise(rows: list[dict]) -> float:
 
 
 METHOD_NAMES = {"mps": "MPS", "delta-sph": "δ-SPH"}
+ARTICLE = {"MPS": "an", "δ-SPH": "a"}
 CASE_NAMES = {"dam_break": "dam break", "plate": "coupled hydrostatic plate"}
 
 
@@ -448,14 +449,28 @@ def who_wins(rows: list[dict]) -> str:
     front = pareto_front(rows, tie)
     methods = {r["method"] for r in rows}
     winners = {r["method"] for r in front}
-    tie_text = f" (errors within {100 * tie:.2g} % of each other count as a tie)" if tie else ""
+    tie_text = (
+        f" (errors within {100 * tie:.2g} percentage points of each other count as a tie)"
+        if tie
+        else ""
+    )
+    errors = [_num(r, "error") for r in rows]
+    if len(methods) > 1 and max(errors) - min(errors) <= tie:
+        cheapest = front[0]
+        return (
+            f"every error lies within the noise ({100 * min(errors):.2g}-"
+            f"{100 * max(errors):.2g} %, noise {100 * tie:.2g} percentage points): accuracy does "
+            f"not separate the methods here, and the cheapest run is "
+            f"{METHOD_NAMES[cheapest['method']]} {cheapest['resolution']} at "
+            f"{_g(_num(cheapest, 'wall_per_sim_s'))} s/s."
+        )
     if len(winners) == 1:
         m = METHOD_NAMES[front[0]["method"]]
         if len(methods) == 1:
             return f"only {m} finished."
         other = METHOD_NAMES[next(iter(methods - winners))]
         return (
-            f"{m} wins over the whole measured range: for every {other} run an {m} run "
+            f"{m} wins over the whole measured range: for every {other} run {ARTICLE[m]} {m} run "
             f"costs less and is no less accurate{tie_text}; {m}'s best trade-offs: "
             + "; ".join(
                 f"{r['resolution']} ({100 * _num(r, 'error'):.2g} % at "
@@ -481,28 +496,41 @@ def who_wins(rows: list[dict]) -> str:
     return f"cheapest first, the best trade-offs{tie_text} are " + "; then ".join(parts) + "."
 
 
+def _conditions(rows: list[dict]) -> tuple[list[float], list[float], int]:
+    """The finished runs' 1-minute load averages (start and end), the one-thread runs' CPU
+    time / wall time (a two-thread run's is below one on a quiet machine too: its serial
+    parts), and the core count."""
+    done = finished_rows(rows)
+    loads = [_num(r, k) for r in done for k in ("load_start", "load_end")]
+    use = [_num(r, "cpu_per_wall_thread") for r in done if int(_num(r, "threads")) == 1]
+    cores = [int(_num(r, "cpu_count")) for r in done if np.isfinite(_num(r, "cpu_count"))]
+    return (
+        [x for x in loads if np.isfinite(x)],
+        [x for x in use if np.isfinite(x)],
+        max(cores, default=0),
+    )
+
+
+def is_loaded(rows: list[dict]) -> bool:
+    """Whether any finished run saw a 1-minute load above the core count, or a one-thread run
+    got less than 80 % of a core."""
+    loads, use, cores = _conditions(rows)
+    return any(x > cores for x in loads) or any(x < 0.8 for x in use)
+
+
 def machine_note(rows: list[dict]) -> str:
     """What the recorded load averages and CPU use say about the timings."""
-    rows = finished_rows(rows)
-    if not rows:
-        return ""
-    loads = [_num(r, k) for r in rows for k in ("load_start", "load_end")]
-    loads = [x for x in loads if np.isfinite(x)]
-    use = [_num(r, "cpu_per_wall_thread") for r in rows]
-    use = [x for x in use if np.isfinite(x)]
-    cores = max(int(_num(r, "cpu_count")) for r in rows)
+    loads, use, cores = _conditions(rows)
     if not loads:
         return "No load averages were recorded; the timings' conditions are unknown."
-    loaded = max(loads) > cores or (use and min(use) < 0.8)
-    text = (
-        f"The 1-minute load average ranged {min(loads):.2f}-{max(loads):.2f} over the runs "
-        f"({cores} cores); CPU time / (wall time x threads) ranged "
-        f"{min(use):.2f}-{max(use):.2f}. "
-    )
-    if loaded:
+    text = f"The 1-minute load average ranged {min(loads):.2f}-{max(loads):.2f} over the runs ({cores} cores)"
+    if use:
+        text += f"; the one-thread runs' CPU time / wall time ranged {min(use):.2f}-{max(use):.2f}"
+    text += ". "
+    if is_loaded(rows):
         return text + (
             "**These timings come from a loaded machine** (a load above the core count, or "
-            "runs that got less than 80 % of their threads' CPU): other jobs shared the cores, "
+            "one-thread runs that got less than 80 % of a core): other jobs shared the cores, "
             "the costs are inflated unevenly and the two-thread runs suffer most. Re-run on a "
             "quiet machine before drawing conclusions about cost."
         )
@@ -572,7 +600,8 @@ def figure(rows: list[dict], path: Path = FIGURE) -> None:
         if ax.lines:
             ax.legend(fontsize=7.5)
     configs = sorted({r.get("config", "") for r in rows})
-    fig.suptitle(f"work-precision, MPS vs δ-SPH ({', '.join(configs)} grid)", fontsize=10)
+    loaded = "; timings from a LOADED machine" if is_loaded(rows) else ""
+    fig.suptitle(f"work-precision, MPS vs δ-SPH ({', '.join(configs)} grid{loaded})", fontsize=10)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
@@ -691,6 +720,12 @@ def page(rows: list[dict], csv_name: str = "validation/results/work_precision.cs
         "## Which method wins where",
         "",
     ]
+    if is_loaded(rows):
+        out += [
+            'From timings on a loaded machine (below, "The machine"): the cost order of '
+            "runs can be wrong, so these verdicts are the pipeline's, not the study's.",
+            "",
+        ]
     done = finished_rows(rows)
     for case in CASES:
         for threads in sorted({int(_num(r, "threads")) for r in rows}):

@@ -184,7 +184,28 @@ def test_page_and_figure_from_a_synthetic_csv(tmp_path):
 
 @pytest.mark.parametrize("load, use", [(3.5, 0.99), (1.0, 0.6)])
 def test_page_says_when_the_machine_was_loaded(load, use):
-    assert "loaded machine" in wp.page(_synthetic(load, use))
+    text = wp.page(_synthetic(load, use))
+    assert "**These timings come from a loaded machine**" in text
+    assert "these verdicts are the pipeline's, not the study's" in text
+
+
+def test_two_thread_runs_below_full_cpu_use_are_not_a_loaded_machine():
+    rows = _synthetic()
+    for r in rows:
+        if r["threads"] == "2":
+            r["cpu_per_wall_thread"] = "0.6"  # serial parts: normal on a quiet machine
+    assert not wp.is_loaded(rows)
+
+
+def test_errors_all_within_the_noise_make_it_a_cost_verdict():
+    rows = [
+        _row("plate", "mps", "coarse", 1, 0.010, 100),
+        _row("plate", "delta-sph", "coarse", 1, 0.0105, 80),
+        _row("plate", "mps", "fine", 1, 0.0102, 200),
+    ]  # noise 0.001: the errors span 0.05 percentage points
+    text = wp.who_wins(rows)
+    assert text.startswith("every error lies within the noise")
+    assert text.endswith("the cheapest run is δ-SPH coarse at 80 s/s.")
 
 
 def test_estimate_covers_every_case_and_fits_the_budget():
