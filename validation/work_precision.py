@@ -19,10 +19,15 @@ Cost: wall time per simulated second (the results file's ``wall_time``, from ope
 the end, JIT loading included), with the fluid solver's own stage times (``stage_times``: the
 rest is set-up, output and, for the plate, the structure and the coupler), the subprocess's wall
 and CPU time (user + system, Python start-up included), the steps and the particles (fluid +
-wall). The 1-minute load average at the start and end of every
-run is recorded: the timings mean something only on a quiet machine, and CPU time / (wall x
-threads) below one says a run shared its cores. A warm-up (a few steps of each method on each
-case, untimed) fills numba's on-disk cache first, so no timed run compiles.
+wall). The 1-minute load average at the start and end of every run is recorded: the timings
+mean something only on a quiet machine, and a one-thread run's CPU time / wall time below one
+says it shared its core. A warm-up (a few steps of each method on each case, untimed) fills
+numba's on-disk cache first, so no timed run compiles. Each error carries its noise (dam break:
+the spread of MPS realisations at L/40; plate: batch means), and "which method wins where" is
+read off the cost-error front with that noise as a tie (:func:`who_wins`).
+
+The whole default study (24 runs) is sized for at most 15 minutes on a quiet 2-core machine;
+the script prints its estimate (:data:`EXPECTED_S`) before it starts.
 
 Writes validation/results/work_precision.csv, docs/figures/work_precision.png and
 docs/validation_work_precision.md (generated from the CSV; ``--report-only`` regenerates the
