@@ -79,16 +79,16 @@ PLATE_END = {"full": 0.2, "reduced": 0.1}  # s; full = the plate study's run
 PLATE_BATCHES = 5  # batch means for the plate mean's standard error
 SENSITIVITY_CSV = ROOT / "docs" / "figures" / "dam_break_front_sensitivity.csv"
 PROBE_INTERVAL = 0.002  # s: the dam-break scenarios' probe interval
-#: 1-thread seconds per run of the full grid, start-up (~5 s) included, from the project's
-#: quiet-machine runs: the dam break's 4-6 us per particle and step (MPS
-#: docs/figures/dam_break_front_convergence.csv, δ-SPH validation/results/delta_sph_dam_break.csv
-#: at L/80, benchmarks/results/delta_sph_vs_mps_steps.csv), the plate's 25-45 s per 0.2 s
-#: (validation/results/delta_sph_hydrostatic_plate.csv); 2 threads: the same (a bound)
+#: 1-thread seconds per run of the full grid, Python start-up included: the CPU seconds (user +
+#: system) of the one-thread full-grid runs on the project's 2-core machine (2026-11-26, made on
+#: a loaded machine, where CPU time still counts only the run's own work: MPS dam break 2.4 /
+#: 3.9 / 13.8 s, δ-SPH 2.3 / 5.3 / 22.8 s, plate MPS 20.3 / 23.2 / 27.9 s, δ-SPH 16.7 / 22.4 /
+#: 27.5 s) times 1.3; 2 threads: the same (a bound)
 EXPECTED_S = {
-    ("mps", "dam_break"): (6.0, 8.0, 20.0),
-    ("delta-sph", "dam_break"): (6.0, 14.0, 65.0),
-    ("mps", "plate"): (30.0, 35.0, 40.0),
-    ("delta-sph", "plate"): (34.0, 40.0, 48.0),
+    ("mps", "dam_break"): (4.0, 6.0, 18.0),
+    ("delta-sph", "dam_break"): (4.0, 7.0, 30.0),
+    ("mps", "plate"): (27.0, 31.0, 37.0),
+    ("delta-sph", "plate"): (22.0, 30.0, 36.0),
 }
 WARMUP_S = 60.0  # the warm-up runs with numba's cache filled; the first ever adds compilation
 
