@@ -212,3 +212,78 @@ def test_estimate_covers_every_case_and_fits_the_budget():
     full = wp.all_cases("full", (1, 2), ())
     assert wp.estimate_seconds(full) + wp.WARMUP_S <= 15 * 60
     assert wp.estimate_seconds(wp.all_cases("reduced", (1, 2), ())) < wp.estimate_seconds(full)
+
+
+def _results_file(path, probes: dict, **attrs):
+    """A finished results file with ``probes`` ({name: (time, value)}) and the attributes the
+    study reads."""
+    import h5py
+
+    with h5py.File(path, "w") as h5:
+        for name, (t, v) in probes.items():
+            h5[f"probes/{name}/time"] = t
+            h5[f"probes/{name}/value"] = v
+        h5.attrs.update(
+            status="finished",
+            wall_time=12.0,
+            steps=300,
+            stage_times=str({"neighbours": 2.0, "rhs": 6.0, "rhs_calls": 900.0}),
+            wp_process_wall_s=16.0,
+            wp_cpu_s=15.2,
+            wp_attempts=1,
+            wp_load_start=0.4,
+            wp_load_end=1.1,
+            wp_cpu_count=2,
+        )
+        for key, value in attrs.items():
+            if key == "kind":
+                h5["particles/00000/kind"] = value
+            elif key == "iterations":
+                h5["coupling/iterations"] = value
+            else:
+                h5.attrs[key] = value
+
+
+def test_analyse_case_reads_a_dam_break_results_file(tmp_path, monkeypatch):
+    monkeypatch.setattr(wp, "RUNS", tmp_path)
+    case = wp.Case("mps", "dam_break", "medium", 20, 1, "full")
+    T, Z = _lagged_ko(0.020)
+    t = T / dam_break.T_SCALE
+    kind = np.r_[np.zeros(800, np.int32), np.ones(300, np.int32)]
+    _results_file(case.path, {"front": (t, Z * dam_break.L)}, kind=kind)
+    row = wp.analyse_case(case)
+    assert row["status"] == "finished"
+    assert (row["particles"], row["fluid_particles"], row["steps"]) == (1100, 800, 300)
+    assert row["lag_ms"] == pytest.approx(20.0, abs=0.5)
+    assert row["error"] < 0.1 * row["error_raw"]
+    assert row["wall_per_sim_s"] == pytest.approx(12.0 / wp.dam_break_end_time())
+    assert row["fluid_stages_s"] == pytest.approx(8.0)  # call counts are not seconds
+    assert row["cpu_per_wall_thread"] == pytest.approx(0.95)
+
+
+def test_analyse_case_refuses_a_front_curve_short_of_the_metric_window(tmp_path, monkeypatch):
+    monkeypatch.setattr(wp, "RUNS", tmp_path)
+    case = wp.Case("delta-sph", "dam_break", "coarse", 10, 2, "full")
+    T, Z = _lagged_ko(0.0)
+    keep = T <= 2.5  # stops before Koshizuka & Oka's T = 2.719 point
+    t = T[keep] / dam_break.T_SCALE
+    _results_file(case.path, {"front": (t, Z[keep] * dam_break.L)}, kind=np.zeros(5, np.int32))
+    row = wp.analyse_case(case)
+    assert row["status"].startswith("front curve ends at T = 2.5")
+    assert "error" not in row
+
+
+def test_analyse_case_reads_a_plate_results_file(tmp_path, monkeypatch):
+    monkeypatch.setattr(wp, "RUNS", tmp_path)
+    case = wp.Case("delta-sph", "plate", "fine", 1 / 40, 2, "full")
+    t = np.arange(0.0, 0.2 + 1e-9, 2e-4)
+    w = -plate_study.W_STATIC * 0.99 * (1.0 - np.exp(-t / 0.01) * np.cos(900.0 * t))
+    value = np.c_[np.zeros_like(w), w]
+    _results_file(
+        case.path, {"mid_deflection": (t, value)}, particles=5312, iterations=np.full(10, 2)
+    )
+    row = wp.analyse_case(case)
+    assert row["error"] == pytest.approx(0.01, abs=5e-4)  # 1 % too shallow
+    assert row["particles"] == 5312
+    assert row["coupling_iterations_mean"] == 2.0
+    assert row["wall_per_sim_s"] == pytest.approx(12.0 / 0.2)
