@@ -34,7 +34,10 @@ docs/validation_work_precision.md (generated from the CSV; ``--report-only`` reg
 figure and page from the CSV alone). ``--reduced`` runs a smaller grid (the pipeline check).
 
     python validation/work_precision.py [--threads 1 2] [--only mps plate ...] [--reduced]
-        [--analyse-only | --report-only] [--retry-failed]
+        [--analyse-only | --report-only] [--retry-failed] [--fresh]
+
+Finished runs are skipped (resumable): for timings of one quiet machine state, start with
+``--fresh``, which deletes the selected runs' results files first.
 """
 
 from __future__ import annotations
@@ -266,6 +269,13 @@ def record_attempt(path: Path, wall: float, cpu: float, load_start: float, load_
             h5.attrs["wp_load_start"] = load_start
         h5.attrs["wp_load_end"] = load_end
         h5.attrs["wp_cpu_count"] = os.cpu_count() or 0
+
+
+def delete_results(cases: list[Case]) -> None:
+    """Delete the results file, checkpoint and sidecar of each case (``--fresh``)."""
+    for c in cases:
+        for f in RUNS.glob(f"{c.label}.*"):
+            f.unlink()
 
 
 def run_case(case: Case, retry: bool) -> str:
@@ -779,6 +789,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--report-only", action="store_true",
                     help="only the figure and page, from the CSV")  # fmt: skip
     ap.add_argument("--retry-failed", action="store_true", help="rerun failed cases")
+    ap.add_argument("--fresh", action="store_true",
+                    help="delete the selected runs' results first: timings of one machine state")  # fmt: skip
     args = ap.parse_args(argv)
     if args.report_only:
         write_report(read_csv(CSV))
@@ -789,6 +801,8 @@ def main(argv: list[str] | None = None) -> int:
     delta_sph_dam_break.SCENARIO.parent.mkdir(parents=True, exist_ok=True)
     delta_sph_dam_break.SCENARIO.write_text(delta_sph_dam_break.SCENARIO_TEXT)
     RUNS.mkdir(parents=True, exist_ok=True)
+    if args.fresh and not args.analyse_only:
+        delete_results(cases)
     if not args.analyse_only:
         todo = [c for c in cases if case_runner.read_status(c.path) != "finished"]
         est = estimate_seconds(todo) + (WARMUP_S if todo else 0.0)

@@ -287,3 +287,15 @@ def test_analyse_case_reads_a_plate_results_file(tmp_path, monkeypatch):
     assert row["particles"] == 5312
     assert row["coupling_iterations_mean"] == 2.0
     assert row["wall_per_sim_s"] == pytest.approx(12.0 / 0.2)
+
+
+def test_fresh_deletes_only_the_selected_runs(tmp_path, monkeypatch):
+    monkeypatch.setattr(wp, "RUNS", tmp_path)
+    chosen, other = wp.all_cases("full", (1, 2), ("mps", "coarse", "dam_break"))
+    for c in (chosen, other):
+        for suffix in (".h5", ".ckpt.h5", ".xdmf"):
+            (tmp_path / f"{c.label}{suffix}").write_text("x")
+    wp.delete_results([chosen])
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        f"{other.label}{s}" for s in (".h5", ".ckpt.h5", ".xdmf")
+    )
