@@ -648,7 +648,7 @@ def page(rows: list[dict], csv_name: str = "validation/results/work_precision.cs
         out += [
             "**This page holds the reduced grid** (`--reduced`: coarser resolutions, the plate "
             "run to 0.1 s), run to check the pipeline, not the study; regenerate with "
-            "`python validation/work_precision.py` on a quiet machine.",
+            "`python validation/work_precision.py --fresh` on a quiet machine.",
             "",
         ]
     out += [
