@@ -29,6 +29,7 @@ import time
 from pathlib import Path
 
 import numba
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "validation"))
@@ -61,6 +62,59 @@ def time_rhs(s, calls: int, repeat: int) -> float:
             s.rhs()
         best = min(best, (time.perf_counter() - tic) / calls)
     return best
+
+
+def profile_rhs(s, calls: int) -> dict[str, float]:
+    """CPU seconds per call of each stage of ``DeltaSPHSolver.rhs`` (the same calls in the same
+    order, timed one by one: the sum is the right-hand side less the Python glue) and of one
+    RK4 step's integrator kernels (``time_stepping``: 4 accumulations, 3 stages, 1 finish)."""
+    from mpsfem.fluid_sph import delta_sph, time_stepping
+
+    nf = s.n_fluid
+    nb = s.search.update(s.pos)
+    stages = {
+        "neighbour_update": lambda: s.search.update(s.pos),
+        "equation_of_state": lambda: delta_sph.equation_of_state(s.rho, s.p, nf, s.rho0, s.c0),
+        "wall_pressure": lambda: delta_sph.wall_pressure(
+            s.pos, s.rho, s.p, s.kind, nb.indptr, nb.indices, nf, s.gravity, s.omega2, s.center,
+            s.wall_acc, s.h, s.norm, s.rho0, s.c0),
+        "particle_volume": lambda: delta_sph.particle_volume(s.rho, s.mass, s.vol),
+        "correction": lambda: delta_sph.correction(
+            s.pos, s.rho, s.vol, s.p, nb.indptr, nb.indices, nf, s.inv_h, s.grad_coef, s.M,
+            s.pM, s.grad_rho, s.fv_pair[: nb.nnz]),
+        "pair_terms": lambda: delta_sph.pair_terms(
+            s.pos, s.vel, s.rho, s.p, nb.indptr, nb.indices, nf, s.h, s.fv_pair[: nb.nnz], s.rho0,
+            s.c0, s.sph.density_diffusion, s.corrected, s.M, s.pM, s.grad_rho, s.alpha,
+            s.gravity, s.omega2, s.center, s.acc, s.drho),
+        "wall_reaction": lambda: delta_sph.wall_reaction(
+            s.pos, s.rho, s.vol, s.p, nb.indptr, nb.indices, nf, s.inv_h, s.grad_coef,
+            s.corrected, s.M, s.ext_slot, s.reaction),
+    }  # fmt: skip
+    p0, v0, r0 = (a.copy() for a in (s.pos, s.vel, s.rho))
+    sp, sv, sr = (np.zeros_like(a) for a in (s.pos, s.vel, s.rho))
+    pos, vel, rho = (a.copy() for a in (s.pos, s.vel, s.rho))
+
+    def rk4_kernels():
+        for stage in range(4):
+            time_stepping.rk_accumulate(sp, sv, sr, vel, s.acc, s.drho, nf, 1.0, stage == 0)
+            if stage < 3:
+                time_stepping.rk_stage(p0, v0, r0, vel, s.acc, s.drho, nf, 1e-9, pos, vel, rho)
+            else:
+                time_stepping.rk_finish(p0, v0, r0, sp, sv, sr, nf, 1e-9, pos, vel, rho)
+
+    stages["rk4_step_integrator"] = rk4_kernels
+    out = {}
+    for name, fn in stages.items():
+        fn()  # compile / warm
+        cpu = time.process_time()
+        for _ in range(calls):
+            fn()
+        out[name] = (time.process_time() - cpu) / calls
+    cpu = time.process_time()
+    for _ in range(calls):
+        s.rhs()
+    out["rhs_total"] = (time.process_time() - cpu) / calls
+    return out
 
 
 def steps_per_second(method: str, sim_time: float) -> dict:
@@ -101,7 +155,41 @@ def main() -> int:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--sim-time", type=float, default=0.1)
     ap.add_argument("--steps-only", action="store_true", help="part 2 only")
+    ap.add_argument(
+        "--profile",
+        action="store_true",
+        help="per-stage CPU time of the right-hand side on 1 thread, then exit",
+    )
+    ap.add_argument("--tag", default="", help="suffix of the profile CSV's name")
     args = ap.parse_args()
+    if args.profile:
+        numba.set_num_threads(1)
+        prof = []
+        for n_depth in (int(x) for x in args.depths.split(",")):
+            for ratio in (float(r) for r in args.ratios.split(",")):
+                s = tank(n_depth, ratio)
+                t = profile_rhs(s, args.calls)
+                for name, sec in t.items():
+                    prof.append(
+                        {
+                            "smoothing_ratio": ratio,
+                            "particles": s.n,
+                            "fluid_particles": s.n_fluid,
+                            "stage": name,
+                            "ms_per_call": 1e3 * sec,
+                            "us_per_particle": 1e6 * sec / s.n,
+                        }
+                    )
+                    print(
+                        f"h={ratio} N={s.n:6d} {name:22s} {1e3 * sec:8.3f} ms "
+                        f"{1e6 * sec / s.n:7.4f} us/particle",
+                        flush=True,
+                    )
+        name = f"delta_sph_profile{'_' + args.tag if args.tag else ''}.csv"
+        write_csv(prof, RESULTS / name,
+                  comment="δ-SPHC right-hand side, CPU time per stage, 1 thread, still-water tank "
+                  "(benchmarks/bench_delta_sph.py --profile)")  # fmt: skip
+        return 0
     rows = []
     for ratio in (float(r) for r in args.ratios.split(",")) if not args.steps_only else ():
         for n_depth in (int(x) for x in args.depths.split(",")):
