@@ -169,6 +169,10 @@ class DeltaSPHSolver:
         )
         # work arrays, sized once
         self.M = np.zeros((nf, dim, dim))
+        self.pM = np.zeros((nf, dim, dim))  # p_i M_i (Pa), for the pair pass
+        #: F(r_ij) V_j of every pair of the current neighbour list (delta_sph.correction writes
+        #: it, pair_terms reads it); grown with the list, with 10 % spare
+        self.fv_pair = np.zeros(0)
         self.grad_rho = np.zeros((nf, dim))
         self.alpha = np.full(nf, sph.viscosity_alpha)
         self.acc = np.zeros((n, dim))
@@ -299,9 +303,12 @@ class DeltaSPHSolver:
             self.omega2, self.center, self.wall_acc, self.h, self.norm, self.rho0, self.c0,
         )  # fmt: skip
         delta_sph.particle_volume(self.rho, self.mass, self.vol)
+        if self.fv_pair.shape[0] < nb.nnz:
+            self.fv_pair = np.empty(int(1.1 * nb.nnz) + 16)
+        fv_pair = self.fv_pair[: nb.nnz]
         delta_sph.correction(
-            self.pos, self.rho, self.vol, nb.indptr, nb.indices, nf, self.inv_h, self.grad_coef,
-            self.M, self.grad_rho,
+            self.pos, self.rho, self.vol, self.p, nb.indptr, nb.indices, nf, self.inv_h,
+            self.grad_coef, self.M, self.pM, self.grad_rho, fv_pair,
         )  # fmt: skip
         if len(self.zone_axis):
             delta_sph.viscosity_ramp(
@@ -309,10 +316,10 @@ class DeltaSPHSolver:
                 self.zone_start, self.zone_inv, self.alpha,
             )  # fmt: skip
         delta_sph.pair_terms(
-            self.pos, self.vel, self.rho, self.vol, self.p, nb.indptr, nb.indices, nf,
-            self.h, self.inv_h, self.grad_coef, self.rho0, self.c0, self.sph.density_diffusion,
-            self.corrected, self.M, self.grad_rho, self.alpha, self.gravity, self.omega2,
-            self.center, self.acc, self.drho,
+            self.pos, self.vel, self.rho, self.p, nb.indptr, nb.indices, nf, self.h, fv_pair,
+            self.rho0, self.c0, self.sph.density_diffusion, self.corrected, self.M, self.pM,
+            self.grad_rho, self.alpha, self.gravity, self.omega2, self.center, self.acc,
+            self.drho,
         )  # fmt: skip
         if self.ext_rows.size:
             delta_sph.wall_reaction(
