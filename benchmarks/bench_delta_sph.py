@@ -72,19 +72,20 @@ def profile_rhs(s, calls: int) -> dict[str, float]:
 
     nf = s.n_fluid
     nb = s.search.update(s.pos)
+    r2 = s.radius * s.radius
     stages = {
         "neighbour_update": lambda: s.search.update(s.pos),
         "equation_of_state": lambda: delta_sph.equation_of_state(s.rho, s.p, nf, s.rho0, s.c0),
         "wall_pressure": lambda: delta_sph.wall_pressure(
-            s.pos, s.rho, s.p, s.kind, nb.indptr, nb.indices, nf, s.gravity, s.omega2, s.center,
-            s.wall_acc, s.h, s.norm, s.rho0, s.c0),
+            s.pos, s.rho, s.p, s.kind, nb.indptr, nb.indices, r2, nf, s.gravity, s.omega2,
+            s.center, s.wall_acc, s.h, s.norm, s.rho0, s.c0),
         "particle_volume": lambda: delta_sph.particle_volume(s.rho, s.mass, s.vol),
         "correction": lambda: delta_sph.correction(
-            s.pos, s.rho, s.vol, s.p, nb.indptr, nb.indices, nf, s.inv_h, s.grad_coef, s.M,
-            s.pM, s.grad_rho, s.fv_pair[: nb.nnz]),
+            s.pos, s.rho, s.vol, s.p, nb.indptr, nb.indices, r2, nf, s.inv_h, s.grad_coef, s.M,
+            s.pM, s.grad_rho, s.pair_j, s.fv_pair, s.row_end),
         "pair_terms": lambda: delta_sph.pair_terms(
-            s.pos, s.vel, s.rho, s.p, nb.indptr, nb.indices, nf, s.h, s.fv_pair[: nb.nnz], s.rho0,
-            s.c0, s.sph.density_diffusion, s.corrected, s.M, s.pM, s.grad_rho, s.alpha,
+            s.pos, s.vel, s.rho, s.p, nb.indptr, s.row_end, s.pair_j, s.fv_pair, nf, s.h,
+            s.rho0, s.c0, s.sph.density_diffusion, s.corrected, s.M, s.pM, s.grad_rho, s.alpha,
             s.gravity, s.omega2, s.center, s.acc, s.drho),
         "wall_reaction": lambda: delta_sph.wall_reaction(
             s.pos, s.rho, s.vol, s.p, nb.indptr, nb.indices, nf, s.inv_h, s.grad_coef,

@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 
 from mpsfem.fluid_mps.geometry import ParticleSet
+from mpsfem.fluid_mps.neighbours import NeighbourSearch, build_neighbours
 from mpsfem.fluid_sph import delta_sph
+from mpsfem.fluid_sph.candidate_pairs import CandidatePairs
 from mpsfem.fluid_sph.solver import DeltaSPHSolver, SPHRunError
 from mpsfem.fluid_sph.wendland import gradient_factor, kernel_value, wendland_norm
 from mpsfem.scenario.fluid import FluidSection, SpongeZone
@@ -169,8 +171,9 @@ def test_dummy_pressure_is_adami_extrapolation(wall_acc):
     acc = np.array([wall_acc])
     indptr = np.array([0, 0, 0, 0, 3])
     indices = np.array([0, 1, 2], dtype=np.int32)
-    delta_sph.wall_pressure(pos, rho, p, np.array([0, 0, 0, 2], np.int8), indptr, indices, 3, g,
-                            0.0, np.zeros(2), acc, h, norm, 1000.0, 20.0)  # fmt: skip
+    delta_sph.wall_pressure(pos, rho, p, np.array([0, 0, 0, 2], np.int8), indptr, indices,
+                            (2 * h) ** 2, 3, g, 0.0, np.zeros(2), acc, h, norm, 1000.0,
+                            20.0)  # fmt: skip
     w = np.array([kernel_value(np.linalg.norm(pos[3] - pos[j]), h, norm) for j in range(3)])
     b = g - acc[0]
     expected = (w @ p[:3] + sum(w[j] * rho[j] * b @ (pos[3] - pos[j]) for j in range(3))) / w.sum()
@@ -221,7 +224,7 @@ def _reference_rhs(s):
     numpy, row by row over the solver's neighbour list (p, rho of the walls and V as the solver
     set them): Huang et al. 2022 eqs. 2, 3, 6, 7, 12, 13; W' from ``gradient_factor``."""
     nf, dim, h = s.n_fluid, s.dim, s.h
-    nb = s._last_neighbours
+    nb = build_neighbours(s.pos, s.radius)  # the exact list, built afresh
     vol = s.mass / s.rho
     rows = [nb.indices[nb.indptr[i] : nb.indptr[i + 1]] for i in range(nf)]
     grads, M, grad_rho = [], np.zeros((nf, dim, dim)), np.zeros((nf, dim))
@@ -288,3 +291,67 @@ def test_kernels_follow_the_seed_equations(dim, gradient):
     for got, want in ((s.acc[:nf], acc), (s.drho[:nf], drho), (s.M, M), (s.grad_rho, grad_rho)):
         assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()
     assert np.array_equal(s.pM, s.p[:nf, None, None] * s.M)
+
+
+def _collapse(**sph):
+    """A small dam break (0.1 x 0.2 m column in a 0.4 m tank, l0 = 0.01 m): a flow that moves
+    the particles enough to rebuild the Verlet candidates in 60 RK4 steps."""
+    return FluidSection(
+        method="delta-sph",
+        spacing=0.01,
+        blocks=[{"lower": [0.0, 0.0], "upper": [0.1, 0.2]}],
+        walls=[{"shape": "tank", "lower": [0.0, 0.0], "upper": [0.4, 0.3], "name": "tank"}],
+        sph=sph,
+    )
+
+
+@pytest.mark.parametrize("integrator", ["rk4", "symplectic"])
+def test_candidate_rows_give_the_exact_lists_bits(integrator):
+    """The kernels on the Verlet candidates (pairs beyond the radius skipped inside them) and on
+    the exact neighbour list of the shared search (the path of coupled runs and of the momentum
+    budget) give the same state, bit for bit, over 60 RK4 or 300 leapfrog steps of a collapsing column."""
+    spec = _collapse(integrator=integrator)
+    fast = DeltaSPHSolver(spec)
+    exact = DeltaSPHSolver(spec)
+    assert isinstance(fast.search, CandidatePairs) and not fast.exact_neighbours
+    exact.exact_neighbours = True
+    exact.search = NeighbourSearch(2, exact.radius, domain=(exact.lower, exact.upper),
+                                   skin=spec.neighbours.skin * spec.spacing)  # fmt: skip
+    for _ in range(60 if integrator == "rk4" else 300):  # the leapfrog's dt is 8 times shorter
+        fast.step(fast.dt_next)
+        exact.step(exact.dt_next)
+    assert fast.search.builds > 1 and fast.search.reuses > fast.search.builds
+    for k, v in fast.state().items():
+        assert np.array_equal(v, exact.state()[k]), k
+
+
+def test_candidate_pairs_hold_every_neighbour_until_a_rebuild():
+    """CandidatePairs: each row ascending and a superset of the exact list; reused while no
+    particle has moved more than skin / 2, rebuilt beyond; rebuilt at the radius itself (exact)
+    when particles move more than skin / 4 per call."""
+    rng = np.random.default_rng(5)
+    pos = rng.uniform(0.0, 1.0, (400, 2))
+    radius, skin = 0.1, 0.02
+    pairs = CandidatePairs(2, radius, skin)
+
+    def check(nb):
+        exact = build_neighbours(pos, radius)
+        for i in range(len(pos)):
+            row = nb.indices[nb.indptr[i] : nb.indptr[i + 1]]
+            assert np.all(np.diff(row) > 0)
+            assert set(exact.indices[exact.indptr[i] : exact.indptr[i + 1]]) <= set(row)
+
+    check(pairs.update(pos))
+    assert (pairs.builds, pairs.reuses) == (1, 0)
+    start = pos.copy()
+    pos += 0.4 * skin * rng.uniform(-1, 1, pos.shape) / np.sqrt(2)  # |move| < 0.4 skin
+    check(pairs.update(pos))
+    assert (pairs.builds, pairs.reuses) == (1, 1)
+    pos[7] = start[7] + [0.6 * skin, 0.0]  # particle 7 has moved more than skin / 2
+    nb = pairs.update(pos)  # rebuilt; 0.3 skin per call since the last build: the exact list
+    assert pairs.builds == 2 and not pairs._valid
+    assert np.array_equal(nb.indices, build_neighbours(pos, radius).indices)
+    for _ in range(7):  # slow particles (0.09 skin per call): candidates again, for 5 calls
+        check(pairs.update(pos))
+        pos += [0.09 * skin, 0.0]
+    assert (pairs.builds, pairs.reuses) == (4, 6) and pairs._valid

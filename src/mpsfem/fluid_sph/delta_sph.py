@@ -38,13 +38,16 @@ def particle_volume(rho, mass, vol):
 
 
 @njit(cache=True, parallel=True)
-def wall_pressure(pos, rho, p, kind, indptr, indices, n_fluid, gravity, omega2, center, wall_acc,
-                  h, norm, rho0, c0):  # fmt: skip
+def wall_pressure(pos, rho, p, kind, indptr, indices, r2max, n_fluid, gravity, omega2, center,
+                  wall_acc, h, norm, rho0, c0):  # fmt: skip
     """Pressure (Pa) and density (kg/m^3) of every wall / dummy particle i >= n_fluid,
     extrapolated from its fluid neighbours: p_w = (sum_f p_f W_wf + (b . sum_f rho_f r_wf W_wf))
     / sum_f W_wf with b = g - Omega^2 (r_w - c) - a_w, the body force at the wall less the wall's
     own acceleration ``wall_acc[i - n_fluid]`` (m/s^2; Adami et al. 2012, eq. 27); rho_w = rho0 +
-    p_w / c0^2 (inverse linear EOS). Without fluid neighbours p_w = 0, rho_w = rho0."""
+    p_w / c0^2 (inverse linear EOS). Without fluid neighbours p_w = 0, rho_w = rho0.
+
+    Rows (``indptr``, ``indices``): ascending, a superset of the pairs closer than sqrt(r2max)
+    (m; candidate rows, fluid_sph.candidate_pairs): the pairs at r^2 >= r2max are skipped."""
     n = pos.shape[0]
     dim = pos.shape[1]
     inv_c2 = 1.0 / (c0 * c0)
@@ -57,10 +60,14 @@ def wall_pressure(pos, rho, p, kind, indptr, indices, n_fluid, gravity, omega2, 
             if j >= n_fluid:
                 break  # ascending rows: the fluid neighbours come first
             r2 = 0.0
-            bdot = 0.0
             for a in range(dim):
                 d = pos[i, a] - pos[j, a]
                 r2 += d * d
+            if r2 >= r2max:
+                continue  # a candidate beyond the radius
+            bdot = 0.0
+            for a in range(dim):
+                d = pos[i, a] - pos[j, a]
                 b = gravity[a] - omega2 * (pos[i, a] - center[a]) - wall_acc[i - n_fluid, a]
                 bdot += b * d
             w = kernel_value(np.sqrt(r2), h, norm)
@@ -78,8 +85,8 @@ def _make_correction(DIM):  # noqa: N803 (a compile-time constant of the closure
     """:func:`correction` compiled for ``DIM`` = 2 or 3 (the branches on it fold away)."""
 
     @njit(cache=True, parallel=True)
-    def correction_dim(pos, rho, vol, p, indptr, indices, n_fluid, inv_h, coef, M, pM, grad_rho,
-                       fv_pair):  # fmt: skip
+    def correction_dim(pos, rho, vol, p, indptr, indices, r2max, n_fluid, inv_h, coef, M, pM,
+                       grad_rho, pair_j, fv_pair, row_end):  # fmt: skip
         for i in prange(n_fluid):
             b00 = b01 = b02 = b10 = b11 = b12 = b20 = b21 = b22 = 0.0
             g0 = g1 = g2 = 0.0
@@ -87,6 +94,7 @@ def _make_correction(DIM):  # noqa: N803 (a compile-time constant of the closure
             x1 = pos[i, 1]
             x2 = pos[i, 2] if DIM == 3 else 0.0
             rho_i = rho[i]
+            out = indptr[i]  # the kept pairs fill the row's first slots, in order
             for k in range(indptr[i], indptr[i + 1]):
                 j = np.uint32(indices[k])  # unsigned: no negative-index wrap test
                 d0 = x0 - pos[j, 0]
@@ -95,8 +103,12 @@ def _make_correction(DIM):  # noqa: N803 (a compile-time constant of the closure
                 if DIM == 3:
                     d2 = x2 - pos[j, 2]
                     r2 += d2 * d2
+                if r2 >= r2max:
+                    continue  # a candidate beyond the radius
                 f = gradient_factor_fast(np.sqrt(r2), inv_h, coef) * vol[j]  # F V_j
-                fv_pair[k] = f  # grad_i W_ij V_j = F V_j r_ij, reused by pair_terms
+                pair_j[out] = j
+                fv_pair[out] = f  # grad_i W_ij V_j = F V_j r_ij, reused by pair_terms
+                out += 1
                 gw0 = f * d0
                 gw1 = f * d1
                 # (r_j - r_i) (x) grad_i W_ij V_j, r_j - r_i = -d
@@ -115,6 +127,7 @@ def _make_correction(DIM):  # noqa: N803 (a compile-time constant of the closure
                     b21 -= d2 * gw1
                     b22 -= d2 * gw2
                     g2 += drho * gw2
+            row_end[i] = out
             p_i = p[i]
             if DIM == 2:
                 det = b00 * b11 - b01 * b10
@@ -164,17 +177,23 @@ def _make_correction(DIM):  # noqa: N803 (a compile-time constant of the closure
 _CORRECTION = {2: _make_correction(2), 3: _make_correction(3)}
 
 
-def correction(pos, rho, vol, p, indptr, indices, n_fluid, inv_h, coef, M, pM, grad_rho, fv_pair):
+def correction(pos, rho, vol, p, indptr, indices, r2max, n_fluid, inv_h, coef, M, pM, grad_rho,
+               pair_j, fv_pair, row_end):  # fmt: skip
     """CSPM correction M_i = [sum_j (r_j - r_i) (x) grad_i W_ij V_j]^-1 (seed eq. 7; identity
     where det < DET_MIN) and the renormalised density gradient <grad rho>_i = M_i sum_j
     (rho_j - rho_i) grad_i W_ij V_j (seed eq. 7, used by the diffusion term eq. 2), over every
-    neighbour (fluid and wall), for the fluid particles; also ``pM`` = p_i M_i (Pa) and, per
-    pair k of the list, ``fv_pair[k]`` = F(r_ij) V_j (1/m^2 in 2D; grad_i W_ij V_j = F V_j
-    r_ij) for :func:`pair_terms`. ``p`` must hold the fluid pressures (EOS first).
+    neighbour (fluid and wall), for the fluid particles; also ``pM`` = p_i M_i (Pa).
+
+    Rows (``indptr``, ``indices``): ascending, a superset of the pairs closer than sqrt(r2max)
+    (m; candidate rows, fluid_sph.candidate_pairs); the pairs at r^2 >= r2max are skipped. The
+    pairs kept are written for :func:`pair_terms`, in order, to the first slots of each row:
+    ``pair_j[k]`` = j and ``fv_pair[k]`` = F(r_ij) V_j (1/m^2 in 2D; grad_i W_ij V_j = F V_j
+    r_ij) for k in ``indptr[i] .. row_end[i] - 1``. ``p`` must hold the fluid pressures (EOS
+    first).
 
     Compiled per dimension: the 2D kernel does no arithmetic on a third axis."""
-    _CORRECTION[pos.shape[1]](pos, rho, vol, p, indptr, indices, n_fluid, inv_h, coef, M, pM,
-                              grad_rho, fv_pair)  # fmt: skip
+    _CORRECTION[pos.shape[1]](pos, rho, vol, p, indptr, indices, r2max, n_fluid, inv_h, coef, M,
+                              pM, grad_rho, pair_j, fv_pair, row_end)  # fmt: skip
 
 
 @njit(cache=True, parallel=True)
@@ -194,8 +213,9 @@ def _make_pair_terms(DIM):  # noqa: N803 (a compile-time constant of the closure
     """:func:`pair_terms` compiled for ``DIM`` = 2 or 3 (the branches on it fold away)."""
 
     @njit(cache=True, parallel=True)
-    def pair_terms_dim(pos, vel, rho, p, indptr, indices, n_fluid, h, fv_pair, rho0, c0, delta,
-                       corrected, M, pM, grad_rho, alpha, gravity, omega2, center, acc, drho):  # fmt: skip
+    def pair_terms_dim(pos, vel, rho, p, row_start, row_end, pair_j, fv_pair, n_fluid, h, rho0,
+                       c0, delta, corrected, M, pM, grad_rho, alpha, gravity, omega2, center, acc,
+                       drho):  # fmt: skip
         eta2 = ETA2 * h * h
         nvis = 2.0 * (DIM + 2)
         for i in prange(n_fluid):
@@ -221,11 +241,11 @@ def _make_pair_terms(DIM):  # noqa: N803 (a compile-time constant of the closure
                 m02, m12, m20, m21, m22 = M[i, 0, 2], M[i, 1, 2], M[i, 2, 0], M[i, 2, 1], M[i, 2, 2]
                 q02, q12, q20, q21, q22 = (pM[i, 0, 2], pM[i, 1, 2], pM[i, 2, 0], pM[i, 2, 1],
                                            pM[i, 2, 2])  # fmt: skip
-            for k in range(indptr[i], indptr[i + 1]):
+            for k in range(row_start[i], row_end[i]):
                 fv = fv_pair[k]  # F V_j from correction()
                 if fv == 0.0:
                     continue
-                j = np.uint32(indices[k])
+                j = np.uint32(pair_j[k])
                 d0 = x0 - pos[j, 0]
                 d1 = x1 - pos[j, 1]
                 r2 = d0 * d0 + d1 * d1
@@ -307,7 +327,7 @@ def _make_pair_terms(DIM):  # noqa: N803 (a compile-time constant of the closure
 _PAIR_TERMS = {2: _make_pair_terms(2), 3: _make_pair_terms(3)}
 
 
-def pair_terms(pos, vel, rho, p, indptr, indices, n_fluid, h, fv_pair, rho0, c0, delta,
+def pair_terms(pos, vel, rho, p, row_start, row_end, pair_j, fv_pair, n_fluid, h, rho0, c0, delta,
                corrected, M, pM, grad_rho, alpha, gravity, omega2, center, acc, drho):  # fmt: skip
     """Right-hand side of the fluid particles (seed eq. 13):
 
@@ -319,11 +339,12 @@ def pair_terms(pos, vel, rho, p, indptr, indices, n_fluid, h, fv_pair, rho0, c0,
     artificial viscosity pi_i (eq. 3, n = dim, alpha_ij = (alpha_i + alpha_j) / 2) run over
     fluid neighbours only: no diffusion into the walls, no viscous force on them (free slip).
 
-    ``fv_pair``, ``M``, ``pM`` and ``grad_rho`` come from :func:`correction` on the same list
-    (a pair with F = 0 is skipped). Compiled per dimension, as :func:`correction`."""
-    _PAIR_TERMS[pos.shape[1]](pos, vel, rho, p, indptr, indices, n_fluid, h, fv_pair, rho0, c0,
-                              delta, corrected, M, pM, grad_rho, alpha, gravity, omega2, center,
-                              acc, drho)  # fmt: skip
+    The pairs of row i are ``pair_j[k]`` with ``fv_pair[k]`` = F V_j for k in ``row_start[i]
+    .. row_end[i] - 1``, as :func:`correction` wrote them (with ``M``, ``pM``, ``grad_rho``; a
+    pair with F = 0 is skipped). Compiled per dimension, as :func:`correction`."""
+    _PAIR_TERMS[pos.shape[1]](pos, vel, rho, p, row_start, row_end, pair_j, fv_pair, n_fluid, h,
+                              rho0, c0, delta, corrected, M, pM, grad_rho, alpha, gravity, omega2,
+                              center, acc, drho)  # fmt: skip
 
 
 @njit(cache=True)
