@@ -8,22 +8,29 @@ right-hand sides (neighbour update, EOS, dummy-wall pressure, correction matrix 
 gradient, pair terms) are timed on each thread count of --threads; us per particle counts every
 particle (fluid and wall; all have neighbour rows) and, in a second column, fluid only. Each
 measurement is the fastest of --repeat runs (our 2 cores are shared with other jobs: the
-fastest is the least disturbed).
+fastest is the least disturbed). Beside the wall time each row has the CPU time of the process
+(``time.process_time``, all threads summed: on one thread it is the measure that a loaded
+machine disturbs least; on two it is about twice the wall time where both threads ran) and the
+1-minute load average when the row was measured.
 
 Part 2: the dam break of validation/delta_sph_dam_break.py at L/40 (scenarios/dam_break_2d.toml
 for MPS) for --sim-time seconds (default 0.1) from the start with each method on 1 thread (after one
 untimed step of a second solver, so that compilation is not timed): steps, steps per
-simulated second, wall time per simulated second.
+simulated second, wall and CPU time per simulated second.
 
-Writes benchmarks/results/delta_sph_rhs.csv and benchmarks/results/delta_sph_vs_mps_steps.csv.
+``--profile``: CPU time of each stage of the right-hand side, one thread (:func:`profile_rhs`).
+
+Writes benchmarks/results/delta_sph_rhs.csv and benchmarks/results/delta_sph_vs_mps_steps.csv
+(``--tag X``: delta_sph_rhs_X.csv, ..., e.g. to keep a run of another version of the code apart).
 
     python benchmarks/bench_delta_sph.py [--threads 1,2] [--calls 20] [--repeat 3] [--sim-time 0.1]
-                                         [--steps-only]
+                                         [--steps-only] [--profile] [--tag X]
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -54,14 +61,17 @@ def tank(n_depth: int, ratio: float):
     return DeltaSPHSolver(spec)
 
 
-def time_rhs(s, calls: int, repeat: int) -> float:
-    best = float("inf")
+def time_rhs(s, calls: int, repeat: int) -> tuple[float, float]:
+    """(wall, CPU) seconds per right-hand side, each the fastest of ``repeat`` runs."""
+    best = cpu_best = float("inf")
     for _ in range(repeat):
+        cpu = time.process_time()
         tic = time.perf_counter()
         for _ in range(calls):
             s.rhs()
         best = min(best, (time.perf_counter() - tic) / calls)
-    return best
+        cpu_best = min(cpu_best, (time.process_time() - cpu) / calls)
+    return best, cpu_best
 
 
 def profile_rhs(s, calls: int) -> dict[str, float]:
@@ -132,10 +142,13 @@ def steps_per_second(method: str, sim_time: float) -> dict:
     s = create_fluid_solver(sc.fluid, path.parent)
     warm = create_fluid_solver(sc.fluid, path.parent)
     warm.step(warm.dt_next)  # compile (or load from the cache) outside the timing
+    load = os.getloadavg()[0]
+    cpu = time.process_time()
     tic = time.perf_counter()
     while s.t < sim_time - 1e-12:
         s.step(s.dt_towards(sim_time))
     wall = time.perf_counter() - tic
+    cpu = time.process_time() - cpu
     return {
         "method": method,
         "particles": s.n,
@@ -144,6 +157,8 @@ def steps_per_second(method: str, sim_time: float) -> dict:
         "steps": s.step_count,
         "steps_per_sim_s": s.step_count / sim_time,
         "wall_s_per_sim_s": wall / sim_time,
+        "cpu_s_per_sim_s": cpu / sim_time,
+        "load_avg_1min": load,
     }
 
 
@@ -198,7 +213,8 @@ def main() -> int:
             s.rhs()  # compile and warm the neighbour candidates
             for threads in (int(t) for t in args.threads.split(",")):
                 numba.set_num_threads(threads)
-                sec = time_rhs(s, args.calls, args.repeat)
+                load = os.getloadavg()[0]
+                sec, cpu = time_rhs(s, args.calls, args.repeat)
                 rows.append(
                     {
                         "smoothing_ratio": ratio,
@@ -208,26 +224,31 @@ def main() -> int:
                         "ms_per_rhs": 1e3 * sec,
                         "us_per_particle_rhs": 1e6 * sec / s.n,
                         "us_per_fluid_particle_rhs": 1e6 * sec / s.n_fluid,
+                        "cpu_us_per_particle_rhs": 1e6 * cpu / s.n,
+                        "load_avg_1min": load,
                     }
                 )
                 r = rows[-1]
                 print(
                     f"h={ratio} l0 N={s.n:6d} (fluid {s.n_fluid:6d}) threads {threads}: "
-                    f"{r['ms_per_rhs']:.2f} ms/RHS, {r['us_per_particle_rhs']:.3f} us/particle, "
-                    f"{r['us_per_fluid_particle_rhs']:.3f} us/fluid particle",
+                    f"{r['ms_per_rhs']:.2f} ms/RHS, {r['us_per_particle_rhs']:.3f} us/particle "
+                    f"(CPU {r['cpu_us_per_particle_rhs']:.3f}), "
+                    f"{r['us_per_fluid_particle_rhs']:.3f} us/fluid particle; load {load:.1f}",
                     flush=True,
                 )
+    tag = f"_{args.tag}" if args.tag else ""
     if rows:
-        write_csv(rows, RESULTS / "delta_sph_rhs.csv",
+        write_csv(rows, RESULTS / f"delta_sph_rhs{tag}.csv",
                   comment="δ-SPHC right-hand side cost, still-water tank (benchmarks/bench_delta_sph.py)")  # fmt: skip
     numba.set_num_threads(1)
     cmp_rows = [steps_per_second(m, args.sim_time) for m in ("mps", "delta-sph")]
     for r in cmp_rows:
         print(
             f"dam break L/40 {r['method']:10}: {r['steps']} steps in {r['sim_time_s']} s = "
-            f"{r['steps_per_sim_s']:.0f} steps/s simulated, {r['wall_s_per_sim_s']:.1f} s wall per s"
+            f"{r['steps_per_sim_s']:.0f} steps/s simulated, {r['wall_s_per_sim_s']:.1f} s wall "
+            f"({r['cpu_s_per_sim_s']:.1f} s CPU) per s; load {r['load_avg_1min']:.1f}"
         )
-    write_csv(cmp_rows, RESULTS / "delta_sph_vs_mps_steps.csv",
+    write_csv(cmp_rows, RESULTS / f"delta_sph_vs_mps_steps{tag}.csv",
               comment="dam break L/40, first sim_time s, 1 thread (benchmarks/bench_delta_sph.py)")  # fmt: skip
     return 0
 
