@@ -21,10 +21,11 @@ simulated second, wall and CPU time per simulated second.
 ``--profile``: CPU time of each stage of the right-hand side, one thread (:func:`profile_rhs`).
 
 Writes benchmarks/results/delta_sph_rhs.csv and benchmarks/results/delta_sph_vs_mps_steps.csv
-(``--tag X``: delta_sph_rhs_X.csv, ..., e.g. to keep a run of another version of the code apart).
+(``--tag X``: delta_sph_rhs_X.csv, ..., e.g. to keep a run of another version of the code apart;
+``--dim 3``: part 1 in a 3D tank d broad, delta_sph_rhs_3d*.csv).
 
     python benchmarks/bench_delta_sph.py [--threads 1,2] [--calls 20] [--repeat 3] [--sim-time 0.1]
-                                         [--steps-only] [--profile] [--tag X]
+                                         [--steps-only] [--rhs-only] [--profile] [--tag X] [--dim 3]
 """
 
 from __future__ import annotations
@@ -45,17 +46,24 @@ from results_csv import write_csv  # noqa: E402
 RESULTS = ROOT / "benchmarks" / "results"
 
 
-def tank(n_depth: int, ratio: float):
+def tank(n_depth: int, ratio: float, dim: int = 2):
+    """Still water d = 1 m deep at d / l0 = ``n_depth``, 2 d long (and d broad in 3D), in a
+    tank 1.5 d high; δ-SPHC, RK4, h = ``ratio`` l0."""
     from mpsfem.fluid_sph.solver import DeltaSPHSolver
     from mpsfem.scenario.fluid import FluidSection
 
     d = 1.0
     dx = d / n_depth
+    across = [d] * (dim - 2)
     spec = FluidSection(
         method="delta-sph",
+        dim=dim,
         spacing=dx,
-        blocks=[{"lower": [0.0, 0.0], "upper": [2 * d, d]}],
-        walls=[{"shape": "tank", "lower": [0.0, 0.0], "upper": [2 * d, 1.5 * d], "name": "t"}],
+        gravity=[0.0] * (dim - 1) + [-9.81],
+        blocks=[{"lower": [0.0] * dim, "upper": [2 * d, *across, d]}],
+        walls=[
+            {"shape": "tank", "lower": [0.0] * dim, "upper": [2 * d, *across, 1.5 * d], "name": "t"}
+        ],  # fmt: skip
         sph={"smoothing_ratio": ratio},
     )
     return DeltaSPHSolver(spec)
@@ -171,6 +179,8 @@ def main() -> int:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--sim-time", type=float, default=0.1)
     ap.add_argument("--steps-only", action="store_true", help="part 2 only")
+    ap.add_argument("--rhs-only", action="store_true", help="part 1 only")
+    ap.add_argument("--dim", type=int, default=2, help="part 1's tank in 2D or 3D (default 2)")
     ap.add_argument(
         "--profile",
         action="store_true",
@@ -183,11 +193,12 @@ def main() -> int:
         prof = []
         for n_depth in (int(x) for x in args.depths.split(",")):
             for ratio in (float(r) for r in args.ratios.split(",")):
-                s = tank(n_depth, ratio)
+                s = tank(n_depth, ratio, args.dim)
                 t = profile_rhs(s, args.calls)
                 for name, sec in t.items():
                     prof.append(
                         {
+                            "dim": args.dim,
                             "smoothing_ratio": ratio,
                             "particles": s.n,
                             "fluid_particles": s.n_fluid,
@@ -201,7 +212,8 @@ def main() -> int:
                         f"{1e6 * sec / s.n:7.4f} us/particle",
                         flush=True,
                     )
-        name = f"delta_sph_profile{'_' + args.tag if args.tag else ''}.csv"
+        tag = ("_3d" if args.dim == 3 else "") + (f"_{args.tag}" if args.tag else "")
+        name = f"delta_sph_profile{tag}.csv"
         write_csv(prof, RESULTS / name,
                   comment="δ-SPHC right-hand side, CPU time per stage, 1 thread, still-water tank "
                   "(benchmarks/bench_delta_sph.py --profile)")  # fmt: skip
@@ -209,7 +221,7 @@ def main() -> int:
     rows = []
     for ratio in (float(r) for r in args.ratios.split(",")) if not args.steps_only else ():
         for n_depth in (int(x) for x in args.depths.split(",")):
-            s = tank(n_depth, ratio)
+            s = tank(n_depth, ratio, args.dim)
             s.rhs()  # compile and warm the neighbour candidates
             for threads in (int(t) for t in args.threads.split(",")):
                 numba.set_num_threads(threads)
@@ -217,6 +229,7 @@ def main() -> int:
                 sec, cpu = time_rhs(s, args.calls, args.repeat)
                 rows.append(
                     {
+                        "dim": args.dim,
                         "smoothing_ratio": ratio,
                         "particles": s.n,
                         "fluid_particles": s.n_fluid,
@@ -236,10 +249,12 @@ def main() -> int:
                     f"{r['us_per_fluid_particle_rhs']:.3f} us/fluid particle; load {load:.1f}",
                     flush=True,
                 )
-    tag = f"_{args.tag}" if args.tag else ""
+    tag = ("_3d" if args.dim == 3 else "") + (f"_{args.tag}" if args.tag else "")
     if rows:
         write_csv(rows, RESULTS / f"delta_sph_rhs{tag}.csv",
                   comment="δ-SPHC right-hand side cost, still-water tank (benchmarks/bench_delta_sph.py)")  # fmt: skip
+    if args.rhs_only:
+        return 0
     numba.set_num_threads(1)
     cmp_rows = [steps_per_second(m, args.sim_time) for m in ("mps", "delta-sph")]
     for r in cmp_rows:
