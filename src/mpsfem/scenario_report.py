@@ -37,8 +37,8 @@ from mpsfem.scenario.schema import Scenario
 COST_PER_PARTICLE_STEP = {2: 4e-6, 3: 1.5e-5}
 #: one-thread cost of a δ-SPH right-hand side per particle (all particles), s: 2D 0.26 us of CPU
 #: time at 68k particles, 0.21 us at 5k (benchmarks/results/delta_sph_rhs.csv, δ-SPHC h = 1.3 l0;
-#: CPU time, what one thread costs on an idle core); 3D not measured: the 2D figure times MPS's
-#: 3D / 2D ratio (3.75)
+#: CPU time, what one thread costs on an idle core); 3D 0.60-0.73 us at 20k-38k particles
+#: (delta_sph_rhs_3d.csv), rounded up
 COST_PER_PARTICLE_RHS = {2: 0.26e-6, 3: 1.0e-6}
 #: right-hand sides per δ-SPH step of each fluid.sph.integrator
 RHS_PER_STEP = {"rk4": 4, "symplectic": 1}
