@@ -5,7 +5,8 @@ protocol for the run loop, the probes, the results file and the checkpoints.
 Shared with MPS (``fluid_mps``): the particle layout of blocks and walls (``geometry.py``; the
 wall's first layer and its dummies all become dummy particles with extrapolated pressure, the wall
 surface lies half a spacing in front of them as in MPS), the neighbour search
-(``neighbours.py``), prescribed wall motion (``wall_motion.py``), the probe kernels
+(``neighbours.py``; its Verlet candidates go to the δ-SPH kernels unfiltered, see
+``candidate_pairs.py``), prescribed wall motion (``wall_motion.py``), the probe kernels
 (``probes.py``) and the state checks (``time_integration.first_bad_particle``).
 """
 
@@ -300,7 +301,11 @@ class DeltaSPHSolver:
 
     # ------------------------------------------------------------------ right-hand side
     def rhs(self) -> None:
-        """acc and drho/dt of the fluid at the current (pos, vel, rho); walls where they are."""
+        """acc and drho/dt of the fluid at the current (pos, vel, rho); walls where they are.
+
+        The kernels read candidate rows (:class:`CandidatePairs`) and skip the pairs beyond the
+        radius, or, with a neighbour filter, external patches or the budget
+        (:attr:`exact_neighbours`), the exact list: the same results, bit for bit."""
         tic = time.perf_counter()
         nb = self.search.update(self.pos)  # candidate rows, or the exact list
         if self.neighbour_filter is not None:
