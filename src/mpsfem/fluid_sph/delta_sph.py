@@ -6,6 +6,12 @@ Seed: Huang, Sun, Lyu & Zhong 2022 (Chinese Journal of Theoretical and Applied M
 eqs. 1-13); δ-SPH after Antuono et al. 2010/2012; dummy-wall pressure after Adami, Hu & Adams
 2012 (eq. 27). Every parallel loop runs over rows i and sums its own row in the neighbour list's
 ascending order, so the results are bit-identical for any thread count; nothing allocates.
+
+Speed (docs/fluid_sph.md, "Speed"): the rows may be Verlet candidates (the kernels skip the
+pairs at r^2 >= radius^2, the neighbour search's own test); the correction pass keeps each pair's
+F V_j for the pair pass and p_i M_i per particle; the two pair kernels are compiled per
+dimension (a closure over ``DIM``), so 2D does no arithmetic on a third axis. Each change keeps
+the operations and their order: the results are those of the plain formulation, bit for bit.
 """
 
 from __future__ import annotations
