@@ -35,10 +35,11 @@ from mpsfem.scenario.schema import Scenario
 #: one-thread cost of an MPS particle-step, s (benchmarks/results/dam_break.md: 3.9 us in 2D
 #: at 64.8k; 3D from benchmarks/results/still_water_3d.md, rounded up)
 COST_PER_PARTICLE_STEP = {2: 4e-6, 3: 1.5e-5}
-#: one-thread cost of a δ-SPH right-hand side per particle (all particles), s: 2D 1.17 us at 68k
-#: particles, 0.96 us at 5k (benchmarks/results/delta_sph_rhs.csv, δ-SPHC h = 1.3 l0), rounded
-#: up; 3D not measured: the 2D figure times MPS's 3D / 2D ratio (3.75)
-COST_PER_PARTICLE_RHS = {2: 1.2e-6, 3: 4.5e-6}
+#: one-thread cost of a δ-SPH right-hand side per particle (all particles), s: 2D 0.26 us of CPU
+#: time at 68k particles, 0.21 us at 5k (benchmarks/results/delta_sph_rhs.csv, δ-SPHC h = 1.3 l0;
+#: CPU time, what one thread costs on an idle core); 3D 0.60-0.73 us at 20k-38k particles
+#: (delta_sph_rhs_3d.csv), rounded up
+COST_PER_PARTICLE_RHS = {2: 0.26e-6, 3: 1.0e-6}
 #: right-hand sides per δ-SPH step of each fluid.sph.integrator
 RHS_PER_STEP = {"rk4": 4, "symplectic": 1}
 

@@ -81,8 +81,9 @@ def test_steps_against_the_benchmarked_dam_break():
 
 
 def test_run_time_against_the_benchmarked_dam_break():
-    # one-thread wall time per simulated second measured on this scene, 2D; the cost per
-    # particle and RHS comes from another scene (still water), so within 30 %
+    # one-thread CPU time per simulated second measured on this scene, 2D (the wall time on an
+    # idle core; the shared machine's wall time varies with its load); the cost per particle
+    # and RHS comes from another scene (still water), so within 30 %
     row = measured_row()
     sim = float(row["sim_time_s"])
     sc = load_scenario(DAM, [f"run.end_time={sim}"]).scenario
@@ -90,7 +91,7 @@ def test_run_time_against_the_benchmarked_dam_break():
     n = int(row["particles"])
     assert f"({n} in all)" in r.lines[0]
     _, seconds, _ = _delta_sph_time_estimate(sc, n)
-    measured = float(row["wall_s_per_sim_s"]) * sim
+    measured = float(row["cpu_s_per_sim_s"]) * sim
     assert seconds == pytest.approx(measured, rel=0.3)
 
 

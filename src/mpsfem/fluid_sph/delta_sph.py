@@ -6,6 +6,12 @@ Seed: Huang, Sun, Lyu & Zhong 2022 (Chinese Journal of Theoretical and Applied M
 eqs. 1-13); δ-SPH after Antuono et al. 2010/2012; dummy-wall pressure after Adami, Hu & Adams
 2012 (eq. 27). Every parallel loop runs over rows i and sums its own row in the neighbour list's
 ascending order, so the results are bit-identical for any thread count; nothing allocates.
+
+Speed (docs/fluid_sph.md, "Speed"): the rows may be Verlet candidates (the kernels skip the
+pairs at r^2 >= radius^2, the neighbour search's own test); the correction pass keeps each pair's
+F V_j for the pair pass and p_i M_i per particle; the two pair kernels are compiled per
+dimension (a closure over ``DIM``), so 2D does no arithmetic on a third axis. Each change keeps
+the operations and their order: the results are those of the plain formulation, bit for bit.
 """
 
 from __future__ import annotations
@@ -38,13 +44,16 @@ def particle_volume(rho, mass, vol):
 
 
 @njit(cache=True, parallel=True)
-def wall_pressure(pos, rho, p, kind, indptr, indices, n_fluid, gravity, omega2, center, wall_acc,
-                  h, norm, rho0, c0):  # fmt: skip
+def wall_pressure(pos, rho, p, kind, indptr, indices, r2max, n_fluid, gravity, omega2, center,
+                  wall_acc, h, norm, rho0, c0):  # fmt: skip
     """Pressure (Pa) and density (kg/m^3) of every wall / dummy particle i >= n_fluid,
     extrapolated from its fluid neighbours: p_w = (sum_f p_f W_wf + (b . sum_f rho_f r_wf W_wf))
     / sum_f W_wf with b = g - Omega^2 (r_w - c) - a_w, the body force at the wall less the wall's
     own acceleration ``wall_acc[i - n_fluid]`` (m/s^2; Adami et al. 2012, eq. 27); rho_w = rho0 +
-    p_w / c0^2 (inverse linear EOS). Without fluid neighbours p_w = 0, rho_w = rho0."""
+    p_w / c0^2 (inverse linear EOS). Without fluid neighbours p_w = 0, rho_w = rho0.
+
+    Rows (``indptr``, ``indices``): ascending, a superset of the pairs closer than sqrt(r2max)
+    (m; candidate rows, fluid_sph.candidate_pairs): the pairs at r^2 >= r2max are skipped."""
     n = pos.shape[0]
     dim = pos.shape[1]
     inv_c2 = 1.0 / (c0 * c0)
@@ -57,10 +66,14 @@ def wall_pressure(pos, rho, p, kind, indptr, indices, n_fluid, gravity, omega2, 
             if j >= n_fluid:
                 break  # ascending rows: the fluid neighbours come first
             r2 = 0.0
-            bdot = 0.0
             for a in range(dim):
                 d = pos[i, a] - pos[j, a]
                 r2 += d * d
+            if r2 >= r2max:
+                continue  # a candidate beyond the radius
+            bdot = 0.0
+            for a in range(dim):
+                d = pos[i, a] - pos[j, a]
                 b = gravity[a] - omega2 * (pos[i, a] - center[a]) - wall_acc[i - n_fluid, a]
                 bdot += b * d
             w = kernel_value(np.sqrt(r2), h, norm)
@@ -74,78 +87,119 @@ def wall_pressure(pos, rho, p, kind, indptr, indices, n_fluid, gravity, omega2, 
         rho[i] = rho0 + p[i] * inv_c2
 
 
-@njit(cache=True, parallel=True)
-def correction(pos, rho, vol, indptr, indices, n_fluid, inv_h, coef, M, grad_rho):
+def _make_correction(DIM):  # noqa: N803 (a compile-time constant of the closure)
+    """:func:`correction` compiled for ``DIM`` = 2 or 3 (the branches on it fold away)."""
+
+    @njit(cache=True, parallel=True)
+    def correction_dim(pos, rho, vol, p, indptr, indices, r2max, n_fluid, inv_h, coef, M, pM,
+                       grad_rho, pair_j, fv_pair, row_end):  # fmt: skip
+        for i in prange(n_fluid):
+            b00 = b01 = b02 = b10 = b11 = b12 = b20 = b21 = b22 = 0.0
+            g0 = g1 = g2 = 0.0
+            x0 = pos[i, 0]
+            x1 = pos[i, 1]
+            x2 = pos[i, 2] if DIM == 3 else 0.0
+            rho_i = rho[i]
+            out = indptr[i]  # the kept pairs fill the row's first slots, in order
+            for k in range(indptr[i], indptr[i + 1]):
+                j = np.uint32(indices[k])  # unsigned: no negative-index wrap test
+                d0 = x0 - pos[j, 0]
+                d1 = x1 - pos[j, 1]
+                r2 = d0 * d0 + d1 * d1
+                if DIM == 3:
+                    d2 = x2 - pos[j, 2]
+                    r2 += d2 * d2
+                if r2 >= r2max:
+                    continue  # a candidate beyond the radius
+                f = gradient_factor_fast(np.sqrt(r2), inv_h, coef) * vol[j]  # F V_j
+                pair_j[out] = j
+                fv_pair[out] = f  # grad_i W_ij V_j = F V_j r_ij, reused by pair_terms
+                out += 1
+                gw0 = f * d0
+                gw1 = f * d1
+                # (r_j - r_i) (x) grad_i W_ij V_j, r_j - r_i = -d
+                b00 -= d0 * gw0
+                b01 -= d0 * gw1
+                b10 -= d1 * gw0
+                b11 -= d1 * gw1
+                drho = rho[j] - rho_i
+                g0 += drho * gw0
+                g1 += drho * gw1
+                if DIM == 3:
+                    gw2 = f * d2
+                    b02 -= d0 * gw2
+                    b12 -= d1 * gw2
+                    b20 -= d2 * gw0
+                    b21 -= d2 * gw1
+                    b22 -= d2 * gw2
+                    g2 += drho * gw2
+            row_end[i] = out
+            p_i = p[i]
+            if DIM == 2:
+                det = b00 * b11 - b01 * b10
+                if det > DET_MIN:
+                    m00 = b11 / det
+                    m01 = -b01 / det
+                    m10 = -b10 / det
+                    m11 = b00 / det
+                else:
+                    m00 = m11 = 1.0
+                    m01 = m10 = 0.0
+                M[i, 0, 0] = m00
+                M[i, 0, 1] = m01
+                M[i, 1, 0] = m10
+                M[i, 1, 1] = m11
+                grad_rho[i, 0] = m00 * g0 + m01 * g1
+                grad_rho[i, 1] = m10 * g0 + m11 * g1
+            else:
+                c00 = b11 * b22 - b12 * b21
+                c01 = b02 * b21 - b01 * b22
+                c02 = b01 * b12 - b02 * b11
+                det = b00 * c00 + b10 * c01 + b20 * c02
+                if det > DET_MIN:
+                    inv = 1.0 / det
+                    M[i, 0, 0] = c00 * inv
+                    M[i, 0, 1] = c01 * inv
+                    M[i, 0, 2] = c02 * inv
+                    M[i, 1, 0] = (b12 * b20 - b10 * b22) * inv
+                    M[i, 1, 1] = (b00 * b22 - b02 * b20) * inv
+                    M[i, 1, 2] = (b02 * b10 - b00 * b12) * inv
+                    M[i, 2, 0] = (b10 * b21 - b11 * b20) * inv
+                    M[i, 2, 1] = (b01 * b20 - b00 * b21) * inv
+                    M[i, 2, 2] = (b00 * b11 - b01 * b10) * inv
+                else:
+                    for a in range(3):
+                        for c in range(3):
+                            M[i, a, c] = 1.0 if a == c else 0.0
+                for a in range(3):
+                    grad_rho[i, a] = M[i, a, 0] * g0 + M[i, a, 1] * g1 + M[i, a, 2] * g2
+            for a in range(DIM):
+                for c in range(DIM):
+                    pM[i, a, c] = p_i * M[i, a, c]  # p_i M_i of seed eq. 12, once per particle
+
+    return correction_dim
+
+
+_CORRECTION = {2: _make_correction(2), 3: _make_correction(3)}
+
+
+def correction(pos, rho, vol, p, indptr, indices, r2max, n_fluid, inv_h, coef, M, pM, grad_rho,
+               pair_j, fv_pair, row_end):  # fmt: skip
     """CSPM correction M_i = [sum_j (r_j - r_i) (x) grad_i W_ij V_j]^-1 (seed eq. 7; identity
     where det < DET_MIN) and the renormalised density gradient <grad rho>_i = M_i sum_j
     (rho_j - rho_i) grad_i W_ij V_j (seed eq. 7, used by the diffusion term eq. 2), over every
-    neighbour (fluid and wall), for the fluid particles."""
-    dim = pos.shape[1]
-    for i in prange(n_fluid):
-        b00 = b01 = b02 = b10 = b11 = b12 = b20 = b21 = b22 = 0.0
-        g0 = g1 = g2 = 0.0
-        for k in range(indptr[i], indptr[i + 1]):
-            j = indices[k]
-            d0 = pos[i, 0] - pos[j, 0]
-            d1 = pos[i, 1] - pos[j, 1]
-            d2 = pos[i, 2] - pos[j, 2] if dim == 3 else 0.0
-            r = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-            f = gradient_factor_fast(r, inv_h, coef) * vol[j]  # F V_j; grad W = F r_ij
-            gw0 = f * d0
-            gw1 = f * d1
-            gw2 = f * d2
-            # (r_j - r_i) (x) grad_i W_ij V_j, r_j - r_i = -d
-            b00 -= d0 * gw0
-            b01 -= d0 * gw1
-            b02 -= d0 * gw2
-            b10 -= d1 * gw0
-            b11 -= d1 * gw1
-            b12 -= d1 * gw2
-            b20 -= d2 * gw0
-            b21 -= d2 * gw1
-            b22 -= d2 * gw2
-            drho = rho[j] - rho[i]
-            g0 += drho * gw0
-            g1 += drho * gw1
-            g2 += drho * gw2
-        if dim == 2:
-            det = b00 * b11 - b01 * b10
-            if det > DET_MIN:
-                m00 = b11 / det
-                m01 = -b01 / det
-                m10 = -b10 / det
-                m11 = b00 / det
-            else:
-                m00 = m11 = 1.0
-                m01 = m10 = 0.0
-            M[i, 0, 0] = m00
-            M[i, 0, 1] = m01
-            M[i, 1, 0] = m10
-            M[i, 1, 1] = m11
-            grad_rho[i, 0] = m00 * g0 + m01 * g1
-            grad_rho[i, 1] = m10 * g0 + m11 * g1
-        else:
-            c00 = b11 * b22 - b12 * b21
-            c01 = b02 * b21 - b01 * b22
-            c02 = b01 * b12 - b02 * b11
-            det = b00 * c00 + b10 * c01 + b20 * c02
-            if det > DET_MIN:
-                inv = 1.0 / det
-                M[i, 0, 0] = c00 * inv
-                M[i, 0, 1] = c01 * inv
-                M[i, 0, 2] = c02 * inv
-                M[i, 1, 0] = (b12 * b20 - b10 * b22) * inv
-                M[i, 1, 1] = (b00 * b22 - b02 * b20) * inv
-                M[i, 1, 2] = (b02 * b10 - b00 * b12) * inv
-                M[i, 2, 0] = (b10 * b21 - b11 * b20) * inv
-                M[i, 2, 1] = (b01 * b20 - b00 * b21) * inv
-                M[i, 2, 2] = (b00 * b11 - b01 * b10) * inv
-            else:
-                for a in range(3):
-                    for c in range(3):
-                        M[i, a, c] = 1.0 if a == c else 0.0
-            for a in range(3):
-                grad_rho[i, a] = M[i, a, 0] * g0 + M[i, a, 1] * g1 + M[i, a, 2] * g2
+    neighbour (fluid and wall), for the fluid particles; also ``pM`` = p_i M_i (Pa).
+
+    Rows (``indptr``, ``indices``): ascending, a superset of the pairs closer than sqrt(r2max)
+    (m; candidate rows, fluid_sph.candidate_pairs); the pairs at r^2 >= r2max are skipped. The
+    pairs kept are written for :func:`pair_terms`, in order, to the first slots of each row:
+    ``pair_j[k]`` = j and ``fv_pair[k]`` = F(r_ij) V_j (1/m^2 in 2D; grad_i W_ij V_j = F V_j
+    r_ij) for k in ``indptr[i] .. row_end[i] - 1``. ``p`` must hold the fluid pressures (EOS
+    first).
+
+    Compiled per dimension: the 2D kernel does no arithmetic on a third axis."""
+    _CORRECTION[pos.shape[1]](pos, rho, vol, p, indptr, indices, r2max, n_fluid, inv_h, coef, M,
+                              pM, grad_rho, pair_j, fv_pair, row_end)  # fmt: skip
 
 
 @njit(cache=True, parallel=True)
@@ -161,9 +215,126 @@ def viscosity_ramp(pos, n_fluid, alpha0, alpha_damp, axis, start, inv_length, al
         alpha[i] = a
 
 
-@njit(cache=True, parallel=True)
-def pair_terms(pos, vel, rho, vol, p, indptr, indices, n_fluid, h, inv_h, coef, rho0, c0, delta,
-               corrected, M, grad_rho, alpha, gravity, omega2, center, acc, drho):  # fmt: skip
+def _make_pair_terms(DIM):  # noqa: N803 (a compile-time constant of the closure)
+    """:func:`pair_terms` compiled for ``DIM`` = 2 or 3 (the branches on it fold away)."""
+
+    @njit(cache=True, parallel=True)
+    def pair_terms_dim(pos, vel, rho, p, row_start, row_end, pair_j, fv_pair, n_fluid, h, rho0,
+                       c0, delta, corrected, M, pM, grad_rho, alpha, gravity, omega2, center, acc,
+                       drho):  # fmt: skip
+        eta2 = ETA2 * h * h
+        nvis = 2.0 * (DIM + 2)
+        for i in prange(n_fluid):
+            div = 0.0
+            diff = 0.0
+            gp0 = gp1 = gp2 = 0.0  # <grad p>_i
+            vi0 = vi1 = vi2 = 0.0  # sum_j alpha_ij phi_ij grad_i W_ij V_j
+            x0 = pos[i, 0]
+            x1 = pos[i, 1]
+            x2 = pos[i, 2] if DIM == 3 else 0.0
+            v0 = vel[i, 0]
+            v1 = vel[i, 1]
+            v2 = vel[i, 2] if DIM == 3 else 0.0
+            p_i = p[i]
+            rho_i = rho[i]
+            alpha_i = alpha[i]
+            gr0 = grad_rho[i, 0]
+            gr1 = grad_rho[i, 1]
+            gr2 = grad_rho[i, 2] if DIM == 3 else 0.0
+            m00, m01, m10, m11 = M[i, 0, 0], M[i, 0, 1], M[i, 1, 0], M[i, 1, 1]
+            q00, q01, q10, q11 = pM[i, 0, 0], pM[i, 0, 1], pM[i, 1, 0], pM[i, 1, 1]
+            if DIM == 3:
+                m02, m12, m20, m21, m22 = M[i, 0, 2], M[i, 1, 2], M[i, 2, 0], M[i, 2, 1], M[i, 2, 2]
+                q02, q12, q20, q21, q22 = (pM[i, 0, 2], pM[i, 1, 2], pM[i, 2, 0], pM[i, 2, 1],
+                                           pM[i, 2, 2])  # fmt: skip
+            for k in range(row_start[i], row_end[i]):
+                fv = fv_pair[k]  # F V_j from correction()
+                if fv == 0.0:
+                    continue
+                j = np.uint32(pair_j[k])
+                d0 = x0 - pos[j, 0]
+                d1 = x1 - pos[j, 1]
+                r2 = d0 * d0 + d1 * d1
+                g0 = fv * d0  # grad_i W_ij V_j = F r_ij V_j
+                g1 = fv * d1
+                u0 = vel[j, 0] - v0
+                u1 = vel[j, 1] - v1
+                dot = u0 * g0 + u1 * g1
+                if DIM == 3:
+                    d2 = x2 - pos[j, 2]
+                    r2 += d2 * d2
+                    g2 = fv * d2
+                    u2 = vel[j, 2] - v2
+                    dot += u2 * g2
+                div += dot  # (u_j - u_i) . grad_i W_ij V_j
+                fluid_j = j < n_fluid
+                if corrected:
+                    # (p_i M_i + p_j M_j) grad_i W_ij V_j, seed eq. 12 (M_j = M_i at a wall)
+                    if fluid_j:
+                        a00 = q00 + pM[j, 0, 0]
+                        a01 = q01 + pM[j, 0, 1]
+                        a10 = q10 + pM[j, 1, 0]
+                        a11 = q11 + pM[j, 1, 1]
+                        if DIM == 3:
+                            a02 = q02 + pM[j, 0, 2]
+                            a12 = q12 + pM[j, 1, 2]
+                            a20 = q20 + pM[j, 2, 0]
+                            a21 = q21 + pM[j, 2, 1]
+                            a22 = q22 + pM[j, 2, 2]
+                    else:
+                        s = p_i + p[j]
+                        a00, a01, a10, a11 = s * m00, s * m01, s * m10, s * m11
+                        if DIM == 3:
+                            a02, a12, a20, a21, a22 = s * m02, s * m12, s * m20, s * m21, s * m22
+                    if DIM == 2:
+                        gp0 += a00 * g0 + a01 * g1
+                        gp1 += a10 * g0 + a11 * g1
+                    else:
+                        gp0 += a00 * g0 + a01 * g1 + a02 * g2
+                        gp1 += a10 * g0 + a11 * g1 + a12 * g2
+                        gp2 += a20 * g0 + a21 * g1 + a22 * g2
+                else:
+                    s = p_i + p[j]  # seed eq. 6
+                    gp0 += s * g0
+                    gp1 += s * g1
+                    if DIM == 3:
+                        gp2 += s * g2
+                if fluid_j:
+                    # psi_ji = rho_j - rho_i - (<grad rho>_i + <grad rho>_j) . (r_j - r_i) / 2,
+                    # seed eq. 2
+                    psi = rho[j] - rho_i
+                    psi += 0.5 * ((gr0 + grad_rho[j, 0]) * d0 + (gr1 + grad_rho[j, 1]) * d1)
+                    if DIM == 3:
+                        psi += 0.5 * (gr2 + grad_rho[j, 2]) * d2
+                    inv = 1.0 / (r2 + eta2)
+                    # (r_j - r_i) . grad_i W_ij V_j = -F r^2 V_j, seed eq. 2
+                    diff -= psi * fv * r2 * inv
+                    # phi_ij = 2 (n + 2) (u_j - u_i) . (r_j - r_i) / (r^2 + 0.01 h^2), seed eq. 3
+                    ud = u0 * d0 + u1 * d1
+                    if DIM == 3:
+                        ud += u2 * d2
+                    phi = -nvis * ud * inv
+                    w = 0.5 * (alpha_i + alpha[j]) * phi
+                    vi0 += w * g0
+                    vi1 += w * g1
+                    if DIM == 3:
+                        vi2 += w * g2
+            drho[i] = -rho_i * div + delta * h * c0 * 2.0 * diff  # seed eqs. 1, 2
+            inv_rho = 1.0 / rho_i
+            visc = h * c0 * rho0 * inv_rho  # seed eq. 3: alpha h c0 rho0 / rho_i
+            acc[i, 0] = -gp0 * inv_rho + gravity[0] - omega2 * (x0 - center[0]) + visc * vi0
+            acc[i, 1] = -gp1 * inv_rho + gravity[1] - omega2 * (x1 - center[1]) + visc * vi1
+            if DIM == 3:
+                acc[i, 2] = -gp2 * inv_rho + gravity[2] - omega2 * (x2 - center[2]) + visc * vi2
+
+    return pair_terms_dim
+
+
+_PAIR_TERMS = {2: _make_pair_terms(2), 3: _make_pair_terms(3)}
+
+
+def pair_terms(pos, vel, rho, p, row_start, row_end, pair_j, fv_pair, n_fluid, h, rho0, c0, delta,
+               corrected, M, pM, grad_rho, alpha, gravity, omega2, center, acc, drho):  # fmt: skip
     """Right-hand side of the fluid particles (seed eq. 13):
 
     drho_i/dt = -rho_i sum_j (u_j - u_i) . grad_i W_ij V_j + delta h c0 D_i      (eqs. 1, 2)
@@ -172,92 +343,14 @@ def pair_terms(pos, vel, rho, vol, p, indptr, indices, n_fluid, h, inv_h, coef, 
     <grad p>_i = sum_j (p_i M_i + p_j M_j) grad_i W_ij V_j (δ-SPHC, eq. 12; M_j = M_i for a wall
     neighbour) or sum_j (p_i + p_j) grad_i W_ij V_j (δ-SPH, eq. 6). D_i (eq. 2) and the
     artificial viscosity pi_i (eq. 3, n = dim, alpha_ij = (alpha_i + alpha_j) / 2) run over
-    fluid neighbours only: no diffusion into the walls, no viscous force on them (free slip)."""
-    dim = pos.shape[1]
-    eta2 = ETA2 * h * h
-    nvis = 2.0 * (dim + 2)
-    for i in prange(n_fluid):
-        div = 0.0
-        diff = 0.0
-        gp0 = gp1 = gp2 = 0.0  # <grad p>_i
-        vi0 = vi1 = vi2 = 0.0  # sum_j alpha_ij phi_ij grad_i W_ij V_j
-        if corrected:
-            m00, m01, m10, m11 = M[i, 0, 0], M[i, 0, 1], M[i, 1, 0], M[i, 1, 1]
-            if dim == 3:
-                m02, m12, m20, m21, m22 = M[i, 0, 2], M[i, 1, 2], M[i, 2, 0], M[i, 2, 1], M[i, 2, 2]
-            else:
-                m02 = m12 = m20 = m21 = m22 = 0.0
-        for k in range(indptr[i], indptr[i + 1]):
-            j = indices[k]
-            d0 = pos[i, 0] - pos[j, 0]
-            d1 = pos[i, 1] - pos[j, 1]
-            d2 = pos[i, 2] - pos[j, 2] if dim == 3 else 0.0
-            r2 = d0 * d0 + d1 * d1 + d2 * d2
-            f = gradient_factor_fast(np.sqrt(r2), inv_h, coef)
-            if f == 0.0:
-                continue
-            fv = f * vol[j]
-            g0 = fv * d0  # grad_i W_ij V_j = F r_ij V_j
-            g1 = fv * d1
-            g2 = fv * d2
-            u0 = vel[j, 0] - vel[i, 0]
-            u1 = vel[j, 1] - vel[i, 1]
-            u2 = vel[j, 2] - vel[i, 2] if dim == 3 else 0.0
-            div += u0 * g0 + u1 * g1 + u2 * g2  # (u_j - u_i) . grad_i W_ij V_j
-            fluid_j = j < n_fluid
-            if corrected:
-                # (p_i M_i + p_j M_j) grad_i W_ij V_j, seed eq. 12 (M_j = M_i at a wall)
-                pi = p[i]
-                pj = p[j]
-                if fluid_j:
-                    a00 = pi * m00 + pj * M[j, 0, 0]
-                    a01 = pi * m01 + pj * M[j, 0, 1]
-                    a10 = pi * m10 + pj * M[j, 1, 0]
-                    a11 = pi * m11 + pj * M[j, 1, 1]
-                    if dim == 3:
-                        a02 = pi * m02 + pj * M[j, 0, 2]
-                        a12 = pi * m12 + pj * M[j, 1, 2]
-                        a20 = pi * m20 + pj * M[j, 2, 0]
-                        a21 = pi * m21 + pj * M[j, 2, 1]
-                        a22 = pi * m22 + pj * M[j, 2, 2]
-                    else:
-                        a02 = a12 = a20 = a21 = a22 = 0.0
-                else:
-                    s = pi + pj
-                    a00, a01, a02 = s * m00, s * m01, s * m02
-                    a10, a11, a12 = s * m10, s * m11, s * m12
-                    a20, a21, a22 = s * m20, s * m21, s * m22
-                gp0 += a00 * g0 + a01 * g1 + a02 * g2
-                gp1 += a10 * g0 + a11 * g1 + a12 * g2
-                gp2 += a20 * g0 + a21 * g1 + a22 * g2
-            else:
-                s = p[i] + p[j]  # seed eq. 6
-                gp0 += s * g0
-                gp1 += s * g1
-                gp2 += s * g2
-            if fluid_j:
-                # psi_ji = rho_j - rho_i - (<grad rho>_i + <grad rho>_j) . (r_j - r_i) / 2, eq. 2
-                psi = rho[j] - rho[i]
-                psi += 0.5 * ((grad_rho[i, 0] + grad_rho[j, 0]) * d0
-                              + (grad_rho[i, 1] + grad_rho[j, 1]) * d1)  # fmt: skip
-                if dim == 3:
-                    psi += 0.5 * (grad_rho[i, 2] + grad_rho[j, 2]) * d2
-                inv = 1.0 / (r2 + eta2)
-                # (r_j - r_i) . grad_i W_ij V_j = -F r^2 V_j, seed eq. 2
-                diff -= psi * fv * r2 * inv
-                # phi_ij = 2 (n + 2) (u_j - u_i) . (r_j - r_i) / (r^2 + 0.01 h^2), seed eq. 3
-                phi = -nvis * (u0 * d0 + u1 * d1 + u2 * d2) * inv
-                w = 0.5 * (alpha[i] + alpha[j]) * phi
-                vi0 += w * g0
-                vi1 += w * g1
-                vi2 += w * g2
-        drho[i] = -rho[i] * div + delta * h * c0 * 2.0 * diff  # seed eqs. 1, 2
-        inv_rho = 1.0 / rho[i]
-        visc = h * c0 * rho0 * inv_rho  # seed eq. 3: alpha h c0 rho0 / rho_i
-        acc[i, 0] = -gp0 * inv_rho + gravity[0] - omega2 * (pos[i, 0] - center[0]) + visc * vi0
-        acc[i, 1] = -gp1 * inv_rho + gravity[1] - omega2 * (pos[i, 1] - center[1]) + visc * vi1
-        if dim == 3:
-            acc[i, 2] = -gp2 * inv_rho + gravity[2] - omega2 * (pos[i, 2] - center[2]) + visc * vi2
+    fluid neighbours only: no diffusion into the walls, no viscous force on them (free slip).
+
+    The pairs of row i are ``pair_j[k]`` with ``fv_pair[k]`` = F V_j for k in ``row_start[i]
+    .. row_end[i] - 1``, as :func:`correction` wrote them (with ``M``, ``pM``, ``grad_rho``; a
+    pair with F = 0 is skipped). Compiled per dimension, as :func:`correction`."""
+    _PAIR_TERMS[pos.shape[1]](pos, vel, rho, p, row_start, row_end, pair_j, fv_pair, n_fluid, h,
+                              rho0, c0, delta, corrected, M, pM, grad_rho, alpha, gravity, omega2,
+                              center, acc, drho)  # fmt: skip
 
 
 @njit(cache=True)

@@ -5,7 +5,8 @@ protocol for the run loop, the probes, the results file and the checkpoints.
 Shared with MPS (``fluid_mps``): the particle layout of blocks and walls (``geometry.py``; the
 wall's first layer and its dummies all become dummy particles with extrapolated pressure, the wall
 surface lies half a spacing in front of them as in MPS), the neighbour search
-(``neighbours.py``), prescribed wall motion (``wall_motion.py``), the probe kernels
+(``neighbours.py``; its Verlet candidates go to the δ-SPH kernels unfiltered, see
+``candidate_pairs.py``), prescribed wall motion (``wall_motion.py``), the probe kernels
 (``probes.py``) and the state checks (``time_integration.first_bad_particle``).
 """
 
@@ -26,6 +27,7 @@ from mpsfem.fluid_mps.neighbours import NeighbourSearch, build_neighbours
 from mpsfem.fluid_mps.time_integration import first_bad_particle
 from mpsfem.fluid_mps.wall_motion import MotionLaw, place_moving_walls
 from mpsfem.fluid_sph import delta_sph, time_stepping
+from mpsfem.fluid_sph.candidate_pairs import CandidatePairs
 from mpsfem.fluid_sph.momentum_budget import SPHMomentumBudget
 from mpsfem.fluid_sph.wendland import gradient_coefficient, wendland_norm
 from mpsfem.scenario.fluid import FluidSection
@@ -160,15 +162,15 @@ class DeltaSPHSolver:
             self.rho[:nf] = self.rho0 + self.p[:nf] / self.c0**2  # inverse of seed eq. 1
 
         self.lower, self.upper = self._domain()
-        self.search = NeighbourSearch(
-            dim,
-            self.radius,
-            domain=(self.lower, self.upper),
-            escape="clip",
-            skin=spec.neighbours.skin * dx,
-        )
         # work arrays, sized once
         self.M = np.zeros((nf, dim, dim))
+        self.pM = np.zeros((nf, dim, dim))  # p_i M_i (Pa), for the pair pass
+        #: the pairs closer than the radius, row i in slots indptr[i] .. row_end[i] - 1 of the
+        #: candidate rows: j and F(r_ij) V_j (delta_sph.correction writes them, pair_terms reads
+        #: them); grown with the candidates, with 10 % spare
+        self.pair_j = np.zeros(0, np.int32)
+        self.fv_pair = np.zeros(0)
+        self.row_end = np.zeros(n, np.int64)
         self.grad_rho = np.zeros((nf, dim))
         self.alpha = np.full(nf, sph.viscosity_alpha)
         self.acc = np.zeros((n, dim))
@@ -208,6 +210,20 @@ class DeltaSPHSolver:
             self._patch_forces = np.zeros((len(self.patches), dim))
         else:
             self.budget = NoBudget(names, spec.boundary_force)
+        # the pair rows of the kernels: Verlet candidates filtered inside the kernels
+        # (candidate_pairs.py); the exact list of the shared search where a neighbour filter,
+        # the wall reaction or the budget needs it
+        self.exact_neighbours = (
+            neighbour_filter is not None or self.ext_rows.size > 0 or self.budget.full
+        )
+        skin = spec.neighbours.skin * dx
+        domain = (self.lower, self.upper)
+        if self.exact_neighbours:
+            self.search = NeighbourSearch(dim, self.radius, domain=domain, escape="clip",
+                                          skin=skin)  # fmt: skip
+        else:
+            self.search = CandidatePairs(dim, self.radius, skin, domain=domain, escape="clip")
+        self._last_neighbours = None
         self.force_marks: dict[str, list[float]] = {}
         #: attached pressure probes' running impulses (:meth:`attach_pressure_ledger`; state)
         self.pressure_ledger: probes.AttachedPressureLedger | None = None
@@ -285,23 +301,33 @@ class DeltaSPHSolver:
 
     # ------------------------------------------------------------------ right-hand side
     def rhs(self) -> None:
-        """acc and drho/dt of the fluid at the current (pos, vel, rho); walls where they are."""
+        """acc and drho/dt of the fluid at the current (pos, vel, rho); walls where they are.
+
+        The kernels read candidate rows (:class:`CandidatePairs`) and skip the pairs beyond the
+        radius, or, with a neighbour filter, external patches or the budget
+        (:attr:`exact_neighbours`), the exact list: the same results, bit for bit."""
         tic = time.perf_counter()
-        nb = self.search.update(self.pos)
+        nb = self.search.update(self.pos)  # candidate rows, or the exact list
         if self.neighbour_filter is not None:
             nb = self.neighbour_filter(nb, self.pos, self.kind)
+        if self.pair_j.shape[0] < nb.nnz:
+            self.pair_j = np.empty(int(1.1 * nb.nnz) + 16, np.int32)
+            self.fv_pair = np.empty(self.pair_j.shape[0])
+        r2max = self.radius * self.radius  # the neighbour search's test, r^2 < radius^2
         toc = time.perf_counter()
         self.times.neighbours += toc - tic
         nf = self.n_fluid
         delta_sph.equation_of_state(self.rho, self.p, nf, self.rho0, self.c0)
         delta_sph.wall_pressure(
-            self.pos, self.rho, self.p, self.kind, nb.indptr, nb.indices, nf, self.gravity,
-            self.omega2, self.center, self.wall_acc, self.h, self.norm, self.rho0, self.c0,
+            self.pos, self.rho, self.p, self.kind, nb.indptr, nb.indices, r2max, nf,
+            self.gravity, self.omega2, self.center, self.wall_acc, self.h, self.norm, self.rho0,
+            self.c0,
         )  # fmt: skip
         delta_sph.particle_volume(self.rho, self.mass, self.vol)
         delta_sph.correction(
-            self.pos, self.rho, self.vol, nb.indptr, nb.indices, nf, self.inv_h, self.grad_coef,
-            self.M, self.grad_rho,
+            self.pos, self.rho, self.vol, self.p, nb.indptr, nb.indices, r2max, nf, self.inv_h,
+            self.grad_coef, self.M, self.pM, self.grad_rho, self.pair_j, self.fv_pair,
+            self.row_end,
         )  # fmt: skip
         if len(self.zone_axis):
             delta_sph.viscosity_ramp(
@@ -309,9 +335,9 @@ class DeltaSPHSolver:
                 self.zone_start, self.zone_inv, self.alpha,
             )  # fmt: skip
         delta_sph.pair_terms(
-            self.pos, self.vel, self.rho, self.vol, self.p, nb.indptr, nb.indices, nf,
-            self.h, self.inv_h, self.grad_coef, self.rho0, self.c0, self.sph.density_diffusion,
-            self.corrected, self.M, self.grad_rho, self.alpha, self.gravity, self.omega2,
+            self.pos, self.vel, self.rho, self.p, nb.indptr, self.row_end, self.pair_j,
+            self.fv_pair, nf, self.h, self.rho0, self.c0, self.sph.density_diffusion,
+            self.corrected, self.M, self.pM, self.grad_rho, self.alpha, self.gravity, self.omega2,
             self.center, self.acc, self.drho,
         )  # fmt: skip
         if self.ext_rows.size:
@@ -321,7 +347,8 @@ class DeltaSPHSolver:
             )  # fmt: skip
         if self.budget.full:
             self.budget.evaluate(self, nb)
-        self._last_neighbours = nb
+        if self.exact_neighbours:
+            self._last_neighbours = nb
         self.times.rhs += time.perf_counter() - toc
         self.times.rhs_calls += 1
 
