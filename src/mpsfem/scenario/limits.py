@@ -30,11 +30,12 @@ MEMORY_FRACTION = 0.5
 #: particles have about three times the neighbours)
 BYTES_PER_PARTICLE = {2: 2048, 3: 6144}
 #: bytes per particle of a δ-SPH run (fluid.method = "delta-sph": explicit, no pressure matrix;
-#: RK4 keeps two more copies of the state): measured 512 B in 2D, the peak-RSS slope between 68k
+#: RK4 keeps two more copies of the state): measured 783 B in 2D (512 B before the per-pair
+#: buffers of the faster kernels), the peak-RSS slope between 68k
 #: and 120k particles of a still-water tank, h = 1.3 l0, RK4 (benchmarks/bench_delta_sph_memory.py,
 #: benchmarks/results/delta_sph_memory.csv), taken x 1.5 for splashing flows' longer neighbour
 #: lists; 3D three times 2D, as for MPS (not measured)
-BYTES_PER_PARTICLE_DELTA_SPH = {2: 768, 3: 2304}
+BYTES_PER_PARTICLE_DELTA_SPH = {2: 1175, 3: 3525}
 #: bytes per neighbour-grid cell (its start index, int64)
 BYTES_PER_CELL = 8
 #: bytes per structure element (matrices and their factorisation, generous)
