@@ -115,7 +115,7 @@ def _first_outside(pos, lo, hi):
 
 
 @njit(cache=True)
-def _max_displacement(pos, ref):
+def max_displacement(pos, ref):
     """Largest |pos_i - ref_i| (m) over all particles; inf if a position is not finite."""
     n, dim = pos.shape
     m2 = 0.0
@@ -671,7 +671,7 @@ class NeighbourSearch:
             self.builds += 1
             return self.build(pos, rows=rows)
         known = self._ref.shape == pos.shape and _same(self._ref_rows, rows)
-        moved = _max_displacement(pos, self._ref) if known else np.inf
+        moved = max_displacement(pos, self._ref) if known else np.inf
         if self._cand_valid and known and 2.0 * moved <= self.skin * (1 - 1e-9):
             self._calls += 1
             self.reuses += 1

@@ -22,26 +22,8 @@ of the kernels.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
-from mpsfem.fluid_mps.neighbours import NeighbourList, NeighbourSearch
-
-
-@njit(cache=True)
-def max_displacement(pos, ref):
-    """Largest |pos_i - ref_i| (m) over all particles; inf if a position is not finite."""
-    n, dim = pos.shape
-    m2 = 0.0
-    for i in range(n):
-        s = 0.0
-        for d in range(dim):
-            dx = pos[i, d] - ref[i, d]
-            s += dx * dx
-        if not s <= m2:
-            if not np.isfinite(s):
-                return np.inf
-            m2 = s
-    return np.sqrt(m2)
+from mpsfem.fluid_mps.neighbours import NeighbourList, NeighbourSearch, max_displacement
 
 
 class CandidatePairs:
