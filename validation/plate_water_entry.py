@@ -26,6 +26,12 @@ int p dt against the flat-plate impact impulse rho V sqrt((L/2)^2 - x^2) (von Ka
 Faltinsen 1990), its shape (centre / mean, quarter / centre) and the centre's peak, which does
 not converge (the impulse is compared). Its own CSV: plate_water_entry_pressure.csv.
 
+Case ``dt`` (time-step sensitivity): the ``pressure`` case at the seed's dt = 2e-6 s and at
+1e-6 s (fluid step, structure step and coupling window halved together, the pressure probes
+sampled every step), to t_c + 1 ms: the force impulse, the plate-pressure impulses, the peaks and
+the deflection at t_c + 0.1, 0.5 and 1 ms, each dt's value and their relative change. Its own
+CSV: plate_water_entry_dt.csv.
+
 The seed paper's Table 1 (peak plate-centre pressures, experiment and MPS, several speeds) and
 Figs. 5-6 (centre pressure and deflection histories at 6.28 m/s) are images that our copy of the
 paper lacks: no number of theirs can be quoted, and the CSV says so.
@@ -215,6 +221,74 @@ def analyse_pressure(path: Path, v: float) -> dict:
     return row
 
 
+#: the time steps of the sensitivity study (case ``dt``), s: the seed's and half of it
+DT_STUDY = (2e-6, 1e-6)
+#: indices of the attached pressure probes in the scenario's [[probes]] (their interval = dt)
+PRESSURE_PROBE_INDEX = (3, 4)
+
+
+def dt_case(dt: float) -> tuple[Path, list[str]]:
+    """Results file and overrides of the dt study's run at step ``dt``: the ``pressure`` case
+    (seed set-up to t_c + 1 ms) with the fluid step, the structure step (hence the coupling
+    window) and the pressure probes' interval set to ``dt``; at the seed's 2e-6 s it is the
+    ``pressure`` case itself (same file)."""
+    ov = overrides(SEED_SPEED, PRESSURE_END)
+    if dt == 2e-6:
+        return RESULTS_DIR / "plate_water_entry_v6.28_probes.h5", ov
+    ov += [f"fluid.time_step.dt_max={dt!r}", f"structure.time.dt={dt!r}"]
+    ov += [f"probes.{i}.interval={dt!r}" for i in PRESSURE_PROBE_INDEX]
+    return RESULTS_DIR / f"plate_water_entry_v6.28_probes_dt{dt * 1e6:g}.h5", ov
+
+
+def analyse_dt(path: Path, dt: float) -> dict:
+    """One row of the dt study: force impulse, peak force and deflection (:func:`analyse`), the
+    plate-pressure impulses and the centre's peak (:func:`analyse_pressure`), and the elastic
+    deflection w at t_c + 0.1, 0.5, 1 ms."""
+    v = SEED_SPEED
+    a = analyse(path, v, False, case="dt")
+    b = analyse_pressure(path, v)
+    row: dict = {"case": "dt", "dt_s": dt, "speed": v, "status": a["status"]}
+    row["wall_time_s"] = a["wall_time_s"]
+    for tau in ("0.1ms", "0.5ms", "1ms"):
+        row[f"J_{tau}"] = a.get(f"J_{tau}", math.nan)
+        row[f"J_{tau}_over_ref"] = a.get(f"J_{tau}_over_ref", math.nan)
+        for name in PRESSURE_PROBES:
+            row[f"P_{name}_{tau}"] = b.get(f"P_{name}_{tau}", math.nan)
+    with h5py.File(path, "r") as h5:
+        tm = h5["probes/plate_mid/time"][()]
+        w = h5["probes/plate_mid/value"][()][:, 1] - h5["probes/plate_support/value"][()][:, 1]
+    tc = contact_time(v)
+    for tau in (0.1e-3, 0.5e-3, 1e-3):
+        row[f"w_{tau * 1e3:g}ms_mm"] = float(np.interp(tc + tau, tm, w)) * 1e3
+    for key in ("F_peak_N_per_m", "t_F_peak_ms", "coupling_iterations_mean"):
+        row[key] = a[key]
+    row["coupling_iterations_max"] = a["coupling_iterations_max"]
+    for key in ("p_centre_peak_Pa", "t_p_centre_peak_ms", "p_centre_peak_impulse_Pa_s"):
+        row[key] = b[key]
+    row["rho_V_l0_over_dt_Pa"] = b["rho_V_l0_over_dt_Pa"]
+    return row
+
+
+def dt_study(threads: int, analyse_only: bool, retry: bool) -> list[dict]:
+    """Run (or read) the dt study's cases; rows of the finished ones, and for each quantity of
+    the finest row its relative change from the seed's dt (``<key>_change``, in the last row)."""
+    rows = []
+    for dt in DT_STUDY:
+        out, ov = dt_case(dt)
+        status = case_runner.case_status(
+            SCENARIO, out, ov, threads, analyse_only, retry, tag=f"dt = {dt:g} s"
+        )
+        print(f"dt = {dt:g} s: {status}")
+        if status == "finished":
+            rows.append(analyse_dt(out, dt))
+    if len(rows) == 2:
+        base, fine = rows
+        for key in [k for k in base if k.startswith(("J_", "P_", "w_", "F_peak", "p_centre"))]:
+            if isinstance(base[key], float) and base[key] != 0.0:
+                fine[f"{key}_change"] = fine[key] / base[key] - 1.0
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument(
@@ -223,7 +297,8 @@ def main(argv: list[str] | None = None) -> int:
         help="comma list of seed, sweep, stiff (the seed case with a 1000 times stiffer plate), "
         "corotational (the 30 m/s sweep case with a co-rotational, large-rotation member), "
         "pressure (the seed case to t_c + 1 ms for the plate pressure probes; its own CSV, "
-        "plate_water_entry_pressure.csv), pressure_stiff (the same, E x 1000)",
+        "plate_water_entry_pressure.csv), pressure_stiff (the same, E x 1000), dt (the "
+        "pressure case at dt = 2e-6 and 1e-6 s; its own CSV, plate_water_entry_dt.csv)",
     )
     case_runner.add_run_options(ap)
     a = ap.parse_args(argv)
@@ -273,7 +348,28 @@ def main(argv: list[str] | None = None) -> int:
             "plate-centre and quarter-span pressure (attached probes on the wetted face); "
             "P = int p dt in Pa s from t = 0 to t_c + tau, ref rho V sqrt((L/2)^2 - x^2)",
         )
-    if pressure_cases and not which:
+    if "dt" in which:
+        drows = dt_study(a.threads, a.analyse_only, a.retry_failed)
+        for r in drows:
+            print(
+                ", ".join(
+                    f"{k} = {v:.4g}" if isinstance(v, float) else f"{k} = {v}" for k, v in r.items()
+                )
+            )
+        if drows:
+            cols: list[str] = []
+            for r in drows:
+                cols += [k for k in r if k not in cols]
+            write_csv(
+                drows,
+                RESULTS_DIR / "plate_water_entry_dt.csv",
+                cols,
+                comment="validation/plate_water_entry.py --cases dt: time-step sensitivity of "
+                "the seed case to t_c + 1 ms (dt = fluid step = structure step = window); J in "
+                "N s/m, P = int p dt in Pa s, w in mm; *_change = value at 1e-6 s over 2e-6 s - 1",
+            )
+        which.discard("dt")
+    if (pressure_cases or "dt" in a.cases.split(",")) and not which:
         return 0
     rows = []
     if corot:
