@@ -1,0 +1,319 @@
+"""Dam break on the elastic obstacle, coupled, with the δ-SPH fluid beside MPS (issue 23).
+
+scenarios/dam_break_elastic_obstacle_2d.toml (Walhorn et al. 2005; Idelsohn et al. 2008: the
+Koshizuka-Oka column L = 0.146 m against a clamped elastic plate 0.012 m x 0.08 m, E = 1 MPa,
+rho_s = 2500 kg/m^3, co-rotational beam of 10 elements, implicit IQN-ILS, window 0.25 ms,
+relative tolerance 1e-3, at most 30 iterations, a window that does not converge accepted with a
+warning). The δ-SPH scenario is that file with fluid.method = "delta-sph" and MPS's numerical
+tables ([fluid.pressure], fluid.time_step.courant) dropped, the default [fluid.sph] (δ-SPHC,
+h = 1.3 l0, RK4, c0 = 20 sqrt(g 2L)) and fluid.momentum_budget = true (opt-in under δ-SPH); it
+is written to validation/results/delta_sph_obstacle.toml. MPS runs the scenario itself (copied
+to validation/results/delta_sph_obstacle_mps.toml), so both rows are of the current code. Both
+copies get an instantaneous twin of the force probe (``force_last_step``, average = false).
+
+Cases (``mpsfem run`` subprocesses, resumable; NUMBA_NUM_THREADS = --threads): δ-SPH and MPS
+at l0 = L/20 and L/40, to --end-time (default 0.3 s, the co-rotational MPS study's
+end, past the first tip peak). Per case: the tip's peak u_x and its time (and u_y there), the
+first contact (first 1 ms force sample with |F_x| > 1 N/m), the peak of the interval-mean force
+|F_x| over the impact 0.12-0.25 s and its ringing (RMS of the sample-to-sample jump of the 1 ms
+samples over that peak: validation/momentum_budget.py's metric, issue 20), the same for the
+last-step force, coupling iterations per window (mean, max), windows not converged, fluid steps,
+the wall time, and from /momentum_budget over the impact window the member's impulse and
+residual_external (dP - G + sum_b J_b, relative to sum_b |J_b|, per component). Writes
+validation/results/delta_sph_obstacle.csv and prints the table.
+
+    python validation/delta_sph_obstacle.py [--threads 1] [--analyse-only] [--retry-failed]
+        [--cases dsph20 dsph40 mps20 mps40] [--end-time 0.3]
+
+``--cases`` picks the cases to run; the CSV lists every case, reading the others' results files.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import case_runner  # noqa: E402 - resumable runs of one case
+import momentum_budget  # noqa: E402 - the MPS study's ringing and budget metrics
+from results_csv import write_csv  # noqa: E402
+
+ROOT = case_runner.ROOT
+RESULTS = ROOT / "validation" / "results"
+SOURCE = ROOT / "scenarios" / "dam_break_elastic_obstacle_2d.toml"
+SPH_SCENARIO = RESULTS / "delta_sph_obstacle.toml"
+MPS_SCENARIO = RESULTS / "delta_sph_obstacle_mps.toml"
+CSV = RESULTS / "delta_sph_obstacle.csv"
+L = 0.146  # m, the column width
+IMPACT = (0.12, 0.25)  # s, the impact window of validation/momentum_budget.py
+CONTACT_FORCE = 1.0  # N/m, |F_x| of the first sample counted as contact
+#: key -> (fluid method, L / l0)
+CASES = {
+    "dsph20": ("delta-sph", 20),
+    "dsph40": ("delta-sph", 40),
+    "mps20": ("mps", 20),
+    "mps40": ("mps", 40),
+}
+
+SPH_TEXT = (
+    """# written by validation/delta_sph_obstacle.py: scenarios/dam_break_elastic_obstacle_2d.toml
+# with fluid.method = "delta-sph"; MPS's numerical tables ([fluid.pressure],
+# fluid.time_step.courant) dropped, the default [fluid.sph], the momentum budget opted in
+[run]
+end_time = 0.6
+
+[output]
+probe_interval = 1e-3
+snapshot_interval = 0.0
+checkpoint_interval = 0.1
+
+[fluid]
+method = "delta-sph"
+dim = 2
+spacing = 0.00365
+density = 1000.0
+viscosity = 1e-6
+gravity = [0.0, -9.81]
+momentum_budget = true
+
+[fluid.sph]
+smoothing_ratio = 1.3
+gradient = "corrected"
+integrator = "rk4"
+
+[fluid.time_step]
+dt_max = 2.5e-4
+
+[[fluid.blocks]]
+lower = [0.0, 0.0]
+upper = [0.146, 0.292]
+
+[[fluid.walls]]
+name = "tank"
+shape = "tank"
+lower = [0.0, 0.0]
+upper = [0.584, 1.0]
+
+[structure]
+initial_state = "rest"
+record_interval = 1e-3
+
+[structure.time]
+dt = 2.5e-4
+
+[[structure.members]]
+name = "obstacle"
+type = "beam"
+start = [0.292, 0.0]
+end = [0.292, 0.08]
+elements = 10
+bc = ["clamped", "free"]
+kinematics = "corotational"
+thickness = 0.012
+axial = true
+self_weight = true
+
+[structure.members.material]
+youngs_modulus = 1.0e6
+poisson_ratio = 0.0
+density = 2500.0
+
+[coupling]
+scheme = "implicit"
+
+[coupling.mapping]
+kind = "shape-function"
+
+[coupling.acceleration]
+kind = "iqn-ils"
+
+[coupling.convergence]
+relative_tolerance = 1e-3
+absolute_tolerance = 1e-8
+max_iterations = 30
+on_divergence = "continue"
+
+[[probes]]
+name = "tip"
+kind = "displacement"
+target = "obstacle"
+position = [0.292, 0.08]
+
+[[probes]]
+name = "obstacle_force"
+kind = "force"
+target = "obstacle"
+
+[[probes]]
+name = "front"
+kind = "front"
+axis = 0
+
+[[probes]]
+name = "obstacle_energy"
+kind = "energy"
+target = "obstacle"
+"""
+    + momentum_budget.INSTANT_PROBE
+)
+
+
+def write_scenarios() -> None:
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    SPH_SCENARIO.write_text(SPH_TEXT)
+    MPS_SCENARIO.write_text(
+        "# written by validation/delta_sph_obstacle.py: "
+        "scenarios/dam_break_elastic_obstacle_2d.toml + an instantaneous force probe\n"
+        + SOURCE.read_text()
+        + momentum_budget.INSTANT_PROBE
+    )
+
+
+def case_path(key: str) -> Path:
+    return RESULTS / f"delta_sph_obstacle_{key}.h5"
+
+
+def overrides(n: int, end_time: float) -> list[str]:
+    return [
+        f"fluid.spacing={L / n:.6g}",
+        f"run.end_time={end_time}",
+        "output.snapshot_interval=0",
+        f"output.checkpoint_interval={min(0.1, end_time)}",
+    ]
+
+
+def budget(path: Path) -> dict:
+    """Member impulse and residual_external over the impact window, if the run kept a budget."""
+    with h5py.File(path, "r") as h5:
+        if "momentum_budget" not in h5:
+            return {}
+    t0, t1 = IMPACT
+    b = momentum_budget.window_sums(path, t0, t1)
+    rep = b["patch_reported"]
+    member = [k for k, p in enumerate(b["patches"]) if p.startswith("obstacle")]
+    res = momentum_budget.residuals(b, rep)
+    return {
+        "member_impulse_x": float(rep[member, 0].sum()),
+        "member_impulse_y": float(rep[member, 1].sum()),
+        "residual_external_rel_x": res["residual_external_rel_x"],
+        "residual_external_rel_y": res["residual_external_rel_y"],
+        "residual_rel_x": res["residual_x"] / res["boundary_impulse_x"],
+        "residual_rel_y": res["residual_y"] / res["boundary_impulse_y"],
+    }
+
+
+def analyse(path: Path) -> dict:
+    with h5py.File(path, "r") as h5:
+        tt = h5["probes/tip/time"][:]
+        tip = h5["probes/tip/value"][:]
+        tf = h5["probes/obstacle_force/time"][:]
+        fx = h5["probes/obstacle_force/value"][:, 0]
+        it = h5["coupling/iterations"][:]
+        conv = h5["coupling/converged"][:]
+        tc = h5["coupling/time"][:]
+        row = {
+            "wall_time_s": float(h5.attrs["wall_time"]),
+            "steps": int(h5.attrs["steps"]),
+            "particles": int(h5.attrs["particles"]),
+            "t_end_s": float(tt[-1]),
+        }
+    k = int(np.argmax(tip[:, 0]))
+    contact = np.nonzero(np.abs(fx) > CONTACT_FORCE)[0]
+    peak_mean, ring_mean = momentum_budget.ringing(path, "obstacle_force", *IMPACT)
+    peak_inst, ring_inst = momentum_budget.ringing(path, "force_last_step", *IMPACT)
+    bad = np.nonzero(conv == 0)[0]
+    row.update(
+        {
+            "tip_peak_mm": 1e3 * float(tip[k, 0]),
+            "tip_peak_time_s": float(tt[k]),
+            "tip_dy_at_peak_mm": 1e3 * float(tip[k, 1]),
+            "first_contact_s": float(tf[contact[0]]) if contact.size else np.nan,
+            "force_peak_mean": peak_mean,
+            "ringing_mean": ring_mean,
+            "force_peak_last_step": peak_inst,
+            "ringing_last_step": ring_inst,
+            "windows": int(it.size),
+            "iterations_mean": float(it.mean()),
+            "iterations_max": int(it.max()),
+            "not_converged": int(bad.size),
+            "not_converged_times_s": " ".join(f"{tc[i]:.4f}" for i in bad[:10]),
+            **budget(path),
+        }
+    )
+    return row
+
+
+COLUMNS = [
+    "case", "method", "L_over_l0", "spacing_m", "threads", "status", "particles", "t_end_s",
+    "steps", "wall_time_s", "tip_peak_mm", "tip_peak_time_s", "tip_dy_at_peak_mm",
+    "first_contact_s", "force_peak_mean", "ringing_mean", "force_peak_last_step",
+    "ringing_last_step", "windows", "iterations_mean", "iterations_max", "not_converged",
+    "not_converged_times_s", "member_impulse_x", "member_impulse_y", "residual_external_rel_x",
+    "residual_external_rel_y", "residual_rel_x", "residual_rel_y",
+]  # fmt: skip
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    case_runner.add_run_options(ap)
+    ap.add_argument("--cases", nargs="+", choices=list(CASES), default=list(CASES))
+    ap.add_argument("--end-time", type=float, default=0.3, help="s (default 0.3)")
+    args = ap.parse_args()
+    if not args.analyse_only:
+        write_scenarios()
+    rows = []
+    for key, (method, n) in CASES.items():  # cases not selected are read, not run
+        scenario = SPH_SCENARIO if method == "delta-sph" else MPS_SCENARIO
+        out = case_path(key)
+        status = case_runner.case_status(
+            scenario,
+            out,
+            overrides(n, args.end_time),
+            args.threads,
+            args.analyse_only or key not in args.cases,
+            args.retry_failed,
+            f"[{key}]",
+        )
+        row = {
+            "case": key,
+            "method": method,
+            "L_over_l0": n,
+            "spacing_m": float(f"{L / n:.6g}"),
+            "threads": args.threads,
+            "status": status or "missing",
+        }
+        if status == "finished":
+            row.update(analyse(out))
+        rows.append(row)
+    write_csv(
+        rows,
+        CSV,
+        COLUMNS,
+        comment="elastic obstacle, δ-SPH beside MPS (validation/delta_sph_obstacle.py); tip in "
+        "mm, forces N/m, impulses N s/m; impact window 0.12-0.25 s",
+    )
+    print(
+        f"{'case':7} {'tip mm':>7} {'at s':>6} {'F peak':>7} {'ring':>5} {'it mean':>7} "
+        f"{'max':>4} {'nc':>3} {'res x':>7} {'res y':>7} {'wall s':>7}"
+    )
+    for r in rows:
+        if "tip_peak_mm" not in r:
+            print(f"{r['case']:7} {r['status']}")
+            continue
+        print(
+            f"{r['case']:7} {r['tip_peak_mm']:7.2f} {r['tip_peak_time_s']:6.3f} "
+            f"{r['force_peak_mean']:7.1f} {r['ringing_mean']:5.2f} {r['iterations_mean']:7.2f} "
+            f"{r['iterations_max']:4d} {r['not_converged']:3d} "
+            f"{r.get('residual_external_rel_x', np.nan):7.3f} "
+            f"{r.get('residual_external_rel_y', np.nan):7.3f} {r['wall_time_s']:7.1f}"
+        )
+    print(f"wrote {CSV}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
