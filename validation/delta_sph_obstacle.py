@@ -48,6 +48,8 @@ SOURCE = ROOT / "scenarios" / "dam_break_elastic_obstacle_2d.toml"
 SPH_SCENARIO = RESULTS / "delta_sph_obstacle.toml"
 MPS_SCENARIO = RESULTS / "delta_sph_obstacle_mps.toml"
 CSV = RESULTS / "delta_sph_obstacle.csv"
+CENTROID_CSV = RESULTS / "delta_sph_obstacle_centroid.csv"
+CENTROID_SPANS = ((0.12, 0.25), (0.12, 0.17), (0.17, 0.25))  # s
 L = 0.146  # m, the column width
 IMPACT = (0.12, 0.25)  # s, the impact window of validation/momentum_budget.py
 CONTACT_FORCE = 1.0  # N/m, |F_x| of the first sample counted as contact
@@ -257,14 +259,94 @@ COLUMNS = [
 ]  # fmt: skip
 
 
+def load_centroid(key: str, t_end: float) -> list[dict]:
+    """Where on the plate the fluid pushes: an in-process re-run of case ``key`` to ``t_end``
+    through the coupling scheme (as run_coupled builds it) that books, after each window, the
+    last step's interface forces F_x,i (``read("forces")``) and their moment about the clamped
+    base, sum F_x,i y_i (reference heights y_i of the interface points, m). Per span of
+    CENTROID_SPANS: the two impulses (N s/m, N s) and the height of the load's centroid, their
+    ratio (m). A diagnostic of the force's distribution, not a results-file quantity."""
+    import time
+
+    from mpsfem.coupler.coupling_scheme import create_scheme
+    from mpsfem.fluid_methods import create_fluid_participant
+    from mpsfem.scenario.loader import load_scenario
+    from mpsfem.simulation import member_nodes
+    from mpsfem.structure_fem.participant import StructureParticipant
+
+    method, n = CASES[key]
+    scenario = SPH_SCENARIO if method == "delta-sph" else MPS_SCENARIO
+    loaded = load_scenario(scenario, overrides(n, t_end))
+    sc = loaded.scenario
+    st = StructureParticipant(sc.structure, base_dir=scenario.parent)
+    names = [m for m, _ in member_nodes(sc)]
+    fl = create_fluid_participant(
+        sc.fluid, st.interface(), base_dir=scenario.parent, member_names=names
+    )
+    scheme = create_scheme(fl, st, sc.coupling, log=lambda m: None)
+    scheme.initialize()
+    y = np.asarray(fl.interface().points)[:, 1] - sc.structure.members[0].start[1]
+    t, fx, mz = [], [], []
+    tic = time.perf_counter()
+    while scheme.t < t_end - 1e-9:
+        scheme.advance_window()
+        f = fl.read("forces")[:, 0]
+        t.append(scheme.t)
+        fx.append(f.sum())
+        mz.append(float(f @ y))
+    wall = time.perf_counter() - tic
+    t, fx, mz = (np.array(a) for a in (t, fx, mz))
+    window = float(scheme.window)
+    rows = []
+    for t0, t1 in CENTROID_SPANS:
+        sel = (t > t0 + 1e-12) & (t <= t1 + 1e-12)
+        jx, jm = window * fx[sel].sum(), window * mz[sel].sum()
+        rows.append(
+            {
+                "case": key,
+                "method": method,
+                "L_over_l0": n,
+                "t0_s": t0,
+                "t1_s": t1,
+                "impulse_x": jx,
+                "moment_impulse": jm,
+                "centroid_height_m": jm / jx,
+                "wall_time_s": wall,
+            }
+        )
+    return rows
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     case_runner.add_run_options(ap)
     ap.add_argument("--cases", nargs="+", choices=list(CASES), default=list(CASES))
     ap.add_argument("--end-time", type=float, default=0.3, help="s (default 0.3)")
+    ap.add_argument(
+        "--centroid",
+        action="store_true",
+        help="only the load-centroid diagnostic of --cases (in-process re-runs to 0.25 s) -> "
+        f"{CENTROID_CSV.name}",
+    )
     args = ap.parse_args()
     if not args.analyse_only:
         write_scenarios()
+    if args.centroid:
+        rows = [r for key in args.cases for r in load_centroid(key, IMPACT[1])]
+        write_csv(
+            rows,
+            CENTROID_CSV,
+            list(rows[0]),
+            comment="elastic obstacle: impulse of the last-step interface force F_x and of its "
+            "moment about the base per span; centroid = their ratio (validation/"
+            "delta_sph_obstacle.py --centroid)",
+        )
+        for r in rows:
+            print(
+                f"{r['case']:7} {r['t0_s']:.2f}-{r['t1_s']:.2f} s: J_x {r['impulse_x']:7.3f} "
+                f"N s/m, centroid {1e3 * r['centroid_height_m']:5.1f} mm"
+            )
+        return 0
     rows = []
     for key, (method, n) in CASES.items():  # cases not selected are read, not run
         scenario = SPH_SCENARIO if method == "delta-sph" else MPS_SCENARIO
