@@ -49,6 +49,7 @@ SPH_SCENARIO = RESULTS / "delta_sph_obstacle.toml"
 MPS_SCENARIO = RESULTS / "delta_sph_obstacle_mps.toml"
 CSV = RESULTS / "delta_sph_obstacle.csv"
 CENTROID_CSV = RESULTS / "delta_sph_obstacle_centroid.csv"
+CENTROID_SERIES_CSV = RESULTS / "delta_sph_obstacle_centroid_series.csv"
 CENTROID_SPANS = ((0.12, 0.25), (0.12, 0.17), (0.17, 0.25))  # s
 L = 0.146  # m, the column width
 IMPACT = (0.12, 0.25)  # s, the impact window of validation/momentum_budget.py
@@ -259,13 +260,18 @@ COLUMNS = [
 ]  # fmt: skip
 
 
-def load_centroid(key: str, t_end: float) -> list[dict]:
-    """Where on the plate the fluid pushes: an in-process re-run of case ``key`` to ``t_end``
-    through the coupling scheme (as run_coupled builds it) that books, after each window, the
-    last step's interface forces F_x,i (``read("forces")``) and their moment about the clamped
-    base, sum F_x,i y_i (reference heights y_i of the interface points, m). Per span of
-    CENTROID_SPANS: the two impulses (N s/m, N s) and the height of the load's centroid, their
-    ratio (m). A diagnostic of the force's distribution, not a results-file quantity."""
+def load_centroid(key: str, t_end: float) -> tuple[list[dict], list[dict]]:
+    """Where on the plate the fluid pushes, and the moment it bends the plate with: an
+    in-process re-run of case ``key`` to ``t_end`` through the coupling scheme (as run_coupled
+    builds it) that books, after each window, the last step's interface forces F_i
+    (``read("forces")``) and
+    - the moment of F_x about the clamp with the reference heights, sum F_x,i y_i (N m/m; its
+      impulse over the F_x impulse is the height of the load's centroid);
+    - the bending moment at the clamp with the displaced points (x_i, y_i) = reference +
+      written displacement, M = sum (y_i - y_b) F_x,i - (x_i - x_b) F_y,i (clockwise positive,
+      the sense the surge bends the plate: a downward F_y on the deflected plate adds to it).
+    Per span of CENTROID_SPANS the impulses (N s/m, N s) and the centroid height (m), and the
+    per-window series (every 5th window). A diagnostic, not a results-file quantity."""
     import time
 
     from mpsfem.coupler.coupling_scheme import create_scheme
@@ -285,22 +291,27 @@ def load_centroid(key: str, t_end: float) -> list[dict]:
     )
     scheme = create_scheme(fl, st, sc.coupling, log=lambda m: None)
     scheme.initialize()
-    y = np.asarray(fl.interface().points)[:, 1] - sc.structure.members[0].start[1]
-    t, fx, mz = [], [], []
+    base = np.asarray(sc.structure.members[0].start, dtype=np.float64)
+    ref = np.asarray(fl.interface().points) - base
+    t, fx, fy, m_ref, m_bend = [], [], [], [], []
     tic = time.perf_counter()
     while scheme.t < t_end - 1e-9:
         scheme.advance_window()
-        f = fl.read("forces")[:, 0]
+        f = fl.read("forces")
+        r = ref + fl._d  # the displaced interface points (the written displacement)
         t.append(scheme.t)
-        fx.append(f.sum())
-        mz.append(float(f @ y))
+        fx.append(f[:, 0].sum())
+        fy.append(f[:, 1].sum())
+        m_ref.append(float(f[:, 0] @ ref[:, 1]))
+        m_bend.append(float(f[:, 0] @ r[:, 1] - f[:, 1] @ r[:, 0]))
     wall = time.perf_counter() - tic
-    t, fx, mz = (np.array(a) for a in (t, fx, mz))
+    t, fx, fy, m_ref, m_bend = (np.array(a) for a in (t, fx, fy, m_ref, m_bend))
     window = float(scheme.window)
     rows = []
     for t0, t1 in CENTROID_SPANS:
         sel = (t > t0 + 1e-12) & (t <= t1 + 1e-12)
-        jx, jm = window * fx[sel].sum(), window * mz[sel].sum()
+        jx, jy = window * fx[sel].sum(), window * fy[sel].sum()
+        jm, jb = window * m_ref[sel].sum(), window * m_bend[sel].sum()
         rows.append(
             {
                 "case": key,
@@ -309,12 +320,18 @@ def load_centroid(key: str, t_end: float) -> list[dict]:
                 "t0_s": t0,
                 "t1_s": t1,
                 "impulse_x": jx,
-                "moment_impulse": jm,
+                "impulse_y": jy,
+                "moment_impulse_ref": jm,
                 "centroid_height_m": jm / jx,
+                "bending_moment_impulse": jb,
                 "wall_time_s": wall,
             }
         )
-    return rows
+    series = [
+        {"case": key, "t_s": t[i], "fx": fx[i], "fy": fy[i], "m_ref": m_ref[i], "m_bend": m_bend[i]}
+        for i in range(4, t.size, 5)
+    ]
+    return rows, series
 
 
 def main() -> int:
@@ -332,7 +349,18 @@ def main() -> int:
     if not args.analyse_only:
         write_scenarios()
     if args.centroid:
-        rows = [r for key in args.cases for r in load_centroid(key, IMPACT[1])]
+        rows, series = [], []
+        for key in args.cases:
+            r, sr = load_centroid(key, IMPACT[1])
+            rows += r
+            series += sr
+        write_csv(
+            series,
+            CENTROID_SERIES_CSV,
+            list(series[0]),
+            comment="elastic obstacle: last-step interface force sums (N/m) and moments about "
+            "the clamp (N m/m) every 5th window (validation/delta_sph_obstacle.py --centroid)",
+        )
         write_csv(
             rows,
             CENTROID_CSV,
@@ -344,7 +372,8 @@ def main() -> int:
         for r in rows:
             print(
                 f"{r['case']:7} {r['t0_s']:.2f}-{r['t1_s']:.2f} s: J_x {r['impulse_x']:7.3f} "
-                f"N s/m, centroid {1e3 * r['centroid_height_m']:5.1f} mm"
+                f"N s/m, centroid {1e3 * r['centroid_height_m']:5.1f} mm, J_y "
+                f"{r['impulse_y']:7.3f} N s/m, bending {r['bending_moment_impulse']:7.4f} N s"
             )
         return 0
     rows = []
