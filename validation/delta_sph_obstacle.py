@@ -17,7 +17,9 @@ end, past the first tip peak). Per case: the tip's peak u_x and its time (and u_
 first contact (first 1 ms force sample with |F_x| > 1 N/m), the peak of the interval-mean force
 |F_x| over the impact 0.12-0.25 s and its ringing (RMS of the sample-to-sample jump of the 1 ms
 samples over that peak: validation/momentum_budget.py's metric, issue 20), the same for the
-last-step force, coupling iterations per window (mean, max), windows not converged, fluid steps,
+last-step force, the axial stretch of the plate (largest chord strain of the bottom element
+between recorded nodes, with its time; the sum of the chords at the tip peak), coupling
+iterations per window (mean, max), windows not converged, fluid steps,
 the wall time, and from /momentum_budget over the impact window the member's impulse and
 residual_external (dP - G + sum_b J_b, relative to sum_b |J_b|, per component). Writes
 validation/results/delta_sph_obstacle.csv and prints the table.
@@ -218,6 +220,8 @@ def analyse(path: Path) -> dict:
         it = h5["coupling/iterations"][:]
         conv = h5["coupling/converged"][:]
         tc = h5["coupling/time"][:]
+        ts = h5["structure/obstacle/time"][:]
+        nodes = h5["structure/obstacle/nodes"][:] + h5["structure/obstacle/displacement"][:]
         row = {
             "wall_time_s": float(h5.attrs["wall_time"]),
             "steps": int(h5.attrs["steps"]),
@@ -229,12 +233,19 @@ def analyse(path: Path) -> dict:
     peak_mean, ring_mean = momentum_budget.ringing(path, "obstacle_force", *IMPACT)
     peak_inst, ring_inst = momentum_budget.ringing(path, "force_last_step", *IMPACT)
     bad = np.nonzero(conv == 0)[0]
+    chords = np.linalg.norm(np.diff(nodes, axis=1), axis=2)  # (time, elements), m
+    rest = float(np.linalg.norm(np.diff(nodes[0], axis=0), axis=1).sum()) / chords.shape[1]
+    j = int(np.argmax(chords[:, 0]))
+    s_peak = int(np.argmin(np.abs(ts - tt[k])))
     row.update(
         {
             "tip_peak_mm": 1e3 * float(tip[k, 0]),
             "tip_peak_time_s": float(tt[k]),
             "tip_dy_at_peak_mm": 1e3 * float(tip[k, 1]),
             "first_contact_s": float(tf[contact[0]]) if contact.size else np.nan,
+            "bottom_element_strain_max": float(chords[j, 0] / rest - 1.0),
+            "bottom_element_strain_max_time_s": float(ts[j]),
+            "chord_length_at_peak_mm": 1e3 * float(chords[s_peak].sum()),
             "force_peak_mean": peak_mean,
             "ringing_mean": ring_mean,
             "force_peak_last_step": peak_inst,
@@ -253,7 +264,8 @@ def analyse(path: Path) -> dict:
 COLUMNS = [
     "case", "method", "L_over_l0", "spacing_m", "threads", "status", "particles", "t_end_s",
     "steps", "wall_time_s", "tip_peak_mm", "tip_peak_time_s", "tip_dy_at_peak_mm",
-    "first_contact_s", "force_peak_mean", "ringing_mean", "force_peak_last_step",
+    "first_contact_s", "bottom_element_strain_max", "bottom_element_strain_max_time_s",
+    "chord_length_at_peak_mm", "force_peak_mean", "ringing_mean", "force_peak_last_step",
     "ringing_last_step", "windows", "iterations_mean", "iterations_max", "not_converged",
     "not_converged_times_s", "member_impulse_x", "member_impulse_y", "residual_external_rel_x",
     "residual_external_rel_y", "residual_rel_x", "residual_rel_y",
