@@ -42,7 +42,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import case_runner  # noqa: E402 - resumable runs of one case
 import momentum_budget  # noqa: E402 - the MPS study's ringing and budget metrics
-from results_csv import write_csv  # noqa: E402
+from results_csv import read_csv, write_csv  # noqa: E402
 
 ROOT = case_runner.ROOT
 RESULTS = ROOT / "validation" / "results"
@@ -355,6 +355,10 @@ def load_centroid(key: str, t_end: float) -> tuple[list[dict], list[dict]]:
     return rows, series
 
 
+def _read(path: Path) -> list[dict]:
+    return read_csv(path) if path.is_file() else []
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     case_runner.add_run_options(ap)
@@ -368,8 +372,9 @@ def main() -> int:
     args = ap.parse_args()
     if not args.analyse_only:
         write_scenarios()
-    if args.centroid:
-        rows, series = [], []
+    if args.centroid:  # rows of cases not re-run are kept from the CSVs
+        rows = [r for r in _read(CENTROID_CSV) if r["case"] not in args.cases]
+        series = [r for r in _read(CENTROID_SERIES_CSV) if r["case"] not in args.cases]
         for key in args.cases:
             r, sr = load_centroid(key, IMPACT[1])
             rows += r
@@ -389,7 +394,7 @@ def main() -> int:
             "moment about the base per span; centroid = their ratio (validation/"
             "delta_sph_obstacle.py --centroid)",
         )
-        for r in rows:
+        for r in (r for r in rows if r["case"] in args.cases):
             print(
                 f"{r['case']:7} {r['t0_s']:.2f}-{r['t1_s']:.2f} s: J_x {r['impulse_x']:7.3f} "
                 f"N s/m, centroid {1e3 * r['centroid_height_m']:5.1f} mm, J_y "
