@@ -1,9 +1,11 @@
 """The same coupled case gives bit-identical results on every transport and launch form: the mock
-participants (``coupler.demo``), and the MPS fluid with the FEM structure (``mpsfem run``). A
-structure process that dies stops the fluid's run with a message and a readable results file."""
+participants (``coupler.demo``), and the MPS and δ-SPH fluids with the FEM structure (``mpsfem
+run``). A structure process that dies stops the fluid's run with a message and a readable results
+file."""
 
 from __future__ import annotations
 
+import json
 import signal
 import time
 from pathlib import Path
@@ -83,23 +85,35 @@ def zenoh_sets() -> list[str]:
     return ["--set", f'coupling.transport={{kind = "zenoh", endpoint = "{ep}"}}']
 
 
-def launch_run(form: str, out: Path) -> None:
+#: the fluid methods the real-solver forms run under, as ``--set`` items of the fluid's program
+METHOD_SETS = {"mps": [], "delta-sph": ["--set", 'fluid.method="delta-sph"']}
+
+
+def launch_run(
+    form: str, out: Path, method: str = "mps", structure_method: str | None = None
+) -> None:
+    """``mpsfem run`` of the hydrostatic plate in launch form ``form`` with ``fluid.method =
+    method`` in the fluid's program; the structure's program (the MPMD and two-program forms)
+    gets ``structure_method`` (default: the same), so a test can show that it need not know the
+    fluid's method."""
     o = ["--out", str(out)]
+    fl = [*RUN, *METHOD_SETS[method]]
+    st = [*RUN, *METHOD_SETS[structure_method or method]]
     if form == "inproc":
-        cmd = [PY, *RUN, *END, *o]
+        cmd = [PY, *fl, *END, *o]
     elif form == "mpi":
-        cmd = mpi_cmd(*RUN, *END, *o, "--transport", "mpi")
+        cmd = mpi_cmd(*fl, *END, *o, "--transport", "mpi")
     elif form == "mpi-mpmd":
         cmd = [
-            MPIRUN, "-n", "1", PY, *RUN, *END, *o, "--transport", "mpi", "--participant", "fluid",
-            ":", "-n", "1", PY, *RUN, "--transport", "mpi", "--participant", "structure",
+            MPIRUN, "-n", "1", PY, *fl, *END, *o, "--transport", "mpi", "--participant", "fluid",
+            ":", "-n", "1", PY, *st, "--transport", "mpi", "--participant", "structure",
         ]  # fmt: skip
     elif form == "zenoh":  # the fluid starts the structure itself
-        cmd = [PY, *RUN, *END, *o, *zenoh_sets()]
+        cmd = [PY, *fl, *END, *o, *zenoh_sets()]
     else:  # zenoh, one program per participant
         z = zenoh_sets()
-        structure = spawn([PY, *RUN, *z, "--participant", "structure"])
-        rc, _, err, _ = run([PY, *RUN, *END, *o, *z, "--participant", "fluid"], timeout=180)
+        structure = spawn([PY, *st, *z, "--participant", "structure"])
+        rc, _, err, _ = run([PY, *fl, *END, *o, *z, "--participant", "fluid"], timeout=180)
         src, _, serr = reap(structure, timeout=30)
         assert rc == 0 and src == 0, err + serr
         return
@@ -141,6 +155,39 @@ def test_real_coupled_run_bit_identical_across_transports(form, real_baseline, t
     assert sorted(other) == sorted(real_baseline)
     assert [k for k in keys if other[k] != real_baseline[k]] == []
     assert len(keys) > 30
+
+
+#: δ-SPH over the two forms whose participants are separate programs started apart: every
+#: byte between them crosses the link (zenoh-two over TCP, mpi-mpmd over MPI), and each program
+#: parses the scenario on its own. The other two forms differ from these only in who starts the
+#: structure's program (zenoh: the fluid spawns it; mpi: one mpirun with rank = role); the
+#: participants, the RemoteParticipant messages and the fluid's side are the same code, and the
+#: MPS rows above run all four.
+SPH_FORMS = ["zenoh-two"] + (["mpi-mpmd"] if MPIRUN else [])
+
+
+@pytest.fixture(scope="module")
+def sph_baseline(tmp_path_factory):
+    path = tmp_path_factory.mktemp("real_sph") / "inproc.h5"
+    launch_run("inproc", path, "delta-sph")
+    return h5_datasets(path)
+
+
+@pytest.mark.parametrize("form", SPH_FORMS)
+def test_delta_sph_coupled_run_bit_identical_across_transports(form, sph_baseline, tmp_path):
+    """δ-SPH fluid + FEM plate, implicit IQN-ILS, ten windows: the same bits as in process. Under
+    mpi-mpmd the structure's program is given the scenario without the method (its file says
+    "mps"): the structure side builds from [structure] alone and need not know the fluid."""
+    path = tmp_path / f"{form}.h5"
+    launch_run(form, path, "delta-sph", "mps" if form == "mpi-mpmd" else None)
+    other = h5_datasets(path)
+    keys = [k for k in sph_baseline if not k.startswith("coupling/wall_")]
+    assert sorted(other) == sorted(sph_baseline)
+    assert [k for k in keys if other[k] != sph_baseline[k]] == []
+    assert len(keys) > 30
+    with h5py.File(path, "r") as h5:  # the run is δ-SPH's, and it coupled (iterations > 1)
+        assert json.loads(h5.attrs["scenario_resolved"])["fluid"]["method"] == "delta-sph"
+        assert h5["coupling/iterations"][()].max() > 1
 
 
 def _windows_recorded(out) -> bool:
