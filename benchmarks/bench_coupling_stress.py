@@ -23,6 +23,9 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
   shape, in the walled tank with a free surface: docs/coupler.md, "Fictitious mass"); the
   factor column is the multiple of the estimate. Not in the default set (``--only
   plate_fictitious``).
+* ``obstacle_fictitious``: the obstacle of ``obstacle_ratio`` at mass ratio 1e-2 and 1e-4 with
+  ``fictitious_mass`` 0.3, 1, 3 x the estimate 2 rho_w l / pi = 51 kg/m^2 (one wetted face,
+  quarter-wave first mode: :func:`obstacle_added_mass`). Not in the default set.
 * ``mock_fictitious`` (``--only mock_fictitious``, its own CSV
   benchmarks/results/coupling_stress_mock_fictitious.csv; see :func:`mock_sweep`): the FEM beam
   against the added-mass mock at added / structure mass 1e4, with and without fictitious mass.
@@ -84,6 +87,15 @@ def plate_added_mass(H: float = 2.0, L: float = 1.0) -> float:
     return RHO_W * (2.0 * H / 3.0 + L * math.tanh(2.0 * math.pi * H / L) / (6.0 * math.pi))
 
 
+def obstacle_added_mass(length: float = 0.08) -> float:
+    """Added mass (kg/m^2) of the obstacle's first mode, wetted on one face: a clamped-free
+    wall of length 0.08 m bends as about a quarter wave, wavenumber k = pi / (2 length); a
+    sinusoidal normal motion of wavenumber k of a plane face against a deep liquid carries rho /
+    k per m^2 (incompressible potential flow decaying as exp(-k n)): m_a = 2 rho length / pi
+    (51 kg/m^2). Rough: the surge wets only part of the wall and only after about 0.15 s."""
+    return RHO_W * 2.0 * length / math.pi
+
+
 def sweeps() -> list[tuple[str, str, str, float, list[str], float | None]]:
     """(sweep, scene, factor, value, --set overrides, end time or None) of every run."""
     out = []
@@ -110,6 +122,17 @@ def sweeps() -> list[tuple[str, str, str, float, list[str], float | None]]:
                 f"structure.members.0.fictitious_mass={f * m_a!r}",
             ]
             out.append(("plate_fictitious", "plate", "fictitious_mass_x_estimate", f, sets, None))
+    m_a = obstacle_added_mass()
+    for r in (1e-2, 1e-4):
+        rho = r * RHO_W * 0.292 / 0.012
+        for f in (0.3, 1.0, 3.0):
+            sets = [
+                f"structure.members.0.material.density={rho!r}",
+                f"structure.members.0.fictitious_mass={f * m_a!r}",
+            ]
+            out.append(
+                ("obstacle_fictitious", "obstacle", "fictitious_mass_x_estimate", f, sets, None)
+            )
     return out
 
 
@@ -288,7 +311,7 @@ def main(argv=None) -> int:
         return 0
     runs = sweeps()
     if not args.only:
-        runs = [r for r in runs if r[0] != "plate_fictitious"]
+        runs = [r for r in runs if not r[0].endswith("_fictitious")]
     if args.only:
         keep = set(args.only.split(","))
         unknown = keep - {r[0] for r in runs}
