@@ -24,7 +24,7 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
   factor column is the multiple of the estimate. Not in the default set (``--only
   plate_fictitious``).
 * ``obstacle_fictitious``: the obstacle of ``obstacle_ratio`` at mass ratio 1e-2 and 1e-4 with
-  ``fictitious_mass`` 0.3, 1, 3 x the estimate 2 rho_w l / pi = 51 kg/m^2 (one wetted face,
+  ``fictitious_mass`` 0 (baseline), 0.3, 1, 3 x the estimate 2 rho_w l / pi = 51 kg/m^2 (one wetted face,
   quarter-wave first mode: :func:`obstacle_added_mass`). Not in the default set.
 * ``mock_fictitious`` (``--only mock_fictitious``, its own CSV
   benchmarks/results/coupling_stress_mock_fictitious.csv; see :func:`mock_sweep`): the FEM beam
@@ -125,7 +125,7 @@ def sweeps() -> list[tuple[str, str, str, float, list[str], float | None]]:
     m_a = obstacle_added_mass()
     for r in (1e-2, 1e-4):
         rho = r * RHO_W * 0.292 / 0.012
-        for f in (0.3, 1.0, 3.0):
+        for f in (0.0, 0.3, 1.0, 3.0):  # 0: the same run without (a same-code baseline)
             sets = [
                 f"structure.members.0.material.density={rho!r}",
                 f"structure.members.0.fictitious_mass={f * m_a!r}",
