@@ -300,6 +300,9 @@ def main(argv=None) -> int:
     )
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks/results/coupling_stress.csv")
     ap.add_argument("--append", action="store_true", help="add rows to an existing CSV")
+    ap.add_argument(
+        "--set", action="append", default=[], help="extra scenario override for every run"
+    )
     args = ap.parse_args(argv)
     if args.only == "mock_fictitious":
         default = ROOT / "benchmarks/results/coupling_stress.csv"
@@ -337,6 +340,7 @@ def main(argv=None) -> int:
             row = {"sweep": sweep, "scene": scene, "acceleration": accel_name,
                    "factor": factor, "value": value}  # fmt: skip
             path = Path(tmp) / f"r{k}.h5"
+            sets = sets + args.set
             row.update(run_one(scene, sets, end, args.acceleration, path, args.relaxation))
             wr.writerow(row)
             fh.flush()
