@@ -26,6 +26,11 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
 * ``obstacle_fictitious``: the obstacle of ``obstacle_ratio`` at mass ratio 1e-2 and 1e-4 with
   ``fictitious_mass`` 0 (baseline), 0.3, 1, 3 x the estimate 2 rho_w l / pi = 51 kg/m^2 (one wetted face,
   quarter-wave first mode: :func:`obstacle_added_mass`). Not in the default set.
+* ``--set KEY=VALUE`` adds an override to every run, e.g. ``--set
+  'coupling.convergence.relative_to="window_motion"'`` (the rows of
+  benchmarks/results/coupling_stress_fictitious_window_motion.csv: ``--only
+  plate_fictitious --values 0.3,1.0`` and ``--only obstacle_fictitious --values 0.0,1.0,3.0``,
+  both ``--acceleration aitken``).
 * ``mock_fictitious`` (``--only mock_fictitious``, its own CSV
   benchmarks/results/coupling_stress_mock_fictitious.csv; see :func:`mock_sweep`): the FEM beam
   against the added-mass mock at added / structure mass 1e4, with and without fictitious mass.
