@@ -168,3 +168,8 @@ def test_key_validation():
             PLATE_TOML,
             ["structure.members.0.fictitious_mass=100.0", 'coupling.scheme="explicit"'],
         )
+    with pytest.raises(ScenarioError, match=r"fictitious_mass = 100.0: needs the structure in"):
+        load_scenario(
+            PLATE_TOML,
+            ["structure.members.0.fictitious_mass=100.0", 'coupling.transport={kind = "mpi"}'],
+        )

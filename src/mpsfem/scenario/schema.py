@@ -136,6 +136,14 @@ class Scenario(Section):
                         "the fictitious mass to 0",
                         m.fictitious_mass,
                     )
+                if m.fictitious_mass > 0 and self.coupling.transport.kind != "inproc":
+                    raise InvalidValue(
+                        f"structure.members[{i}].fictitious_mass",
+                        "needs the structure in the fluid's process (coupling.transport.kind = "
+                        f'"inproc"; it is {self.coupling.transport.kind!r}): a remote structure '
+                        "is not handed the interface iterate its fictitious mass must answer to",
+                        m.fictitious_mass,
+                    )
         if self.fluid is None and self.structure is None:
             raise ValueError("a scenario needs a [fluid] or a [structure] section (or both)")
         return self

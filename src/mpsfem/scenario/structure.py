@@ -218,7 +218,7 @@ class _MemberCommon(Section):
             "C v^k + K u^k = F^k + M_f a^{k-1}, M_f lumped on its nodes along its normal; at "
             "convergence the original equation holds. Estimate: the added mass of the member's "
             "first wet mode (docs/coupler.md, 'Fictitious mass'). Needs coupling.scheme = "
-            '"implicit".'
+            '"implicit" and coupling.transport.kind = "inproc".'
         ),
     )
     motion: MemberMotion = Field(
