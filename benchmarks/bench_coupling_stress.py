@@ -17,6 +17,23 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
   (h = 0.012 m, H = 0.292 m) 10, 0.103 (the scenario's), 1e-2, 1e-4; self-weight off.
 * ``obstacle_E``: the same obstacle run at its own mass ratio with E = 1e5, 1e6 (the
   scenario's), 1e8, 2e11 Pa.
+* ``plate_fictitious``: the plate of ``plate_ratio`` at mass ratio 1e-3 and 1e-4 with the
+  member's ``fictitious_mass`` at 0.3, 1 and 3 times the estimate m_a = rho_w (2H/3 + L/(6 pi)
+  tanh(2 pi H / L)) = 1386 kg/m^2 (the added mass of the clamped plate's first mode, sin^2
+  shape, in the walled tank with a free surface: docs/coupler.md, "Fictitious mass"); the
+  factor column is the multiple of the estimate. Not in the default set (``--only
+  plate_fictitious``).
+* ``obstacle_fictitious``: the obstacle of ``obstacle_ratio`` at mass ratio 1e-2 and 1e-4 with
+  ``fictitious_mass`` 0 (baseline), 0.3, 1, 3 x the estimate 2 rho_w l / pi = 51 kg/m^2 (one wetted face,
+  quarter-wave first mode: :func:`obstacle_added_mass`). Not in the default set.
+* ``--set KEY=VALUE`` adds an override to every run, e.g. ``--set
+  'coupling.convergence.relative_to="window_motion"'`` (the rows of
+  benchmarks/results/coupling_stress_fictitious_window_motion.csv: ``--only
+  plate_fictitious --values 0.3,1.0`` and ``--only obstacle_fictitious --values 0.0,1.0,3.0``,
+  both ``--acceleration aitken``).
+* ``mock_fictitious`` (``--only mock_fictitious``, its own CSV
+  benchmarks/results/coupling_stress_mock_fictitious.csv; see :func:`mock_sweep`): the FEM beam
+  against the added-mass mock at added / structure mass 1e4, with and without fictitious mass.
 
 All runs: implicit coupling with ``--acceleration`` (default iqn-imvj, its defaults), rtol 1e-3,
 at most 30 iterations, the scenario's ``on_divergence = "continue"`` (a window not converged is
@@ -63,6 +80,27 @@ SCENES = {
 }
 
 
+def plate_added_mass(H: float = 2.0, L: float = 1.0) -> float:
+    """Added mass (kg/m^2) of the clamped plate's first mode, w = sin^2(pi x / L), under a
+    water column of depth H between rigid walls L apart with a free surface (p = 0 there):
+    w = 1/2 - 1/2 cos(2 pi x / L); the uniform part lifts the column (rho H per m^2), the cosine
+    part carries rho tanh(k H) / k (k = 2 pi / L; incompressible potential flow, p = 0 on the
+    free surface: the limit of frequencies far above sloshing; derived in docs/coupler.md,
+    "Fictitious mass"); Rayleigh quotient over int w^2 = 3 L / 8:
+    m_a = rho (H L / 4 + L^2 tanh(k H) / (16 pi)) / (3 L / 8) = rho (2 H / 3 + L tanh(k H) /
+    (6 pi))."""
+    return RHO_W * (2.0 * H / 3.0 + L * math.tanh(2.0 * math.pi * H / L) / (6.0 * math.pi))
+
+
+def obstacle_added_mass(length: float = 0.08) -> float:
+    """Added mass (kg/m^2) of the obstacle's first mode, wetted on one face: a clamped-free
+    wall of length 0.08 m bends as about a quarter wave, wavenumber k = pi / (2 length); a
+    sinusoidal normal motion of wavenumber k of a plane face against a deep liquid carries rho /
+    k per m^2 (incompressible potential flow decaying as exp(-k n)): m_a = 2 rho length / pi
+    (51 kg/m^2). Rough: the surge wets only part of the wall and only after about 0.15 s."""
+    return RHO_W * 2.0 * length / math.pi
+
+
 def sweeps() -> list[tuple[str, str, str, float, list[str], float | None]]:
     """(sweep, scene, factor, value, --set overrides, end time or None) of every run."""
     out = []
@@ -80,10 +118,37 @@ def sweeps() -> list[tuple[str, str, str, float, list[str], float | None]]:
     for E in (1e5, 1e6, 1e8, 2e11):
         sets = [f"structure.members.0.material.youngs_modulus={E!r}"]
         out.append(("obstacle_E", "obstacle", "youngs_modulus_Pa", E, sets, None))
+    m_a = plate_added_mass()
+    for r in (1e-3, 1e-4):
+        rho = r * RHO_W * 2.0 / 0.05
+        for f in (0.3, 1.0, 3.0):
+            sets = [
+                f"structure.members.0.material.density={rho!r}",
+                f"structure.members.0.fictitious_mass={f * m_a!r}",
+            ]
+            out.append(("plate_fictitious", "plate", "fictitious_mass_x_estimate", f, sets, None))
+    m_a = obstacle_added_mass()
+    for r in (1e-2, 1e-4):
+        rho = r * RHO_W * 0.292 / 0.012
+        for f in (0.0, 0.3, 1.0, 3.0):  # 0: the same run without (a same-code baseline)
+            sets = [
+                f"structure.members.0.material.density={rho!r}",
+                f"structure.members.0.fictitious_mass={f * m_a!r}",
+            ]
+            out.append(
+                ("obstacle_fictitious", "obstacle", "fictitious_mass_x_estimate", f, sets, None)
+            )
     return out
 
 
-def run_one(scene: str, sets: list[str], end: float | None, accel: str, path: Path) -> dict:
+def run_one(
+    scene: str,
+    sets: list[str],
+    end: float | None,
+    accel: str,
+    path: Path,
+    relaxation: float | None = None,
+) -> dict:
     from mpsfem.scenario.loader import load_scenario
     from mpsfem.simulation import RunFailed, run_coupled
 
@@ -97,7 +162,11 @@ def run_one(scene: str, sets: list[str], end: float | None, accel: str, path: Pa
         "output.checkpoint_interval=0",
         "output.probe_interval=0",
         'coupling.scheme="implicit"',
-        f'coupling.acceleration={{kind = "{accel}"}}',
+        (
+            f'coupling.acceleration={{kind = "{accel}"}}'
+            if relaxation is None
+            else f'coupling.acceleration={{kind = "{accel}", relaxation = {relaxation!r}}}'
+        ),
         "coupling.convergence.relative_tolerance=0.001",
         "coupling.convergence.max_iterations=30",
         "fluid.surface.freeze_in_coupling_window=true",
@@ -142,15 +211,115 @@ def run_one(scene: str, sets: list[str], end: float | None, accel: str, path: Pa
     }
 
 
+MOCK_FIELDS = ["sweep", "acceleration", "a_prev", "relative_to", "fictitious_x_added",
+               "added_over_structure", "verdict", "windows", "iterations_mean", "iterations_max",
+               "error_vs_reference", "wall_s"]  # fmt: skip
+
+
+def mock_sweep(out: Path) -> None:
+    """``--only mock_fictitious``: the FEM beam (structure_cases.BEAM, inextensible) against the
+    added-mass mock at added / structure mass 1e4, 2 ms = 20 windows of 0.1 ms; fictitious mass
+    0, 0.3, 1, 3 x the mock's mean added mass per m^2; unrelaxed (constant, omega 1), aitken,
+    iqn-imvj; a^{k-1} shifted to the fluid's iterate (the coupler's set_iterate hook) or the
+    structure's own (hook hidden); rtol 1e-3 relative to the displacement and to the window's
+    motion, absolute tolerance 1e-22 m. Error: max |d - d_ref| / max |d_ref| at the end, d_ref
+    from iqn-imvj without fictitious mass at rtol 1e-12 of the window's motion."""
+    import copy
+    import warnings
+
+    sys.path.insert(0, str(ROOT / "tests" / "structure_fem"))
+    import structure_cases
+
+    from mpsfem.coupler import mock
+    from mpsfem.coupler.coupling_scheme import create_scheme
+    from mpsfem.coupler.errors import CouplingError
+    from mpsfem.scenario.coupling import CouplingSection
+    from mpsfem.structure_fem.participant import StructureParticipant
+
+    mu, rho_h = 1e4, 1100.0 * 0.04
+    m_a = mu * rho_h
+
+    def run(mf, acc, rel, rtol=1e-3, hook=True, max_it=30):
+        beam = copy.deepcopy(structure_cases.BEAM)
+        beam.update(axial=False, fictitious_mass=mf)
+        st = StructureParticipant(structure_cases.section([beam]))
+        if not hook:
+            st.set_iterate = None  # the coupler finds no hook: a^{k-1} is the structure's own
+        fluid = mock.AddedMassFluid(
+            st, mass_ratio=mu, spacing=0.005, pressure=200.0, dt=4e-5, structure_mass=rho_h * 0.25
+        )
+        conv = {"relative_tolerance": rtol, "absolute_tolerance": 1e-22, "relative_to": rel,
+                "max_iterations": max_it}  # fmt: skip
+        cfg = CouplingSection.model_validate(
+            {"mapping": {"kind": "shape-function"}, "acceleration": acc, "convergence": conv}
+        )
+        sch = create_scheme(fluid, st, cfg)
+        tic = time.perf_counter()
+        verdict = "converged every window"
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                sch.run(2e-3)
+            except CouplingError as exc:
+                verdict = f"stopped: {type(exc).__name__}: {str(exc)[:90]}"
+        h = sch.history_arrays()
+        return verdict, h, st.read("displacement")[:, 0], time.perf_counter() - tic
+
+    _, _, ref, _ = run(0.0, {"kind": "iqn-imvj"}, "window_motion", rtol=1e-12, max_it=200)
+    accs = {"constant (omega 1)": {"kind": "constant", "relaxation": 1.0},
+            "aitken": {"kind": "aitken"}, "iqn-imvj": {"kind": "iqn-imvj"}}  # fmt: skip
+    with out.open("w", newline="") as fh:
+        wr = csv.DictWriter(fh, fieldnames=MOCK_FIELDS)
+        wr.writeheader()
+        for rel in ("displacement", "window_motion"):
+            for name, acc in accs.items():
+                for hook in (True, False):
+                    for f in (0.0, 0.3, 1.0, 3.0):
+                        if f == 0.0 and not hook:
+                            continue
+                        verdict, h, d, wall = run(f * m_a, acc, rel, hook=hook)
+                        it = h["iterations"]
+                        done = verdict.startswith("converged") and np.isfinite(d).all()
+                        err = float(np.abs(d - ref).max() / np.abs(ref).max()) if done else ""
+                        row = {"sweep": "mock_fictitious", "acceleration": name,
+                               "a_prev": "iterate" if hook else "own",
+                               "relative_to": rel, "fictitious_x_added": f,
+                               "added_over_structure": mu, "verdict": verdict,
+                               "windows": int(it.size),
+                               "iterations_mean": round(float(it.mean()), 2) if it.size else "",
+                               "iterations_max": int(it.max()) if it.size else "",
+                               "error_vs_reference": err, "wall_s": round(wall, 2)}  # fmt: skip
+                        wr.writerow(row)
+                        fh.flush()
+                        print(row, flush=True)
+    print(f"wrote {out}")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--only", default=None, help="comma-separated sweeps (default: all four)")
+    ap.add_argument("--only", default=None, help="comma-separated sweeps (default: the first four)")
     ap.add_argument("--values", default=None, help="comma-separated factor values to keep")
     ap.add_argument("--acceleration", default="iqn-imvj")
+    ap.add_argument(
+        "--relaxation", type=float, default=None, help='omega of --acceleration "constant"'
+    )
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks/results/coupling_stress.csv")
     ap.add_argument("--append", action="store_true", help="add rows to an existing CSV")
+    ap.add_argument(
+        "--set", action="append", default=[], help="extra scenario override for every run"
+    )
     args = ap.parse_args(argv)
+    if args.only == "mock_fictitious":
+        default = ROOT / "benchmarks/results/coupling_stress.csv"
+        mock_sweep(
+            ROOT / "benchmarks/results/coupling_stress_mock_fictitious.csv"
+            if args.out == default
+            else args.out
+        )
+        return 0
     runs = sweeps()
+    if not args.only:
+        runs = [r for r in runs if not r[0].endswith("_fictitious")]
     if args.only:
         keep = set(args.only.split(","))
         unknown = keep - {r[0] for r in runs}
@@ -169,10 +338,15 @@ def main(argv=None) -> int:
         wr = csv.DictWriter(fh, fieldnames=fields)
         if new:
             wr.writeheader()
+        accel_name = args.acceleration + (
+            "" if args.relaxation is None else f" (omega {args.relaxation:g})"
+        )
         for k, (sweep, scene, factor, value, sets, end) in enumerate(runs):
-            row = {"sweep": sweep, "scene": scene, "acceleration": args.acceleration,
+            row = {"sweep": sweep, "scene": scene, "acceleration": accel_name,
                    "factor": factor, "value": value}  # fmt: skip
-            row.update(run_one(scene, sets, end, args.acceleration, Path(tmp) / f"r{k}.h5"))
+            path = Path(tmp) / f"r{k}.h5"
+            sets = sets + args.set
+            row.update(run_one(scene, sets, end, args.acceleration, path, args.relaxation))
             wr.writerow(row)
             fh.flush()
             print(row, flush=True)

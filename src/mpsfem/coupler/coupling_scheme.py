@@ -284,6 +284,9 @@ class CouplingScheme:
             getattr(self.structure, "iterate_errors", ())
         )
         last = None  # (x, s) of the last iterate the fluid completed in this window
+        # optional structure hook: the interface iterate its forces answer to (the fictitious
+        # mass of structure_fem needs it under acceleration; docs/coupler.md)
+        set_iterate = getattr(self.structure, "set_iterate", None) if self.implicit else None
         for k in range(1, max_it + 1):
             if k > 1:
                 self.fluid.restore()
@@ -305,6 +308,8 @@ class CouplingScheme:
                     F_s1 = self.mapping.forces_to_structure(F_f1, x)
                     timings["mapping"] += time.perf_counter() - tic
                     tic = time.perf_counter()
+                    if set_iterate is not None:  # the x the fluid saw (fictitious mass)
+                        set_iterate(x, T)
                     try:
                         x_t, s_t, n_s = self._structure_window(t0, t1, F_s1)
                     finally:

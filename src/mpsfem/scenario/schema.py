@@ -126,6 +126,24 @@ class Scenario(Section):
             raise InvalidValue(
                 "coupling", "[coupling] needs both a [fluid] and a [structure] section"
             )
+        if self.structure is not None and self.coupling is not None:
+            for i, m in enumerate(self.structure.members):
+                if m.fictitious_mass > 0 and self.coupling.scheme != "implicit":
+                    raise InvalidValue(
+                        f"structure.members[{i}].fictitious_mass",
+                        "acts inside the iterations of implicit coupling windows only; "
+                        f'coupling.scheme is {self.coupling.scheme!r}: set it to "implicit" or '
+                        "the fictitious mass to 0",
+                        m.fictitious_mass,
+                    )
+                if m.fictitious_mass > 0 and self.coupling.transport.kind != "inproc":
+                    raise InvalidValue(
+                        f"structure.members[{i}].fictitious_mass",
+                        "needs the structure in the fluid's process (coupling.transport.kind = "
+                        f'"inproc"; it is {self.coupling.transport.kind!r}): a remote structure '
+                        "is not handed the interface iterate its fictitious mass must answer to",
+                        m.fictitious_mass,
+                    )
         if self.fluid is None and self.structure is None:
             raise ValueError("a scenario needs a [fluid] or a [structure] section (or both)")
         return self

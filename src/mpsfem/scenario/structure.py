@@ -208,6 +208,19 @@ class _MemberCommon(Section):
     self_weight: bool = Field(
         False, description="Load the member with its own weight (density x volume x gravity)."
     )
+    fictitious_mass: float = Field(
+        0.0,
+        ge=0,
+        description=(
+            "Fictitious added mass m_f in kg/m^2 (per m^2 of plate; per m of beam and m of "
+            "depth in 2D) for implicit coupling at small structure-to-added-mass ratios (>= 0; "
+            "0: off). Inside a coupling window's iterations the member solves (M + M_f) a^k + "
+            "C v^k + K u^k = F^k + M_f a^{k-1}, M_f lumped on its nodes along its normal; at "
+            "convergence the original equation holds. Estimate: the added mass of the member's "
+            "first wet mode (docs/coupler.md, 'Fictitious mass'). Needs coupling.scheme = "
+            '"implicit" and coupling.transport.kind = "inproc".'
+        ),
+    )
     motion: MemberMotion = Field(
         default_factory=MemberMotion,
         description=(

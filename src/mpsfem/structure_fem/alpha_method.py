@@ -23,6 +23,12 @@ or gamma > 1/2 their sum decreases by the scheme's numerical dissipation, not by
 under average acceleration (alpha = 0, beta = 1/4, gamma = 1/2) a linear undamped member keeps
 it exactly and a co-rotational one to O(dt^2).
 
+With a fictitious mass M_f (:mod:`.fictitious_mass`) a step given the previous coupling
+iterate's acceleration ``a_prev`` adds M_f (a1 - a_prev) to the residual (inertia, not weighted
+by 1 + alpha) and c0 M_f to the Jacobian. The kept Jacobian always includes c0 M_f for such a
+system (modified Newton: a step without ``a_prev`` still converges to its own residual, in more
+iterations).
+
 Every vector is over the free dofs of the :class:`~.system.StructureSystem`.
 """
 
@@ -33,11 +39,23 @@ import math
 import numpy as np
 import scipy.sparse as sp
 
-from .linsolve import factorize
+from .linsolve import BandMatrix, factorize
 from .newmark import NewmarkState
 from .newton import ROUNDOFF, TangentFactor, newton_solve, solve_static
 
 __all__ = ["AlphaState", "NonlinearNewmark"]
+
+
+def _add_sparse(J, A: sp.csr_matrix):
+    """J + A for a sparse or band-stored J (A symmetric, within J's band)."""
+    if not isinstance(J, BandMatrix):
+        return J + A
+    U = sp.triu(A, format="coo")
+    if U.nnz and int((U.col - U.row).max()) > J.bw:
+        return J.tocsr() + A  # outside the band: fall back to a sparse Jacobian
+    ab = J.ab.copy()
+    np.add.at(ab, (J.bw + U.row - U.col, U.col), U.data)
+    return BandMatrix(ab, J.bw)
 
 
 class AlphaState(NewmarkState):
@@ -73,6 +91,7 @@ class NonlinearNewmark:
         tolerance: float = 1e-8,
         max_iterations: int = 25,
         reuse_ratio: float = 0.01,
+        fictitious_mass: sp.spmatrix | None = None,
     ) -> None:
         if beta <= 0:
             raise ValueError(f"newmark_beta = {beta}: must be > 0 (implicit schemes only)")
@@ -90,6 +109,8 @@ class NonlinearNewmark:
         self.max_iterations = int(max_iterations)
         self.reuse_ratio = float(reuse_ratio)
         self.n = self.M.shape[0]
+        Mf = None if fictitious_mass is None else sp.csr_matrix(fictitious_mass)
+        self.Mf = Mf if Mf is not None and Mf.nnz else None
         # M a1 + (1 + alpha) C v1 as one product [M | (1 + alpha) C] [a1; v1]
         self._MC = (
             None if self.C is None else sp.hstack([self.M, (1.0 + alpha) * self.C], format="csr")
@@ -159,13 +180,26 @@ class NonlinearNewmark:
         return u
 
     # ------------------------------------------------------------------ stepping
-    def step(self, dt: float, F1: np.ndarray) -> AlphaState:
+    def step(
+        self,
+        dt: float,
+        F1: np.ndarray,
+        a_prev: np.ndarray | None = None,
+        shift: np.ndarray | None = None,
+    ) -> AlphaState:
         """Advance the state by `dt` under the load F1 = F(t + dt); returns the new state.
+
+        ``a_prev`` (needs a fictitious mass): the acceleration this step ended with in the
+        previous coupling iteration; M_f (a1 - a_prev) joins the inertia (Baek & Karniadakis
+        2012); ``shift`` (optional, N) is added to M_f a_prev, unweighted like it.
 
         Raises :class:`~.newton.NewtonFailure` (a FloatingPointError) naming the member with the
         largest residual, the step, the time and the residual when Newton does not converge.
         """
         dt = float(dt)
+        if a_prev is not None and self.Mf is None:
+            raise ValueError("NonlinearNewmark.step(a_prev=...) needs a fictitious mass")
+        Mf = self.Mf if a_prev is not None else None
         key = self.tangent.current_key
         if isinstance(key, float) and key > 0 and abs(dt - key) <= 1e-12 * key:
             dt = key  # round-off in t_end - t: keep the factorised Jacobian (as Newmark.snap)
@@ -182,6 +216,10 @@ class NonlinearNewmark:
             if C is not None:
                 old = old + C @ v
             rhs = rhs + al * old
+        if Mf is not None:  # (M + M_f) a1 + ... = ... + M_f a_prev
+            rhs = rhs + Mf @ a_prev
+            if shift is not None:
+                rhs = rhs + shift
         base_a = -c2 * v - c3 * a  # a1 = c0 (u1 - u) + base_a
         base_v = v + dt * (1.0 - g) * a  # v1 = base_v + dt gamma a1
         rhs_norm = math.sqrt(rhs @ rhs)
@@ -200,6 +238,8 @@ class NonlinearNewmark:
                 av[:n] = a1
                 av[n:] = base_v + (dt * g) * a1
                 ma = MC @ av
+            if Mf is not None:
+                ma = ma + Mf @ a1
             fi *= 1.0 + al
             r = ma + fi - rhs
             # the forces in balance: inertial (+ damping), internal, external
@@ -214,7 +254,10 @@ class NonlinearNewmark:
 
         def jacobian(u1):
             cc = (1.0 + al) * c1 if C is not None else 0.0
-            return sysm.effective_tangent(u1, 1.0 + al, c0, cc)
+            J = sysm.effective_tangent(u1, 1.0 + al, c0, cc)
+            if self.Mf is not None:  # always, so that the kept factor fits every step
+                J = _add_sparse(J, c0 * self.Mf)
+            return J
 
         where = f"step {s.steps + 1} (t = {s.t:.6g} s to {s.t + dt:.6g} s, dt = {dt:.3g} s)"
         res = newton_solve(

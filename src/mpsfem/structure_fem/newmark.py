@@ -20,6 +20,11 @@ one counts as that one, so round-off in ``t_end - t`` does not refactorise). Ave
 gamma = 1/2) is unconditionally stable, second-order accurate and conserves the energy
 ``1/2 v.M v + 1/2 u.K u`` of undamped free vibration exactly.
 
+With a fictitious mass M_f (:mod:`.fictitious_mass`) a step given the previous coupling
+iterate's acceleration ``a_prev`` solves (M + M_f) a1 + C v1 + K u1 = F1 + M_f a_prev: M is
+replaced by M + M_f in K_eff (factorised once per step size, kept beside the plain one) and the
+right-hand side gains M_f (c0 u + c2 v + c3 a + a_prev). With a_prev = a1 it is the plain step.
+
 Every vector here is over the free (unconstrained) degrees of freedom.
 """
 
@@ -59,6 +64,7 @@ class Newmark:
         beta: float = 0.25,
         gamma: float = 0.5,
         dense_limit: int = DENSE_LIMIT,
+        fictitious_mass: sp.spmatrix | None = None,
     ) -> None:
         if beta <= 0:
             raise ValueError(f"newmark_beta = {beta}: must be > 0 (implicit schemes only)")
@@ -77,6 +83,10 @@ class Newmark:
         self.dense_limit = dense_limit
         self.n = self.M.shape[0]
         self._factors: OrderedDict[float, tuple[Factor, tuple[float, ...]]] = OrderedDict()
+        # fictitious mass M_f (None: off) and the factorisations of K + c0 (M + M_f) + c1 C
+        Mf = None if fictitious_mass is None else sp.csr_matrix(fictitious_mass)
+        self.Mf = Mf if Mf is not None and Mf.nnz else None
+        self._factors_f: OrderedDict[float, tuple[Factor, tuple[float, ...]]] = OrderedDict()
         self.factorizations = 0
         self.state = NewmarkState(np.zeros(self.n), np.zeros(self.n), np.zeros(self.n))
 
@@ -111,40 +121,60 @@ class Newmark:
     def snap(self, dt: float) -> float:
         """`dt`, or a cached step size within 1e-12 relative of it (round-off in t_end - t)."""
         dt = float(dt)
-        for key in self._factors:
+        for key in (*self._factors, *self._factors_f):
             if abs(key - dt) <= 1e-12 * key:
                 return key
         return dt
 
-    def factor(self, dt: float) -> tuple[Factor, tuple[float, ...]]:
-        """Factorised K_eff for `dt` (cached; the two most recent step sizes are kept)."""
+    def factor(self, dt: float, fictitious: bool = False) -> tuple[Factor, tuple[float, ...]]:
+        """Factorised K_eff for `dt` (cached; the two most recent step sizes are kept), with
+        M + M_f in place of M when `fictitious`."""
         key = float(dt)
-        hit = self._factors.get(key)
+        cache = self._factors_f if fictitious else self._factors
+        hit = cache.get(key)
         if hit is not None:
-            self._factors.move_to_end(key)
+            cache.move_to_end(key)
             return hit
         c = self.coefficients(key)
-        Keff = self.K + c[0] * self.M
+        Keff = self.K + c[0] * (self.M + self.Mf if fictitious else self.M)
         if self.C is not None:
             Keff = Keff + c[1] * self.C
         fac = factorize(Keff.tocsc(), dense_limit=self.dense_limit)
         self.factorizations += 1
-        self._factors[key] = (fac, c)
-        while len(self._factors) > 2:
-            self._factors.popitem(last=False)
+        cache[key] = (fac, c)
+        while len(cache) > 2:
+            cache.popitem(last=False)
         return fac, c
 
     # ------------------------------------------------------------------ stepping
-    def step(self, dt: float, F1: np.ndarray) -> NewmarkState:
+    def step(
+        self,
+        dt: float,
+        F1: np.ndarray,
+        a_prev: np.ndarray | None = None,
+        shift: np.ndarray | None = None,
+    ) -> NewmarkState:
         """Advance the state by `dt` under the load F1 = F(t + dt); returns the new state.
 
-        A `dt` within 1e-12 relative of a cached step size is taken as that step size.
+        ``a_prev`` (needs a fictitious mass): the acceleration this step ended with in the
+        previous coupling iteration; the step then solves (M + M_f) a1 + C v1 + K u1 = F1 +
+        M_f a_prev (Baek & Karniadakis 2012); ``shift`` (optional, N) is added to M_f a_prev
+        (:class:`.fictitious_mass.IterationHistory`: M_f delta). A `dt` within 1e-12 relative of a cached step size
+        is taken as that step size.
         """
         dt = self.snap(dt)
-        fac, (c0, c1, c2, c3, c4, c5) = self.factor(dt)
+        fictitious = a_prev is not None
+        if fictitious and self.Mf is None:
+            raise ValueError("Newmark.step(a_prev=...) needs a fictitious mass")
+        fac, (c0, c1, c2, c3, c4, c5) = self.factor(dt, fictitious)
         s = self.state
         u, v, a = s.u, s.v, s.a
-        rhs = F1 + self.M @ (c0 * u + c2 * v + c3 * a)
+        hist = c0 * u + c2 * v + c3 * a
+        rhs = F1 + self.M @ hist
+        if fictitious:  # (M + M_f) a1 + C v1 + K u1 = F1 + M_f a_prev
+            rhs += self.Mf @ (hist + a_prev)
+            if shift is not None:
+                rhs += shift
         if self.C is not None:
             rhs += self.C @ (c1 * u + c4 * v + c5 * a)
         u1 = fac.solve(rhs)

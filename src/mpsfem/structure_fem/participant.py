@@ -45,6 +45,13 @@ The full state (u, v, a over the free dofs, the time, the step count, the interf
 window start and the last written forces; with Newton also the external load at t and the point
 at which the kept Jacobian was formed) is what :meth:`checkpoint` copies and :meth:`restore`
 puts back; a restored participant repeats its steps bit for bit.
+
+Fictitious mass (members' ``fictitious_mass`` > 0, :mod:`.fictitious_mass`): every
+:meth:`checkpoint` starts a coupling window; the steps after it solve (M + M_f) a^k + C v^k +
+K u^k = F^k + M_f a^{k-1}, a^{k-1} the acceleration the same sub-step (counted from the
+checkpoint) ended with in the previous iteration; :meth:`restore` keeps these accelerations
+(they are not part of the state), the next checkpoint clears them. Before any checkpoint
+(standalone runs) the steps are plain. With every ``fictitious_mass`` 0 nothing changes.
 """
 
 from __future__ import annotations
@@ -61,6 +68,7 @@ import scipy.sparse.linalg as sla
 from mpsfem.scenario.motion import RigidTranslation
 
 from .alpha_method import NonlinearNewmark
+from .fictitious_mass import IterationHistory, fictitious_mass_matrix
 from .linsolve import factorize
 from .newmark import Newmark, NewmarkState
 from .newton import NewtonFailure
@@ -151,6 +159,13 @@ class StructureParticipant:
         # linear members under Newmark keep the linear integrator (one solve per step); a
         # co-rotational member or the HHT scheme takes Newton iterations
         self.nonlinear = sysm.nonlinear or t.scheme == "hht"
+        # fictitious added mass (members' `fictitious_mass`; None: off) and the accelerations
+        # of the previous coupling iteration, per sub-step of the window (:mod:`.fictitious_mass`)
+        B = fictitious_mass_matrix(sysm, [cfg.fictitious_mass for cfg in section.members])
+        Mf = None if B is None else (sysm.TT @ B @ sysm.T).tocsr()
+        self.fictitious = (
+            None if B is None else IterationHistory(B, sysm.T, beta=t.beta, gamma=t.gamma)
+        )
         if self.nonlinear:
             nw = section.newton
             self.integrator = NonlinearNewmark(
@@ -161,10 +176,16 @@ class StructureParticipant:
                 tolerance=nw.tolerance,
                 max_iterations=nw.max_iterations,
                 reuse_ratio=nw.reuse_ratio,
+                fictitious_mass=Mf,
             )
         else:
             self.integrator = Newmark(
-                sysm.M, sysm.K, sysm.C, beta=t.newmark_beta, gamma=t.newmark_gamma
+                sysm.M,
+                sysm.K,
+                sysm.C,
+                beta=t.newmark_beta,
+                gamma=t.newmark_gamma,
+                fictitious_mass=Mf,
             )
         if t.beta < (t.gamma + 0.5) ** 2 / 4.0 - 1e-12:
             self._check_conditional_stability()
@@ -331,11 +352,20 @@ class StructureParticipant:
         h = dt / n_sub
         t0 = self.integrator.state.t
         f0, f1 = self._f_start, self._f_new
+        fm = self.fictitious if self.fictitious is not None and self.fictitious.active else None
         for j in range(1, n_sub + 1):
             frac = j / n_sub
             f_if = f1 if j == n_sub else f0 + frac * (f1 - f0)
             t = t0 + frac * dt
-            self.integrator.step(h, self.external_load(t, h) + f_if)
+            if fm is None:
+                self.integrator.step(h, self.external_load(t, h) + f_if)
+                continue
+            # fictitious mass: a^{k-1} of this sub-step from the previous iteration of the
+            # window, in the first one the acceleration at the sub-step's start
+            # M_f delta (f_shift): a^{k-1} shifted to the iterate the fluid answered to
+            a_prev, f_shift = fm.previous(self.integrator.state.steps, h)
+            new = self.integrator.step(h, self.external_load(t, h) + f_if, a_prev, f_shift)
+            fm.store(h, new.u, new.a)
         self.integrator.state.t = t0 + dt
         self._last_h = h
         self._f_start = f1
@@ -363,6 +393,20 @@ class StructureParticipant:
                     stacklevel=3,
                 )
 
+    def set_iterate(self, displacement: np.ndarray, window: float) -> None:
+        """Optional coupler hook (fictitious mass): the interface displacement (n_points, dim),
+        m, at the end of the current window of length `window` (s) that the fluid's forces of
+        this iteration answer to. Without it (e.g. a remote participant) a^{k-1} is the
+        structure's own acceleration of the previous iteration, exact for unrelaxed iterations."""
+        fm = self.fictitious
+        if fm is None or not fm.active:
+            return
+        x = np.array(displacement, dtype=float).reshape(self.system.n_points, self.dim)
+        t_end = self.integrator.state.t + float(window)
+        for nodes, _, law, _, _ in self._motions:  # elastic part
+            x[nodes] -= law.displacement(t_end)
+        fm.set_iterate(x, window)
+
     def max_dt(self) -> float:
         """Longest step the structure takes in one go (the scenario's ``structure.time.dt``)."""
         return self.dt
@@ -382,6 +426,8 @@ class StructureParticipant:
         }
         if self.nonlinear:
             state.update(self.integrator.checkpoint_extra())
+        if self.fictitious is not None:  # a new coupling window: no previous iteration yet
+            self.fictitious.reset(s.steps, s.u, s.v, s.a)
         self._checkpoint = state
         return {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in state.items()}
 
@@ -401,6 +447,8 @@ class StructureParticipant:
             self.integrator.restore_extra(restored, state)
         else:
             self.integrator.state = restored
+        if self.fictitious is not None and self.fictitious.active:
+            self.fictitious.new_iteration()  # keeps this iteration's accelerations as a^{k-1}
         self._f_start = np.array(state["f_start"], dtype=float)
         self._last_h = float(state.get("last_h", self.dt))
         self._initial_data_pending = False
