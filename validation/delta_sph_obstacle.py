@@ -291,6 +291,9 @@ def load_centroid(key: str, t_end: float) -> tuple[list[dict], list[dict]]:
     - the bending moment at the clamp with the displaced points (x_i, y_i) = reference +
       written displacement, M = sum (y_i - y_b) F_x,i - (x_i - x_b) F_y,i (clockwise positive,
       the sense the surge bends the plate: a downward F_y on the deflected plate adds to it).
+    - under δ-SPH the whole pair exchange with the member's particles (``exchange_impulse_*``:
+      the load under fluid.sph.structure_load = "exchange"; the load itself is its normal part,
+      end caps pushed only); under MPS the load.
     Per span of CENTROID_SPANS the impulses (N s/m, N s) and the centroid height (m), and the
     per-window series (every 5th window). A diagnostic, not a results-file quantity."""
     import time
@@ -314,7 +317,9 @@ def load_centroid(key: str, t_end: float) -> tuple[list[dict], list[dict]]:
     scheme.initialize()
     base = np.asarray(sc.structure.members[0].start, dtype=np.float64)
     ref = np.asarray(fl.interface().points) - base
-    t, fx, fy, m_ref, m_bend = [], [], [], [], []
+    t, fx, fy, m_ref, m_bend, ex = [], [], [], [], [], []
+    solver = getattr(fl, "solver", None)
+    exchange = getattr(solver, "reaction_step", None) is not None and hasattr(fl, "_slot")
     tic = time.perf_counter()
     while scheme.t < t_end - 1e-9:
         scheme.advance_window()
@@ -325,8 +330,11 @@ def load_centroid(key: str, t_end: float) -> tuple[list[dict], list[dict]]:
         fy.append(f[:, 1].sum())
         m_ref.append(float(f[:, 0] @ ref[:, 1]))
         m_bend.append(float(f[:, 0] @ r[:, 1] - f[:, 1] @ r[:, 0]))
+        # δ-SPH: the whole pair exchange with the member's particles (the load before
+        # fluid.sph.structure_load = "normal"), for the part the load leaves out
+        ex.append(solver.reaction_step[fl._slot].sum(axis=0) if exchange else f.sum(axis=0))
     wall = time.perf_counter() - tic
-    t, fx, fy, m_ref, m_bend = (np.array(a) for a in (t, fx, fy, m_ref, m_bend))
+    t, fx, fy, m_ref, m_bend, ex = (np.array(a) for a in (t, fx, fy, m_ref, m_bend, ex))
     window = float(scheme.window)
     rows = []
     for t0, t1 in CENTROID_SPANS:
@@ -345,6 +353,8 @@ def load_centroid(key: str, t_end: float) -> tuple[list[dict], list[dict]]:
                 "moment_impulse_ref": jm,
                 "centroid_height_m": jm / jx,
                 "bending_moment_impulse": jb,
+                "exchange_impulse_x": window * ex[sel, 0].sum(),
+                "exchange_impulse_y": window * ex[sel, 1].sum(),
                 "wall_time_s": wall,
             }
         )
@@ -386,10 +396,11 @@ def main() -> int:
             comment="elastic obstacle: last-step interface force sums (N/m) and moments about "
             "the clamp (N m/m) every 5th window (validation/delta_sph_obstacle.py --centroid)",
         )
+        columns = list(dict.fromkeys(k for r in rows for k in r))  # kept rows may lack some
         write_csv(
             rows,
             CENTROID_CSV,
-            list(rows[0]),
+            columns,
             comment="elastic obstacle: impulse of the last-step interface force F_x and of its "
             "moment about the base per span; centroid = their ratio (validation/"
             "delta_sph_obstacle.py --centroid)",
@@ -398,17 +409,20 @@ def main() -> int:
             print(
                 f"{r['case']:7} {r['t0_s']:.2f}-{r['t1_s']:.2f} s: J_x {r['impulse_x']:7.3f} "
                 f"N s/m, centroid {1e3 * r['centroid_height_m']:5.1f} mm, J_y "
-                f"{r['impulse_y']:7.3f} N s/m, bending {r['bending_moment_impulse']:7.4f} N s"
+                f"{r['impulse_y']:7.3f} N s/m, bending {r['bending_moment_impulse']:7.4f} N s, "
+                f"exchange J_y {r['exchange_impulse_y']:7.3f} N s/m"
             )
         return 0
     rows = []
     # a case neither selected nor on disk (results files are not kept in git) keeps its CSV row
     kept = {r["case"]: r for r in _read(CSV)}
+    kept_cases: list[str] = []
     for key, (method, n, t_end) in CASES.items():  # cases not selected are read, not run
         scenario = SPH_SCENARIO if method == "delta-sph" else MPS_SCENARIO
         out = case_path(key)
         if key not in args.cases and not out.is_file() and key in kept:
-            rows.append({**kept[key], "kept": True})
+            rows.append(kept[key])
+            kept_cases.append(key)
             continue
         status = case_runner.case_status(
             scenario,
@@ -442,7 +456,7 @@ def main() -> int:
         f"{'max':>4} {'nc':>3} {'res x':>7} {'res y':>7} {'wall s':>7}"
     )
     for r in rows:
-        if r.get("kept"):
+        if r["case"] in kept_cases:
             print(f"{r['case']:7} (row kept from {CSV.name}: no results file here)")
             continue
         if "tip_peak_mm" not in r:
