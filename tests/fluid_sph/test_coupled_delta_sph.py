@@ -272,9 +272,10 @@ def test_partition_carries_the_hydrostatic_resultant():
     test_thin_member.py), 20 δ-SPH steps: the horizontal load is rho g (H1^2 - H2^2) / 2 =
     147.15 N/m within 3 % (measured 143.85, -2.2 %; δ-SPH's water leans on the walls' dummies
     near the corners, which leaves the coupled plate's load 1.2-2.5 % short, docs/fluid_sph.md),
-    and still water pushes it neither up nor down: |F_y| < 1 % of F_x (measured -0.52 N/m; the
-    elastic obstacle's upward load during its impact is the flow's, docs/
-    validation_delta_sph_coupled.md)."""
+    and still water pushes it neither up nor down: |F_y| < 1 % of F_x (measured 0 with the
+    default normal load, -0.52 N/m with structure_load = "exchange"; the elastic obstacle's
+    upward load during its impact came with the flow, docs/validation_delta_sph_coupled.md,
+    "Axial load")."""
     from mpsfem.coupler.participant import InterfaceMesh
     from mpsfem.scenario.fluid import FluidSection
 
