@@ -53,6 +53,9 @@ CSV = RESULTS / "delta_sph_obstacle.csv"
 CENTROID_CSV = RESULTS / "delta_sph_obstacle_centroid.csv"
 CENTROID_SERIES_CSV = RESULTS / "delta_sph_obstacle_centroid_series.csv"
 CENTROID_SPANS = ((0.12, 0.25), (0.12, 0.17), (0.17, 0.25))  # s
+AXIAL_CSV = RESULTS / "delta_sph_obstacle_axial.csv"
+AXIAL_SPAN = (0.12, 0.17)  # s, the first impact, where the whole exchange pushed the plate up
+AXIAL_EVERY = 4  # windows between two samples of the pair split
 L = 0.146  # m, the column width
 IMPACT = (0.12, 0.25)  # s, the impact window of validation/momentum_budget.py
 CONTACT_FORCE = 1.0  # N/m, |F_x| of the first sample counted as contact
@@ -291,6 +294,9 @@ def load_centroid(key: str, t_end: float) -> tuple[list[dict], list[dict]]:
     - the bending moment at the clamp with the displaced points (x_i, y_i) = reference +
       written displacement, M = sum (y_i - y_b) F_x,i - (x_i - x_b) F_y,i (clockwise positive,
       the sense the surge bends the plate: a downward F_y on the deflected plate adds to it).
+    - under δ-SPH the whole pair exchange with the member's particles (``exchange_impulse_*``:
+      the load under fluid.sph.structure_load = "exchange"; the load itself is its normal part,
+      end caps pushed only); under MPS the load.
     Per span of CENTROID_SPANS the impulses (N s/m, N s) and the centroid height (m), and the
     per-window series (every 5th window). A diagnostic, not a results-file quantity."""
     import time
@@ -314,7 +320,9 @@ def load_centroid(key: str, t_end: float) -> tuple[list[dict], list[dict]]:
     scheme.initialize()
     base = np.asarray(sc.structure.members[0].start, dtype=np.float64)
     ref = np.asarray(fl.interface().points) - base
-    t, fx, fy, m_ref, m_bend = [], [], [], [], []
+    t, fx, fy, m_ref, m_bend, ex = [], [], [], [], [], []
+    solver = getattr(fl, "solver", None)
+    exchange = getattr(solver, "reaction_step", None) is not None and hasattr(fl, "_slot")
     tic = time.perf_counter()
     while scheme.t < t_end - 1e-9:
         scheme.advance_window()
@@ -325,8 +333,11 @@ def load_centroid(key: str, t_end: float) -> tuple[list[dict], list[dict]]:
         fy.append(f[:, 1].sum())
         m_ref.append(float(f[:, 0] @ ref[:, 1]))
         m_bend.append(float(f[:, 0] @ r[:, 1] - f[:, 1] @ r[:, 0]))
+        # δ-SPH: the whole pair exchange with the member's particles (the load before
+        # fluid.sph.structure_load = "normal"), for the part the load leaves out
+        ex.append(solver.reaction_step[fl._slot].sum(axis=0) if exchange else f.sum(axis=0))
     wall = time.perf_counter() - tic
-    t, fx, fy, m_ref, m_bend = (np.array(a) for a in (t, fx, fy, m_ref, m_bend))
+    t, fx, fy, m_ref, m_bend, ex = (np.array(a) for a in (t, fx, fy, m_ref, m_bend, ex))
     window = float(scheme.window)
     rows = []
     for t0, t1 in CENTROID_SPANS:
@@ -345,6 +356,8 @@ def load_centroid(key: str, t_end: float) -> tuple[list[dict], list[dict]]:
                 "moment_impulse_ref": jm,
                 "centroid_height_m": jm / jx,
                 "bending_moment_impulse": jb,
+                "exchange_impulse_x": window * ex[sel, 0].sum(),
+                "exchange_impulse_y": window * ex[sel, 1].sum(),
                 "wall_time_s": wall,
             }
         )
@@ -353,6 +366,84 @@ def load_centroid(key: str, t_end: float) -> tuple[list[dict], list[dict]]:
         for i in range(4, t.size, 5)
     ]
     return rows, series
+
+
+def axial_split(key: str) -> list[dict]:
+    """Where δ-SPH's vertical load on the plate comes from (docs/validation_delta_sph_coupled.md,
+    "Axial load"): an in-process re-run of δ-SPH case ``key`` to AXIAL_SPAN[1] with
+    fluid.sph.structure_load = "exchange" (the whole pair exchange, the load before the normal
+    load) that, every AXIAL_EVERY-th window from AXIAL_SPAN[0] on, re-evaluates the right-hand
+    side at the window's end and rebuilds each structure particle's reaction pair by pair,
+    F_j = sum_i V_i (p_i + p_j) M_i grad_i W_ij V_j (delta_sph.wall_reaction). Sampled impulses
+    (N s/m, sample x AXIAL_EVERY windows) of F_y: whole; with M_i = I; M_i's off-diagonal part;
+    per interface point its part tangential to the point's normal (rows ``point``) and in
+    total; the normal projection of the face points; the corner points whole. Also the corner
+    particles' lowest Adami pressure (Pa). One row per interface point plus a row ``total``."""
+    from mpsfem.coupler.coupling_scheme import create_scheme
+    from mpsfem.fluid_methods import create_fluid_participant
+    from mpsfem.scenario.loader import load_scenario
+    from mpsfem.simulation import member_nodes
+    from mpsfem.structure_fem.participant import StructureParticipant
+
+    method, n, _ = CASES[key]
+    if method != "delta-sph":
+        raise SystemExit(f"--axial takes δ-SPH cases, not {key}")
+    extra = ['fluid.sph.structure_load="exchange"']
+    sc = load_scenario(SPH_SCENARIO, [*overrides(n, AXIAL_SPAN[1]), *extra]).scenario
+    st = StructureParticipant(sc.structure, base_dir=SPH_SCENARIO.parent)
+    names = [m for m, _ in member_nodes(sc)]
+    fl = create_fluid_participant(
+        sc.fluid, st.interface(), base_dir=SPH_SCENARIO.parent, member_names=names
+    )
+    scheme = create_scheme(fl, st, sc.coupling, log=lambda m: None)
+    scheme.initialize()
+    s = fl.solver
+    nf, ext, n_if = s.n_fluid, s.ext_rows, fl.surface.n_interface
+    dt_s = AXIAL_EVERY * float(scheme.window)
+    pts = fl.interface().points
+    nrm_ref = fl.interface().normals
+    is_face = (np.abs(nrm_ref[:, 0]) > 1.0 - 1e-9) | (np.abs(nrm_ref[:, 1]) > 1.0 - 1e-9)
+    acc = {k: 0.0 for k in ("whole", "plain", "offdiag", "tangential", "faces_normal", "corners")}
+    tang = np.zeros(n_if)
+    p_corner_min = 0.0
+    w = 0
+    while scheme.t < AXIAL_SPAN[1] - 1e-9:
+        scheme.advance_window()
+        w += 1
+        if scheme.t < AXIAL_SPAN[0] + 1e-9 or w % AXIAL_EVERY:
+            continue
+        s.rhs()  # at the window's end (the next step starts with its own right-hand side)
+        nb = s._last_neighbours
+        i = np.repeat(np.arange(nb.indptr.size - 1), np.diff(nb.indptr))
+        j = nb.indices
+        keep = (i < nf) & (s.ext_slot[j] >= 0)
+        i, j = i[keep], j[keep]
+        d = s.pos[i] - s.pos[j]
+        t = np.clip(1.0 - 0.5 * np.linalg.norm(d, axis=1) * s.inv_h, 0.0, None)
+        plain = (s.grad_coef * t**3 * s.vol[j] * (s.p[i] + s.p[j]) * s.vol[i])[:, None] * d
+        whole = np.einsum("kab,kb->ka", s.M[i], plain)  # the reaction on j, as wall_reaction
+        acc["whole"] += dt_s * whole[:, 1].sum()
+        acc["plain"] += dt_s * plain[:, 1].sum()
+        acc["offdiag"] += dt_s * (s.M[i][:, 1, 0] * plain[:, 0]).sum()
+        reac = np.zeros((ext.size, 2))
+        np.add.at(reac, s.ext_slot[j], whole)
+        r = reac[fl._slot]
+        f = np.stack([np.bincount(fl._target, weights=r[:, a], minlength=n_if) for a in (0, 1)], 1)
+        nrm = s.normal[fl._if_rows]
+        fn = np.einsum("ka,ka->k", f, nrm)[:, None] * nrm
+        tang += dt_s * (f - fn)[:, 1]
+        acc["faces_normal"] += dt_s * fn[is_face, 1].sum()
+        acc["corners"] += dt_s * f[~is_face, 1].sum()
+        if (~is_face).any():
+            p_corner_min = min(p_corner_min, float(s.p[fl._if_rows[~is_face]].min()))
+    acc["tangential"] = float(tang.sum())
+    base = {"case": key, "t0_s": AXIAL_SPAN[0], "t1_s": AXIAL_SPAN[1], "every": AXIAL_EVERY}
+    rows = [{**base, "row": "total", "x_m": np.nan, "y_m": np.nan, **acc,
+             "corner_p_min_Pa": p_corner_min}]  # fmt: skip
+    for k in np.lexsort((pts[:, 1], pts[:, 0])):
+        rows.append({**base, "row": "point", "x_m": pts[k, 0], "y_m": pts[k, 1],
+                     "tangential": tang[k]})  # fmt: skip
+    return rows
 
 
 def _read(path: Path) -> list[dict]:
@@ -369,7 +460,35 @@ def main() -> int:
         help="only the load-centroid diagnostic of --cases (in-process re-runs to 0.25 s) -> "
         f"{CENTROID_CSV.name}",
     )
+    ap.add_argument(
+        "--axial",
+        action="store_true",
+        help="only the split of δ-SPH's vertical load on the plate over 0.12-0.17 s (in-process "
+        f"re-runs with the whole pair exchange) of --cases -> {AXIAL_CSV.name}",
+    )
     args = ap.parse_args()
+    if args.axial:
+        write_scenarios()
+        rows = [r for r in _read(AXIAL_CSV) if r["case"] not in args.cases]
+        for key in args.cases:
+            new = axial_split(key)
+            rows += new
+            tot = new[0]
+            print(
+                f"{key}: F_y impulse {tot['whole']:+.3f} N s/m (M = I: {tot['plain']:+.3f}, M "
+                f"off-diagonal {tot['offdiag']:+.3f}); tangential {tot['tangential']:+.3f}; "
+                f"faces' normal part {tot['faces_normal']:+.3f}, corners whole "
+                f"{tot['corners']:+.3f}; corner p min {tot['corner_p_min_Pa']:.0f} Pa"
+            )
+        write_csv(
+            rows,
+            AXIAL_CSV,
+            list(dict.fromkeys(k for r in rows for k in r)),
+            comment="elastic obstacle, δ-SPH with the whole pair exchange: sampled impulses "
+            "(N s/m) of the plate's F_y over 0.12-0.17 s split (validation/delta_sph_obstacle.py "
+            "--axial)",
+        )
+        return 0
     if not args.analyse_only:
         write_scenarios()
     if args.centroid:  # rows of cases not re-run are kept from the CSVs
@@ -386,10 +505,11 @@ def main() -> int:
             comment="elastic obstacle: last-step interface force sums (N/m) and moments about "
             "the clamp (N m/m) every 5th window (validation/delta_sph_obstacle.py --centroid)",
         )
+        columns = list(dict.fromkeys(k for r in rows for k in r))  # kept rows may lack some
         write_csv(
             rows,
             CENTROID_CSV,
-            list(rows[0]),
+            columns,
             comment="elastic obstacle: impulse of the last-step interface force F_x and of its "
             "moment about the base per span; centroid = their ratio (validation/"
             "delta_sph_obstacle.py --centroid)",
@@ -398,13 +518,21 @@ def main() -> int:
             print(
                 f"{r['case']:7} {r['t0_s']:.2f}-{r['t1_s']:.2f} s: J_x {r['impulse_x']:7.3f} "
                 f"N s/m, centroid {1e3 * r['centroid_height_m']:5.1f} mm, J_y "
-                f"{r['impulse_y']:7.3f} N s/m, bending {r['bending_moment_impulse']:7.4f} N s"
+                f"{r['impulse_y']:7.3f} N s/m, bending {r['bending_moment_impulse']:7.4f} N s, "
+                f"exchange J_y {r['exchange_impulse_y']:7.3f} N s/m"
             )
         return 0
     rows = []
+    # a case neither selected nor on disk (results files are not kept in git) keeps its CSV row
+    kept = {r["case"]: r for r in _read(CSV)}
+    kept_cases: list[str] = []
     for key, (method, n, t_end) in CASES.items():  # cases not selected are read, not run
         scenario = SPH_SCENARIO if method == "delta-sph" else MPS_SCENARIO
         out = case_path(key)
+        if key not in args.cases and not out.is_file() and key in kept:
+            rows.append(kept[key])
+            kept_cases.append(key)
+            continue
         status = case_runner.case_status(
             scenario,
             out,
@@ -437,6 +565,9 @@ def main() -> int:
         f"{'max':>4} {'nc':>3} {'res x':>7} {'res y':>7} {'wall s':>7}"
     )
     for r in rows:
+        if r["case"] in kept_cases:
+            print(f"{r['case']:7} (row kept from {CSV.name}: no results file here)")
+            continue
         if "tip_peak_mm" not in r:
             print(f"{r['case']:7} {r['status']}")
             continue

@@ -23,6 +23,19 @@ Data (SI; 2D forces per unit width):
   from the dummies of its column (``delta_sph.wall_reaction``), averaged over the step with the
   integrator's weights, so that dt times their sum is exactly the momentum the fluid lost to the
   member in the step. Before the first step: the reaction of the initial right-hand side.
+  With ``fluid.sph.structure_load = "normal"`` (default) each point's force is that exchange
+  projected on the point's current normal (face points on the face normal, end-cap points on
+  the cap's): the members are free-slip walls of an
+  inviscid fluid, which push normal to their faces, and the exchange's tangential part is the
+  discretisation's (the one-sided kernel support along a face where the pressure varies along
+  it, worst in the floor corner of a member standing on the floor; it put a net upward load on
+  the elastic obstacle during its impact, docs/validation_delta_sph_coupled.md "Axial load").
+  Corner points (face and cap) split it into the face-normal part and the cap-normal part, and
+  the cap-normal part of corners and end-cap points may only push: water leaving a free end
+  pulled it with δ-SPH's negative pressures (-5 to -18 kPa at the elastic obstacle's tip as the
+  surge passed over it; the fluid has no cavitation or ventilation there, MPS clamps negative
+  pressures). The dropped parts are then not booked to the member (the fluid's momentum still
+  lost them): ``"exchange"`` hands over the whole exchange (the behaviour before the key).
 
 ``checkpoint()`` / ``restore()`` copy the solver's state (an explicit method: nothing else is
 reused), the written inputs and the member impulses of the force probes; restored steps repeat
@@ -107,6 +120,28 @@ class SPHParticipant(InterfaceMotionInputs):
             raise RuntimeError("a structure dummy follows no interface point")
         self._slot = slot
         self._target = target
+        sph = fluid.sph if fluid.sph is not None else DeltaSPHSection()
+        #: solver rows of the interface points (their current normals), and which of them are
+        #: projected on it: face-only or cap-only points, not corners (structure_load "normal")
+        self._if_rows = self.surface.interface_index
+        n_ref = self.surface.interface_normals
+        frame_n = np.array([self.surface.frames[m].normal for m in self.surface.interface_member])
+        frame_t = np.array([self.surface.frames[m].tangent for m in self.surface.interface_member])
+        along = np.maximum(
+            np.abs(np.einsum("ka,ka->k", n_ref, frame_n)),
+            np.abs(np.einsum("ka,ka->k", n_ref, frame_t)),
+        )
+        normal_load = sph.structure_load == "normal"
+        self._project = along > 1.0 - 1e-9 if normal_load else np.zeros(n, dtype=bool)
+        #: end-cap points (cap only) and corners (face and cap) of free ends: their cap
+        #: component may only push (structure_load "normal"); a corner's face and cap unit
+        #: vectors in the reference configuration
+        self._cap_only = self._project & (np.abs(np.einsum("ka,ka->k", n_ref, frame_t)) > 0.5)
+        self._corner = ~(along > 1.0 - 1e-9) if normal_load else np.zeros(n, dtype=bool)
+        c = self._corner
+        self._n_ref = n_ref[c]
+        self._face_ref = np.sign(np.einsum("ka,ka->k", n_ref[c], frame_n[c]))[:, None] * frame_n[c]
+        self._cap_ref = np.sign(np.einsum("ka,ka->k", n_ref[c], frame_t[c]))[:, None] * frame_t[c]
         names = self.surface.names
         self._member_of_if = self.surface.interface_member
         #: impulse (N s; N s/m in 2D) of each member's fluid force since t = 0, for the probes'
@@ -135,9 +170,29 @@ class SPHParticipant(InterfaceMotionInputs):
         """Per interface point, the step-mean reaction of its own particle and its dummies."""
         r = self.solver.reaction_step[self._slot]
         n = self.surface.n_interface
-        return np.stack(
+        f = np.stack(
             [np.bincount(self._target, weights=r[:, a], minlength=n) for a in range(2)], axis=1
         )
+        if self._project.any():  # structure_load = "normal": free slip, f = (f . n) n
+            k = self._project
+            nrm = self.solver.normal[self._if_rows[k]]
+            fn = np.einsum("ka,ka->k", f[k], nrm)
+            cap = self._cap_only[k]
+            fn[cap] = np.minimum(fn[cap], 0.0)  # an end cap is pushed, never pulled
+            f[k] = fn[:, None] * nrm
+        if self._corner.any():  # face part along the face normal, cap part pushing only
+            k = self._corner
+            cur = self.solver.normal[self._if_rows[k]]  # the reference normal turned by theta
+            cos = np.einsum("ka,ka->k", self._n_ref, cur)
+            sin = self._n_ref[:, 0] * cur[:, 1] - self._n_ref[:, 1] * cur[:, 0]
+            face, cap = (
+                np.c_[cos * u[:, 0] - sin * u[:, 1], sin * u[:, 0] + cos * u[:, 1]]
+                for u in (self._face_ref, self._cap_ref)
+            )
+            a = np.einsum("ka,ka->k", f[k], face)
+            b = np.minimum(np.einsum("ka,ka->k", f[k], cap), 0.0)
+            f[k] = a[:, None] * face + b[:, None] * cap
+        return f
 
     def advance(self, dt: float) -> float:
         """Move the structure particles to the written state over one δ-SPH step of ``dt``."""

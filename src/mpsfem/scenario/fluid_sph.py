@@ -98,3 +98,11 @@ class DeltaSPHSection(Section):
     central_field_center: Point | None = Field(
         None, description="centre of the central body force, m (default: the origin)"
     )
+    structure_load: Literal["normal", "exchange"] = Field(
+        "normal",
+        description="load handed to coupled structure members at each interface point: 'normal', "
+        "the pair exchange with its virtual particles projected on the face normal (a corner: "
+        "on the face and end-cap normals), the end-cap part pushing only (free slip, no tension "
+        "on a free end; docs/validation_delta_sph_coupled.md, 'Axial load'); 'exchange', the "
+        "whole pair exchange (the behaviour before this key)",
+    )
