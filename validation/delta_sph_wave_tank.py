@@ -18,7 +18,7 @@ zero-up-crossing height is given beside it (the seed's "mean wave height", Table
 reflection is the least-squares incident/reflected split of three gauges (Mansard & Funke 1980).
 Targets (issue 23): the height at 6.37 m within 5 % of the measured 0.0428 m (seed Table 2).
 
-Run (or resume) and analyse:   python validation/delta_sph_wave_tank.py [--ratios 15 30]
+Run (or resume) and analyse:   python validation/delta_sph_wave_tank.py [--cases 15 30 15_a0.0025]
 Analyse what exists:           python validation/delta_sph_wave_tank.py --analyse-only
 """
 
@@ -66,6 +66,12 @@ TOP_PROBES = range(10, 14)  # indices of the top_particle gauges in the scenario
 #: d/dx = 15 runs on to 19.5 s for the reflection split at 7.5-8.5 m (2.3 periods after the
 #: wave reflected at the end wall is back at 7.5 m)
 END_TIME = {15: 19.5, 30: 12.7}
+#: the seed's alpha = 0.02 divided by 2 (n + 2) = 8: the artificial viscosity of seed eq. 3 with
+#: phi's factor 2 (n + 2) is nu = alpha h c0, 8 times the nu = alpha h c0 / (2 (n + 2)) that
+#: Antuono et al. (2010) give for the same alpha without it (docs/validation_delta_sph_wave_tank.md)
+ANTUONO_ALPHA = 0.02 / 8.0
+#: diagnostic runs: label -> (d/dx, simulated time s, extra overrides)
+VARIANTS = {"15_a0.0025": (15, 12.7, [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"])}
 
 
 def spacing_for(ratio: int) -> float:
@@ -73,19 +79,27 @@ def spacing_for(ratio: int) -> float:
     return DEPTH / ratio
 
 
-def case_path(ratio: int) -> Path:
-    return RESULTS_DIR / f"delta_sph_wave_tank_{ratio}.h5"
+def case_path(label: str | int) -> Path:
+    return RESULTS_DIR / f"delta_sph_wave_tank_{label}.h5"
 
 
-def case_overrides(ratio: int) -> list[str]:
+def case_overrides(ratio: int, end_time: float | None = None, extra: list[str] = ()) -> list[str]:
     dx = spacing_for(ratio)
     items = [
         f"fluid.spacing={dx!r}",
-        f"run.end_time={END_TIME[ratio]!r}",
-        f'title="seed regular-wave tank, delta-SPHC, d/dx = {ratio}"',
+        f"run.end_time={end_time or END_TIME[ratio]!r}",
+        f'title="seed regular-wave tank, delta-SPHC, d/dx = {ratio}{" ".join(["", *extra])}"',
     ]
     items += [f"probes.{i}.half_width={dx!r}" for i in TOP_PROBES]  # the seed's one spacing
-    return items
+    return items + list(extra)
+
+
+def cases() -> dict[str, tuple[int, list[str]]]:
+    """label -> (d/dx, overrides) of every run: the two resolutions and the diagnostics."""
+    out = {str(r): (r, case_overrides(r)) for r in RATIOS}
+    for label, (r, end, extra) in VARIANTS.items():
+        out[label] = (r, case_overrides(r, end, extra))
+    return out
 
 
 # ---------------------------------------------------------------------- linear transient
@@ -122,7 +136,9 @@ def linear_piston_eta(
 class GaugeRow:
     """One row of delta_sph_wave_tank.csv (lengths m, times s)."""
 
+    case: str  # "15", "30" (d/dx) or a diagnostic variant (VARIANTS)
     d_over_dx: int
+    viscosity_alpha: float  # alpha of seed eq. 3 outside the sponge
     spacing: float
     x: float
     gauge: str  # "kernel" (half fluid fraction) or "top" (the seed's highest particle)
@@ -145,7 +161,9 @@ GAUGE_COLUMNS = tuple(f.name for f in fields(GaugeRow))
 class Summary:
     """One row of delta_sph_wave_tank_summary.csv."""
 
+    case: str
     d_over_dx: int
+    viscosity_alpha: float
     spacing: float
     status: str
     particles: int
@@ -156,6 +174,9 @@ class Summary:
     height_6_37: float
     decay_2_37_to_6_37_pct: float  # 100 (H(6.37) / H(2.37) - 1)
     decay_per_m: float  # delta of H ~ exp(-delta x) over the incident gauges 1-6.37 m, 1/m
+    ratio_at_paddle: float  # that exponential fit at x = 0 over H_design (generation)
+    nu_artificial: float  # alpha h c0, m^2/s: seed eq. 3's viscosity (phi holds 2 (n + 2))
+    decay_lamb_per_m: float  # 2 nu k^2 / cg (Lamb 1932, art. 348), 1/m
     k_theory: float
     k_measured: float
     reflection_pct: float  # |A_R / A_I| at the sponge's inner edge (d/dx = 15 run only)
@@ -167,11 +188,11 @@ class Summary:
 SUMMARY_COLUMNS = tuple(f.name for f in fields(Summary))
 
 
-def series_path(ratio: int) -> Path:
-    return RESULTS_DIR / f"delta_sph_wave_tank_series_{ratio}.csv"
+def series_path(label: str) -> Path:
+    return RESULTS_DIR / f"delta_sph_wave_tank_series_{label}.csv"
 
 
-def write_series(ratio: int, h5: h5py.File) -> None:
+def write_series(label: str, h5: h5py.File) -> None:
     """The gauge records of one run as a CSV: t, then one column per probe (m)."""
     names = sorted(n for n in h5["probes"] if n.startswith(("gauge_", "top_")))
     t = h5["probes"][names[0]]["time"][:]
@@ -184,12 +205,12 @@ def write_series(ratio: int, h5: h5py.File) -> None:
         "wall_time": float(h5.attrs.get("wall_time", math.nan)),
         "particles": int(h5["particles"][next(iter(h5["particles"]))]["kind"].size),
     }
-    write_csv(rows, series_path(ratio), comment=json.dumps(meta, separators=(",", ":")))
+    write_csv(rows, series_path(label), comment=json.dumps(meta, separators=(",", ":")))
 
 
-def read_series(ratio: int) -> tuple[dict, dict[str, tuple[np.ndarray, np.ndarray]]]:
+def read_series(label: str) -> tuple[dict, dict[str, tuple[np.ndarray, np.ndarray]]]:
     """(meta, {probe name: (t, eta)}) of :func:`write_series`."""
-    path = series_path(ratio)
+    path = series_path(label)
     with path.open() as f:
         meta = json.loads(f.readline()[2:])
     rows = read_csv(path)
@@ -198,10 +219,21 @@ def read_series(ratio: int) -> tuple[dict, dict[str, tuple[np.ndarray, np.ndarra
     return meta, {n: (t, np.array([float(r[n]) for r in rows])) for n in names}
 
 
-def analyse(ratio: int) -> tuple[list[GaugeRow], Summary]:
-    """Every measurement of one resolution's gauge records (definitions: regular_wave.py)."""
-    meta, records = read_series(ratio)
-    tank = rw.tank_from_resolved(meta["scenario_resolved"])
+def fit_wave_number(xs: np.ndarray, zs: np.ndarray, k_theory: float) -> tuple[float, float]:
+    """regular_wave.fit_wave_number on gauges more than half a wavelength apart: the phase
+    k_theory x is taken out before unwrapping and put back (valid while |k - k_theory| times
+    the gauges' spacing stays below pi)."""
+    k, delta = rw.fit_wave_number(xs, zs * np.exp(-1j * k_theory * xs))
+    return k + k_theory, delta
+
+
+def analyse(label: str) -> tuple[list[GaugeRow], Summary]:
+    """Every measurement of one run's gauge records (definitions: regular_wave.py)."""
+    meta, records = read_series(label)
+    resolved = meta["scenario_resolved"]
+    tank = rw.tank_from_resolved(resolved)
+    ratio = round(DEPTH / tank.spacing)
+    alpha = float(resolved["fluid"]["sph"]["viscosity_alpha"])
     wave = tank.wave
     h_design = tank.theory_height
     t_last = min(float(t[-1]) for t, _ in records.values())
@@ -224,7 +256,9 @@ def analyse(ratio: int) -> tuple[list[GaugeRow], Summary]:
         at_target = math.isclose(x, TARGET_GAUGE)
         rows.append(
             GaugeRow(
+                case=label,
                 d_over_dx=ratio,
+                viscosity_alpha=alpha,
                 spacing=tank.spacing,
                 x=x,
                 gauge="kernel" if gauge == "gauge" else "top",
@@ -247,7 +281,12 @@ def analyse(ratio: int) -> tuple[list[GaugeRow], Summary]:
     rows.sort(key=lambda r: (r.gauge, r.x))
     xs = np.array(sorted(z_inc))
     zx = np.array([z_inc[x] for x in xs])
-    k_meas, delta = rw.fit_wave_number(xs, zx) if xs.size >= 2 else (math.nan, math.nan)
+    k_meas, delta = fit_wave_number(xs, zx, wave.k) if xs.size >= 2 else (math.nan, math.nan)
+    at_paddle = 2.0 * math.exp(float(np.polyfit(xs, np.log(np.abs(zx)), 1)[1])) / h_design
+    sph = resolved["fluid"]["sph"]
+    g = math.hypot(*resolved["fluid"]["gravity"])
+    c0 = sph["sound_speed"] or 10.0 * max(sph["reference_speed"] or 0.0, math.sqrt(g * DEPTH))
+    nu = alpha * sph["smoothing_ratio"] * tank.spacing * c0  # seed eq. 3 with 2 (n + 2) in phi
     refl = split_res = math.nan
     rwin = rw.reflection_window(tank, min(SPLIT_GAUGES), t_last)
     split = {x: records.get(f"gauge_{x:.2f}") for x in SPLIT_GAUGES}
@@ -261,7 +300,9 @@ def analyse(ratio: int) -> tuple[list[GaugeRow], Summary]:
         rwin = (math.nan, math.nan)
     kernel = {r.x: r.height_first_harmonic for r in rows if r.gauge == "kernel"}
     summary = Summary(
+        case=label,
         d_over_dx=ratio,
+        viscosity_alpha=alpha,
         spacing=tank.spacing,
         status=meta["status"],
         particles=meta["particles"],
@@ -273,6 +314,9 @@ def analyse(ratio: int) -> tuple[list[GaugeRow], Summary]:
         decay_2_37_to_6_37_pct=100.0
         * (kernel.get(6.37, math.nan) / kernel.get(2.37, math.nan) - 1),
         decay_per_m=delta,
+        ratio_at_paddle=at_paddle,
+        nu_artificial=nu,
+        decay_lamb_per_m=2.0 * nu * wave.k**2 / wave.group_velocity,  # Lamb 1932, art. 348
         k_theory=wave.k,
         k_measured=k_meas,
         reflection_pct=100.0 * refl,
@@ -285,8 +329,9 @@ def analyse(ratio: int) -> tuple[list[GaugeRow], Summary]:
 
 
 def print_table(rows: list[GaugeRow], s: Summary) -> None:
-    print(f"\nd/dx = {s.d_over_dx} (dx = {s.spacing:.5f} m, {s.particles} particles, "
-          f"{s.steps} steps to {s.simulated_s:.2f} s, {s.wall_time_s:.0f} s wall): {s.status}")  # fmt: skip
+    print(f"\n{s.case}: d/dx = {s.d_over_dx} (dx = {s.spacing:.5f} m), alpha = {s.viscosity_alpha:g}, "
+          f"{s.particles} particles, {s.steps} steps to {s.simulated_s:.2f} s, "
+          f"{s.wall_time_s:.0f} s wall: {s.status}")  # fmt: skip
     print("   x m  gauge   window s      periods  H1 m     Hzc m    H1/H_design  vs 0.0428")
     for r in rows:
         err = f"{r.error_vs_measured_pct:+.1f} %" if math.isfinite(r.error_vs_measured_pct) else ""
@@ -294,31 +339,35 @@ def print_table(rows: list[GaugeRow], s: Summary) -> None:
               f"{r.window_periods:5.2f}  {r.height_first_harmonic:.5f}  "
               f"{r.height_zero_crossing:.5f}  {r.ratio_design:6.3f}       {err}")  # fmt: skip
     print(f"decay 2.37 -> 6.37 m: {s.decay_2_37_to_6_37_pct:+.1f} %; delta = "
-          f"{s.decay_per_m:.4f} 1/m; k = {s.k_measured:.3f} (theory {s.k_theory:.3f}) 1/m; "
+          f"{s.decay_per_m:.4f} 1/m (viscous estimate {s.decay_lamb_per_m:.4f}), at the paddle "
+          f"{s.ratio_at_paddle:.3f} of H_design; k = {s.k_measured:.3f} (theory {s.k_theory:.3f}) 1/m; "
           f"reflection {s.reflection_pct:.1f} % (window {s.reflection_window} s, split residual "
           f"{s.split_residual_pct:.1f} %; 1D model {s.reflection_1d_model_pct:.1f} %)")  # fmt: skip
 
 
 def main(argv: list[str] | None = None) -> int:
+    all_cases = cases()
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--ratios", type=int, nargs="+", default=list(RATIOS), choices=RATIOS)
+    ap.add_argument("--cases", nargs="+", default=[str(r) for r in RATIOS], choices=list(all_cases),
+                    help="runs to make or resume: d/dx (15, 30) or a diagnostic variant")  # fmt: skip
     case_runner.add_run_options(ap)
     args = ap.parse_args(argv)
     RESULTS_DIR.mkdir(parents=True, exist_ok=True)
-    for ratio in args.ratios:
-        out = case_path(ratio)
-        status = case_runner.case_status(SCENARIO, out, case_overrides(ratio), args.threads,
+    for label in all_cases if args.analyse_only else args.cases:
+        _, overrides = all_cases[label]
+        out = case_path(label)
+        status = case_runner.case_status(SCENARIO, out, overrides, args.threads,
                                          args.analyse_only, args.retry_failed,
-                                         tag=f"d/dx={ratio}")  # fmt: skip
+                                         tag=label)  # fmt: skip
         if status is not None and out.is_file() and status != "locked":
             with h5py.File(out, "r") as h5:
-                write_series(ratio, h5)
-        elif not series_path(ratio).is_file():
-            print(f"d/dx = {ratio}: no results ({status}); run without --analyse-only")
+                write_series(label, h5)
+        elif not series_path(label).is_file():
+            print(f"{label}: no results ({status}); run without --analyse-only")
     all_rows, summaries = [], []
-    for ratio in RATIOS:
-        if series_path(ratio).is_file():
-            rows, s = analyse(ratio)
+    for label in all_cases:
+        if series_path(label).is_file():
+            rows, s = analyse(label)
             print_table(rows, s)
             all_rows += rows
             summaries.append(s)
