@@ -28,6 +28,7 @@ import argparse
 import json
 import math
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
 
@@ -71,7 +72,32 @@ END_TIME = {15: 19.5, 30: 12.7}
 #: Antuono et al. (2010) give for the same alpha without it (docs/validation_delta_sph_wave_tank.md)
 ANTUONO_ALPHA = 0.02 / 8.0
 #: diagnostic runs: label -> (d/dx, simulated time s, extra overrides)
-VARIANTS = {"15_a0.0025": (15, 12.7, [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"])}
+#: "30_short": d/dx = 30 where the seed's convergence study looks (2.37 m, its Figs. 13, 18,
+#: 19) in a tank shortened to 6.3 m (the same 2 m sponge from 4.3 m): the window at 2.37 m runs
+#: 4.23-6.73 s (2.5 periods); 31 min of one thread against the full tank's 1.7 h
+SHORT_PROBES = (
+    "probes=["
+    + ", ".join(
+        f'{{name="gauge_{x:.2f}", kind="wave_gauge", position=[{x}], reference_level={DEPTH}}}'
+        for x in (1.0, 1.7, 2.37)
+    )
+    + f', {{name="top_2.37", kind="wave_gauge", method="top_particle", position=[2.37], '
+    f"reference_level={DEPTH}, half_width={DEPTH / 30!r}}}]"
+)
+VARIANTS = {
+    "15_a0.0025": (15, 19.5, [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"]),
+    "30_short": (
+        30,
+        6.8,
+        [
+            f"fluid.blocks.0.upper=[6.3, {DEPTH}]",
+            "fluid.walls.0.upper=[6.3, 0.45]",
+            "fluid.sponges.0.start=4.3",
+            "fluid.sponges.0.end=6.3",
+            SHORT_PROBES,
+        ],
+    ),
+}
 
 
 def spacing_for(ratio: int) -> float:
@@ -83,12 +109,14 @@ def case_path(label: str | int) -> Path:
     return RESULTS_DIR / f"delta_sph_wave_tank_{label}.h5"
 
 
-def case_overrides(ratio: int, end_time: float | None = None, extra: list[str] = ()) -> list[str]:
+def case_overrides(
+    ratio: int, end_time: float | None = None, extra: Sequence[str] = (), label: str | None = None
+) -> list[str]:
     dx = spacing_for(ratio)
     items = [
         f"fluid.spacing={dx!r}",
         f"run.end_time={end_time or END_TIME[ratio]!r}",
-        f'title="seed regular-wave tank, delta-SPHC, d/dx = {ratio}{" ".join(["", *extra])}"',
+        f'title="seed regular-wave tank, delta-SPHC, d/dx = {ratio}, case {label or ratio}"',
     ]
     items += [f"probes.{i}.half_width={dx!r}" for i in TOP_PROBES]  # the seed's one spacing
     return items + list(extra)
@@ -98,7 +126,7 @@ def cases() -> dict[str, tuple[int, list[str]]]:
     """label -> (d/dx, overrides) of every run: the two resolutions and the diagnostics."""
     out = {str(r): (r, case_overrides(r)) for r in RATIOS}
     for label, (r, end, extra) in VARIANTS.items():
-        out[label] = (r, case_overrides(r, end, extra))
+        out[label] = (r, case_overrides(r, end, extra, label))
     return out
 
 
