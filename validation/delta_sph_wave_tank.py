@@ -74,7 +74,7 @@ ANTUONO_ALPHA = 0.02 / 8.0
 #: diagnostic runs: label -> (d/dx, simulated time s, extra overrides)
 #: "30_short": d/dx = 30 where the seed's convergence study looks (2.37 m, its Figs. 13, 18,
 #: 19) in a tank shortened to 6.3 m (the same 2 m sponge from 4.3 m): the window at 2.37 m runs
-#: 4.23-6.73 s (2.5 periods); 31 min of one thread against the full tank's 1.7 h
+#: 4.23-6.80 s (2.6 periods); 26 min of one thread against the full tank's 1.6 h
 SHORT_PROBES = (
     "probes=["
     + ", ".join(
