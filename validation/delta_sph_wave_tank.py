@@ -84,19 +84,17 @@ SHORT_PROBES = (
     + f', {{name="top_2.37", kind="wave_gauge", method="top_particle", position=[2.37], '
     f"reference_level={DEPTH}, half_width={DEPTH / 30!r}}}]"
 )
+SHORT_TANK = [
+    f"fluid.blocks.0.upper=[6.3, {DEPTH}]",
+    "fluid.walls.0.upper=[6.3, 0.45]",
+    "fluid.sponges.0.start=4.3",
+    "fluid.sponges.0.end=6.3",
+    SHORT_PROBES,
+]
 VARIANTS = {
     "15_a0.0025": (15, 19.5, [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"]),
-    "30_short": (
-        30,
-        6.8,
-        [
-            f"fluid.blocks.0.upper=[6.3, {DEPTH}]",
-            "fluid.walls.0.upper=[6.3, 0.45]",
-            "fluid.sponges.0.start=4.3",
-            "fluid.sponges.0.end=6.3",
-            SHORT_PROBES,
-        ],
-    ),
+    "30_short": (30, 6.8, SHORT_TANK),
+    "30_short_a0.0025": (30, 6.8, [*SHORT_TANK, f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"]),
 }
 
 
