@@ -108,7 +108,8 @@ def _delta_sph_time_estimate(scenario: Scenario, n_all: int) -> tuple[int, float
     if g > 0.0 and 0.25 * math.sqrt(h / g) < dt:  # force condition (Monaghan 1992)
         dt = 0.25 * math.sqrt(h / g)
         why = "the force condition 0.25 sqrt(h / g)"
-    alpha = max(sph.viscosity_alpha, sph.damping_alpha if f.sponges else 0.0)
+    ramp = f.sponges and sph.damping == "viscosity"  # the seed eq. 4 viscosity ramp
+    alpha = max(sph.viscosity_alpha, sph.damping_alpha if ramp else 0.0)
     if alpha > 0.0 and c0 > 0.0:
         limit = VISCOUS_LIMIT[sph.integrator] * h / (alpha * c0)  # artificial viscosity
         if limit < dt:

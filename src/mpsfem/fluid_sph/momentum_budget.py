@@ -138,7 +138,7 @@ class SPHMomentumBudget:
     full = True
 
     def __init__(self, names: list[str], starts, stops, external: list[bool], dim: int,
-                 n_wall: int, mass: float, model: str) -> None:  # fmt: skip
+                 n_wall: int, mass: float, model: str, sponge: bool = False) -> None:  # fmt: skip
         self.names = list(names)
         self.model = model
         self.dim = dim
@@ -151,7 +151,12 @@ class SPHMomentumBudget:
         self._internal = np.zeros((2, dim))
         self._patch = np.zeros((len(names), dim))
         self._mom = np.zeros(dim)
-        self.ledger = np.zeros((PATCH_ROWS + PER_PATCH * len(names), dim))
+        #: fluid.sph.damping = "sponge": one more ledger row (the last), the sponge's impulse
+        #: m sum (u_after - u_before) (as MPS's ``sponge``); without it the layout is unchanged
+        self.sponge = sponge
+        self._before = np.zeros(dim)
+        self._end = PATCH_ROWS + PER_PATCH * len(names)  # past the patches' rows
+        self.ledger = np.zeros((self._end + (1 if sponge else 0), dim))
 
     def evaluate(self, s, nb) -> None:
         """Split the right-hand side just computed by the solver ``s`` on the list ``nb``."""
@@ -169,11 +174,19 @@ class SPHMomentumBudget:
         led[PRESSURE_INTERNAL] += weight * self.split[1]
         led[VISCOUS_INTERNAL] += weight * self.split[2]
         range_sums(self.wall_force, self.starts, self.stops, self._patch)
-        led[PATCH_ROWS::PER_PATCH] += weight * self._patch
+        led[PATCH_ROWS : self._end : PER_PATCH] += weight * self._patch
+
+    def sponge_begin(self, vel: np.ndarray, n_fluid: int) -> None:
+        """The fluid momentum just before the sponge damps ``vel`` (m/s)."""
+        self._before[:] = fluid_momentum(vel, n_fluid, self.mass, self._mom)
+
+    def sponge_end(self, vel: np.ndarray, n_fluid: int) -> None:
+        """Book the sponge's impulse m sum (u_after - u_before), N s (N s/m in 2D)."""
+        self.ledger[-1] += fluid_momentum(vel, n_fluid, self.mass, self._mom) - self._before
 
     def report(self, dt: float, forces: np.ndarray) -> None:
         """Book the step's reported impulse: ``forces`` per patch, N (N/m in 2D), over ``dt``."""
-        self.ledger[PATCH_ROWS + 1 :: PER_PATCH] += dt * forces
+        self.ledger[PATCH_ROWS + 1 : self._end : PER_PATCH] += dt * forces
 
     def start(self, vel: np.ndarray, n_fluid: int) -> None:
         """Start the first period at the fluid state ``vel``."""
@@ -184,12 +197,14 @@ class SPHMomentumBudget:
         """The period's budget in MPS's keys (``fluid_mps.momentum_budget.MomentumBudget.take``),
         impulses N s (N s/m in 2D), and start a new period. ``gravity`` holds all body forces
         (gravity and the central field); ``sponge``, ``collision``, ``internal_collision`` and
-        the patches' ``viscous`` and ``collision`` are zero (the damping zones are artificial
-        viscosity, internal; wall pairs are free slip; no collision model)."""
+        the patches' ``viscous`` and ``collision`` are zero (the viscosity damping zones are
+        artificial viscosity, internal; wall pairs are free slip; no collision model); with
+        ``fluid.sph.damping = "sponge"`` the ``sponge`` row is the sponge's impulse."""
         led = self.ledger
         n_fluid = int(np.count_nonzero(kind == 0))
         now = fluid_momentum(vel, n_fluid, self.mass, self._mom).copy()
-        rows = led[PATCH_ROWS:].reshape(len(self.names), PER_PATCH, self.dim)
+        rows = led[PATCH_ROWS : self._end].reshape(len(self.names), PER_PATCH, self.dim)
+        sponge = led[-1].copy() if self.sponge else np.zeros(self.dim)
         zero = np.zeros(self.dim)
         exchange = rows[:, 0].sum(axis=0)
         reported = rows[:, 1].sum(axis=0)
@@ -197,7 +212,7 @@ class SPHMomentumBudget:
             "fluid_momentum": now,
             "momentum_change": now - led[START],
             "gravity": led[BODY].copy(),
-            "sponge": zero.copy(),
+            "sponge": sponge,
             "viscous": led[VISCOUS_INTERNAL].copy(),
             "collision": zero.copy(),
             "pressure": led[PRESSURE_INTERNAL] - exchange,
@@ -205,9 +220,9 @@ class SPHMomentumBudget:
             "internal_viscous": led[VISCOUS_INTERNAL].copy(),
             "internal_collision": zero.copy(),
         }
-        explained = out["gravity"] + out["internal_pressure"] + out["internal_viscous"]
+        explained = out["gravity"] + out["internal_pressure"] + out["internal_viscous"] + sponge
         out["residual"] = out["momentum_change"] - explained + reported
-        out["residual_external"] = out["momentum_change"] - out["gravity"] + reported
+        out["residual_external"] = out["momentum_change"] - out["gravity"] - sponge + reported
         for k, name in enumerate(self.names):
             out[f"{name}/pressure"] = rows[k, 0].copy()
             out[f"{name}/viscous"] = zero.copy()

@@ -24,6 +24,7 @@ from mpsfem.fluid_mps import probes
 from mpsfem.fluid_mps.geometry import ParticleSet, build_particles, default_dummy_layers
 from mpsfem.fluid_mps.geometry import hydrostatic_pressure as hydrostatic_column_pressure
 from mpsfem.fluid_mps.neighbours import NeighbourSearch, build_neighbours
+from mpsfem.fluid_mps.sponge import SpongeLayer
 from mpsfem.fluid_mps.time_integration import first_bad_particle
 from mpsfem.fluid_mps.wall_motion import MotionLaw, place_moving_walls
 from mpsfem.fluid_sph import delta_sph, time_stepping
@@ -178,7 +179,11 @@ class DeltaSPHSolver:
         #: each wall particle's acceleration over the current step, m/s^2 (moving walls)
         self.wall_acc = np.zeros((n - nf, dim))
         self.drho = np.zeros(n)
-        zones = spec.sponges
+        # fluid.sph.damping: 'viscosity' ramps alpha inside the zones (seed eq. 4, in rhs());
+        # 'sponge' damps the velocity once per step at its end (thesis eq. 3-9, SpongeLayer)
+        # and leaves the viscosity ramp without zones
+        self.sponge = SpongeLayer(spec.sponges if sph.damping == "sponge" else [], dim)
+        zones = spec.sponges if sph.damping == "viscosity" else []
         self.zone_axis = np.array([z.axis for z in zones], dtype=np.int32)
         self.zone_start = np.array([z.start for z in zones], dtype=np.float64)
         self.zone_inv = np.array([1.0 / (z.end - z.start) for z in zones], dtype=np.float64)
@@ -205,7 +210,7 @@ class DeltaSPHSolver:
                 names, [pt.start - nf for pt in self.patches],
                 [pt.stop - nf for pt in self.patches],
                 [pt.spec is None for pt in self.patches], dim, n - nf, self.mass,
-                spec.boundary_force,
+                spec.boundary_force, sponge=self.sponge.active,
             )  # fmt: skip
             self._patch_forces = np.zeros((len(self.patches), dim))
         else:
@@ -443,6 +448,12 @@ class DeltaSPHSolver:
             self._rk4(dt)
             tic = time.perf_counter()
         delta_sph.equation_of_state(self.rho, self.p, nf, self.rho0, self.c0)
+        if self.sponge.active:  # thesis eq. 3-9, u <- u (1 - dt alpha_s r) at the step's end
+            if self.budget.full:
+                self.budget.sponge_begin(self.vel, nf)
+            self.sponge.apply(self.pos, self.vel, nf, dt)
+            if self.budget.full:
+                self.budget.sponge_end(self.vel, nf)
         self.times.integrate += time.perf_counter() - tic
         tic = time.perf_counter()
         self.t += dt

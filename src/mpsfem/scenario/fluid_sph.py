@@ -56,16 +56,25 @@ class DeltaSPHSection(Section):
         ge=0.0,
         le=10.0,
         description="alpha of the artificial viscosity alpha h c0 (rho0 / rho_i) sum phi_ij "
-        "grad W_ij V_j (seed eq. 3) outside damping zones; fluid-wall pairs carry none (free "
-        "slip)",
+        "grad W_ij V_j (seed eq. 3) outside damping zones (everywhere with damping = "
+        "'sponge'); fluid-wall pairs carry none (free slip)",
     )
     damping_alpha: float = Field(
         0.6,
         ge=0.0,
         le=100.0,
         description="alpha at the outer edge of each fluid.sponges zone: alpha = max("
-        "viscosity_alpha, damping_alpha r), r rising 0 -> 1 across the zone (seed eq. 4; the "
-        "zones' coefficient is MPS's and unread here)",
+        "viscosity_alpha, damping_alpha r), r rising 0 -> 1 across the zone (seed eq. 4; read "
+        "only with damping = 'viscosity')",
+    )
+    damping: Literal["viscosity", "sponge"] = Field(
+        "viscosity",
+        description="what a fluid.sponges zone does under δ-SPH: 'viscosity', the seed's "
+        "artificial-viscosity ramp up to damping_alpha (seed eq. 4; the zone's coefficient is "
+        "unread; its viscous time-step limit makes the whole run about 3 times longer); "
+        "'sponge', MPS's velocity damping u <- u (1 - dt alpha_s r) with the zone's "
+        "coefficient alpha_s, once per step at its end (thesis eq. 3-9, "
+        "fluid_mps.sponge.SpongeLayer; damping_alpha unread)",
     )
     integrator: Literal["rk4", "symplectic"] = Field(
         "rk4",

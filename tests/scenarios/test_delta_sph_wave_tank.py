@@ -1,0 +1,190 @@
+"""The seed paper's regular-wave tank under δ-SPHC, shortened (issue 23;
+scenarios/wave_tank_delta_sph_2d.toml, validation/delta_sph_wave_tank.py,
+docs/validation_delta_sph_wave_tank.md).
+
+CI: the scenario's set-up and the windows it is built for; the linear transient of the ramped
+piston (the reference of the CI run) against steady piston theory; a coarse, short version
+(d/dx = 10, a 2.5 m tank, 1.8 s; about 15 s on one thread) whose first wave at 0.6 m follows
+that linear transient.
+
+Slow (-m slow), from the committed CSVs: the height at 6.37 m against the measured 0.0428 m
+(strict xfail: not met), and the decay against the artificial viscosity's viscous estimate.
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from validation_script import load
+
+from mpsfem.fluid_mps.wavemaker import RegularPaddle
+from mpsfem.scenario.loader import load_scenario
+from mpsfem.simulation import run_fluid
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENARIO = ROOT / "scenarios" / "wave_tank_delta_sph_2d.toml"
+
+wt = load("delta_sph_wave_tank")
+rw = load("regular_wave")
+
+
+def test_scenario_is_the_seed_tank_with_windows_for_every_paper_gauge():
+    """δ-SPHC (corrected gradient, RK4, h = 1.3 dx, delta = 0.1, alpha = 0.02; seed) on d =
+    0.266 m at d/dx = 15, a linear piston for T = 1 s and H = 0.0428 m, the sponge (not the
+    viscosity ramp) from 9 m; every paper gauge before 15 m has an incident-only window of at
+    least 4 periods within the run's 12.7 s, and the reflection split's window at 7.5 m lasts 2 periods
+    at the d/dx = 15 run's end time."""
+    sc = load_scenario(SCENARIO).scenario
+    f = sc.fluid
+    assert f.method == "delta-sph" and f.sph.gradient == "corrected"
+    assert f.sph.damping == "sponge" and f.sph.integrator == "rk4"
+    assert f.spacing == pytest.approx(0.266 / 15)
+    tank = rw.tank_from_resolved(sc.model_dump())
+    assert tank.wave.depth == 0.266 and tank.wave.period == 1.0 and tank.wave_height == 0.0428
+    assert tank.theory_height == pytest.approx(0.0428, rel=1e-12)
+    assert tank.sponge_start == 9.0
+    gauges = {p.position[0] for p in sc.probes}
+    assert set(wt.PAPER_GAUGES) <= gauges and set(wt.SPLIT_GAUGES) <= gauges
+    for x in wt.PAPER_GAUGES:
+        w0, w1 = rw.incident_window(tank, x)
+        assert (min(w1, sc.run.end_time) - w0) / tank.wave.period >= 4.0
+    r0, r1 = rw.reflection_window(tank, min(wt.SPLIT_GAUGES), wt.END_TIME[15])
+    assert (r1 - r0) / tank.wave.period >= rw.MIN_PERIODS
+
+
+def test_linear_transient_settles_to_piston_theory():
+    """linear_piston_eta, 6 periods after the ramp at 2.37 m: the first harmonic is H/2 with
+    phase omega t0 + k x (the paddle's e^{-i omega t} phase; regular_wave.py's convention) to
+    the FFT's error. 1e-3: the forerunners of the half-cosine ramp, dispersed, are below that
+    by then (measured 2e-4)."""
+    pad = RegularPaddle(0.0428, 1.0, 0.266, rw.GRAVITY, 1.0, 0.2)
+    t = np.arange(0.0, 14.0, 0.01)
+    x = 2.37
+    eta = wt.linear_piston_eta(pad, x, t)
+    z, _ = rw.harmonic_fit(t, eta, pad.omega, (8.0, 14.0))
+    assert 2 * abs(z) == pytest.approx(0.0428, rel=1e-3)
+    assert abs(cmath.phase(z * cmath.exp(-1j * (pad.omega * 0.2 + pad.k * x)))) < 1e-3
+    assert np.max(np.abs(eta[t < 0.2])) < 1e-4 * 0.0428  # causal to the FFT's wrap
+
+
+NEAR = 0.6  # m, 2.3 depths from the paddle: evanescent modes exp(-pi x / d) < 1e-3
+COARSE = 10  # d / dx: H = 1.6 spacings
+COARSE_END = 1.8  # s: the ramp's first trough (1.27 s) and the rise to the first crest
+
+
+@pytest.fixture(scope="module")
+def coarse_run(tmp_path_factory):
+    gauge = (
+        f'{{name="gauge_{NEAR:.2f}", kind="wave_gauge", position=[{NEAR}], reference_level=0.266}}'
+    )
+    loaded = load_scenario(
+        SCENARIO,
+        [
+            f"fluid.spacing={0.266 / COARSE!r}",
+            "output.snapshot_interval=0",
+            "output.checkpoint_interval=0",
+            "fluid.blocks.0.upper=[2.5, 0.266]",
+            "fluid.walls.0.upper=[2.5, 0.45]",
+            "fluid.sponges.0.start=1.5",
+            "fluid.sponges.0.end=2.5",
+            f"probes=[{gauge}]",
+        ],
+    )
+    out = tmp_path_factory.mktemp("wave_tank") / "coarse.h5"
+    run_fluid(loaded, out, progress=False, end_time=COARSE_END)
+    with h5py.File(out, "r") as h5:
+        g = h5["probes"][f"gauge_{NEAR:.2f}"]
+        return str(h5.attrs["status"]), g["time"][:], g["value"][:]
+
+
+def test_coarse_run_makes_the_linear_wave_at_the_first_gauge(coarse_run):
+    """At 0.6 m the ramped paddle's first large excursion is a trough (the ramp weights the
+    paddle's first backward stroke more than its first forward one): the δ-SPH record's minimum
+    has the linear transient's sign, its value within 25 % and its time within 0.05 s; the
+    whole record from t0 on within a normalised RMS difference of 0.45.
+
+    Tolerances (set from the method's expected error, then measured): at d/dx = 10 the wave
+    height spans 1.6 spacings, and the MPS study's coarse tank (H_w = 1.75 spacings) scattered
+    by +-10 % with a 10 % decay over its first gauge (tests/scenarios/test_regular_wave.py):
+    25 % on the trough. The first crest (1.75 s) is steeper, ka grows with the ramp, and a
+    crest 1.6 spacings high is where the kernel gauge and the free surface are least resolved:
+    it reads 35 % low here (12.7 against 18.7 mm), which dominates the RMS (measured 0.30).
+    0.45 still fails every gross error of a paddle: a reversed paddle (about 2), one that does
+    not move (1), half the stroke (above 0.5 with this run's own error). 0.05 s is 0.08 rad:
+    a phase speed 10 % off over the 0.6 m, or the paddle law a tenth of a period late, fails it."""
+    status, t, eta = coarse_run
+    assert status == "finished"
+    pad = RegularPaddle(0.0428, 1.0, 0.266, rw.GRAVITY, 1.0, 0.2)
+    lin = wt.linear_piston_eta(pad, NEAR, t)
+    sel = t >= pad.start_time
+    i_lin, i_sph = np.argmin(lin), np.argmin(eta)
+    nrms = math.sqrt(np.mean((eta[sel] - lin[sel]) ** 2) / np.mean(lin[sel] ** 2))
+    print(
+        f"d/dx = {COARSE}: trough {1e3 * eta[i_sph]:.2f} mm at {t[i_sph]:.2f} s, linear "
+        f"{1e3 * lin[i_lin]:.2f} mm at {t[i_lin]:.2f} s; normalised RMS difference {nrms:.3f}"
+    )
+    assert lin[i_lin] < -0.005  # the reference has the trough the docstring describes
+    assert eta[i_sph] == pytest.approx(lin[i_lin], rel=0.25)
+    assert abs(t[i_sph] - t[i_lin]) <= 0.05
+    assert nrms <= 0.45
+
+
+def _csv_rows(path: Path) -> list[dict[str, str]]:
+    if not path.is_file():
+        pytest.skip(f"{path} missing: python validation/delta_sph_wave_tank.py")
+    return rw.read_csv(path)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="issue 23's target is not met: at d/dx = 15 with the seed's alpha = 0.02 (seed eq. 3 "
+    "as printed: nu = alpha h c0) the wave reaches 6.37 m at 0.0028 m, -93 % "
+    "(docs/validation_delta_sph_wave_tank.md); strict, so a run that meets it shows up",
+)
+def test_height_at_6_37_m_against_the_measurement():
+    """The committed CSV (validation/delta_sph_wave_tank.py): at every resolution run in the
+    full tank with the scenario's own numerics (cases "15", "30"), the first-harmonic height at
+    6.37 m within 5 % of the measured 0.0428 m (issue 23; seed Table 2)."""
+    rows = [
+        r
+        for r in _csv_rows(wt.CSV)
+        if r["case"] in ("15", "30")
+        and r["gauge"] == "kernel"
+        and math.isclose(float(r["x"]), wt.TARGET_GAUGE)
+    ]
+    assert rows
+    for r in rows:
+        h = float(r["height_first_harmonic"])
+        print(f"d/dx = {r['d_over_dx']}: H(6.37 m) = {h:.5f} m, {100 * (h / 0.0428 - 1):+.1f} %")
+        assert abs(h / wt.MEASURED_HEIGHT - 1.0) <= wt.HEIGHT_TOLERANCE
+
+
+@pytest.mark.slow
+def test_decay_is_the_artificial_viscosity_and_generation_is_right():
+    """The committed summary: (1) the measured spatial decay delta of the incident heights is
+    Lamb's viscous decay 2 nu k^2 / cg with nu = alpha h c0 (seed eq. 3 with phi's 2 (n + 2))
+    within a factor 1.5, for alpha = 0.02 and for alpha / 8. The factor 1.5: Lamb's estimate
+    knows nothing of the kernel's truncation at the surface or of the particles' noise in a
+    wave 2.4 spacings high; it is there to tell nu = alpha h c0 from alpha h c0 / 8, a factor 8
+    apart (measured 1.28, 0.80 and, at d/dx = 30 over 1-2.37 m, 0.91). Not the d/dx = 30
+    alpha / 8 case: its estimated 3 % change over 1.37 m is not resolved by three short fits. (2) With alpha / 8, where the wave keeps its height, the
+    exponential fit extrapolated to the paddle is the design height within 5 % (the paddle law
+    and the fit; measured 1.000) and the wave number linear theory's within 2 % (a 2 % error in
+    phase speed over 6 m is 0.6 rad; measured -0.5 %)."""
+    rows = {r["case"]: r for r in _csv_rows(wt.SUMMARY_CSV)}
+    for case in ("15", "15_a0.0025", "30_short"):
+        if case not in rows:
+            pytest.skip(f"case {case} not in {wt.SUMMARY_CSV}")
+        r = rows[case]
+        ratio = float(r["decay_per_m"]) / float(r["decay_lamb_per_m"])
+        print(f"{case}: delta {float(r['decay_per_m']):.4f} 1/m = {ratio:.2f} x Lamb's")
+        assert 1 / 1.5 <= ratio <= 1.5
+    a = rows["15_a0.0025"]
+    assert float(a["ratio_at_paddle"]) == pytest.approx(1.0, abs=0.05)
+    assert float(a["k_measured"]) == pytest.approx(float(a["k_theory"]), rel=0.02)
