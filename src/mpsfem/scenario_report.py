@@ -110,6 +110,8 @@ def _delta_sph_time_estimate(scenario: Scenario, n_all: int) -> tuple[int, float
         why = "the force condition 0.25 sqrt(h / g)"
     ramp = f.sponges and sph.damping == "viscosity"  # the seed eq. 4 viscosity ramp
     alpha = max(sph.viscosity_alpha, sph.damping_alpha if ramp else 0.0)
+    if sph.viscosity_form == "antuono":  # the kernels read alpha / (2 (n + 2))
+        alpha /= 2.0 * (f.dim + 2)
     if alpha > 0.0 and c0 > 0.0:
         limit = VISCOUS_LIMIT[sph.integrator] * h / (alpha * c0)  # artificial viscosity
         if limit < dt:

@@ -173,7 +173,12 @@ class DeltaSPHSolver:
         self.fv_pair = np.zeros(0)
         self.row_end = np.zeros(n, np.int64)
         self.grad_rho = np.zeros((nf, dim))
-        self.alpha = np.full(nf, sph.viscosity_alpha)
+        # fluid.sph.viscosity_form: 'antuono' divides alpha by 2 (n + 2), the factor seed eq. 3
+        # puts inside phi_ij (nu = alpha h c0 / (2 (n + 2)), Antuono et al. 2010)
+        scale = 1.0 if sph.viscosity_form == "seed" else 1.0 / (2.0 * (dim + 2))
+        self.visc_alpha = sph.viscosity_alpha * scale  # alpha as the kernels read it
+        self.damp_alpha = sph.damping_alpha * scale
+        self.alpha = np.full(nf, self.visc_alpha)
         self.acc = np.zeros((n, dim))
         self.vol = np.zeros(n)
         #: each wall particle's acceleration over the current step, m/s^2 (moving walls)
@@ -188,7 +193,7 @@ class DeltaSPHSolver:
         self.zone_start = np.array([z.start for z in zones], dtype=np.float64)
         self.zone_inv = np.array([1.0 / (z.end - z.start) for z in zones], dtype=np.float64)
         self.integrator = sph.integrator
-        self.alpha_max = max(sph.viscosity_alpha, sph.damping_alpha if len(zones) else 0.0)
+        self.alpha_max = max(self.visc_alpha, self.damp_alpha if len(zones) else 0.0)
         self.cfl = sph.cfl if sph.cfl is not None else DEFAULT_CFL[sph.integrator]
         if self.integrator == "rk4":
             self._y0 = (np.empty_like(self.pos), np.empty_like(self.vel), np.empty_like(self.rho))
@@ -336,7 +341,7 @@ class DeltaSPHSolver:
         )  # fmt: skip
         if len(self.zone_axis):
             delta_sph.viscosity_ramp(
-                self.pos, nf, self.sph.viscosity_alpha, self.sph.damping_alpha, self.zone_axis,
+                self.pos, nf, self.visc_alpha, self.damp_alpha, self.zone_axis,
                 self.zone_start, self.zone_inv, self.alpha,
             )  # fmt: skip
         delta_sph.pair_terms(

@@ -59,6 +59,15 @@ class DeltaSPHSection(Section):
         "grad W_ij V_j (seed eq. 3) outside damping zones (everywhere with damping = "
         "'sponge'); fluid-wall pairs carry none (free slip)",
     )
+    viscosity_form: Literal["seed", "antuono"] = Field(
+        "seed",
+        description="how alpha maps to a viscosity: 'seed', eq. 3 as the seed prints it, with "
+        "2 (n + 2) inside phi_ij: nu = alpha h c0 (today's default); 'antuono', the usual "
+        "delta-SPH normalisation (Antuono et al. 2010, Marrone et al. 2011) without that factor: "
+        "nu = alpha h c0 / (2 (n + 2)), 8 times less in 2D for the same alpha. The seed's own "
+        "wave-tank results need the 'antuono' reading (docs/validation_delta_sph_wave_tank.md). "
+        "Applies to viscosity_alpha and damping_alpha alike",
+    )
     damping_alpha: float = Field(
         0.6,
         ge=0.0,
