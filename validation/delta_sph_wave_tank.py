@@ -95,6 +95,7 @@ VARIANTS = {
     "15_a0.0025": (15, 19.5, [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"]),
     "30_short": (30, 6.8, SHORT_TANK),
     "30_short_a0.0025": (30, 6.8, [*SHORT_TANK, f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"]),
+    "30_a0.0025": (30, END_TIME[30], [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"]),
 }
 
 
