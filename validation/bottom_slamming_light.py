@@ -44,11 +44,13 @@ from bottom_slamming import (  # noqa: E402 - the rigid/elastic study's set-up a
     analyse,
     case_overrides,
     parse_cases,
+    running_mean,
     spacing_for,
 )
 from results_csv import read_csv, write_csv  # noqa: E402
 
 CSV = RESULTS_DIR / "bottom_slamming_light.csv"
+FIGURE = Path(__file__).resolve().parents[1] / "docs" / "figures" / "bottom_slamming_light.png"
 AREA = 2.5e-5  # m^2, thesis Tables 5-3, 5-7
 SECOND_MOMENT = 1e-9  # m^4, thesis Tables 5-3, 5-7 read as 1e-9 (docs/validation.md item 3)
 MEMBER_DENSITY = 1040.0  # kg/m^3, thesis Tables 5-3, 5-7
@@ -221,8 +223,43 @@ def analyse_light(path: Path) -> LightResult:
     )
 
 
+def plot(paths: list[Path], out: Path) -> None:
+    """Uplift (11 ms running mean, every sample light) and mid-span displacement against
+    t - t_c of every results file, one colour each."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax_f, ax_d) = plt.subplots(2, 1, figsize=(7.0, 5.5), sharex=True)
+    for n, path in enumerate(paths):
+        r = NAME.search(path.name)
+        case = Case(float(r["a"]), float(r["d"]))
+        label = f"l0 {r['l0']}, M_f {float(r['mf']):g}x, rtol {float(r['rtol']):g}"
+        with h5py.File(path, "r") as h5:
+            t, f = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:, 1]
+            td, u = h5["probes"]["plate_mid"]["time"][:], h5["probes"]["plate_mid"]["value"][:, 1]
+        c = f"C{n}"
+        ax_f.plot(t - case.crest_time, f, color=c, lw=0.3, alpha=0.3)
+        ax_f.plot(t - case.crest_time, running_mean(f, 11), color=c, lw=1.0, label=label)
+        ax_d.plot(td - case.crest_time, u * 1e3, color=c, lw=1.0, label=label)
+    ax_f.set_ylabel("uplift (N/m)")
+    ax_d.set_ylabel("mid-span uy (mm)")
+    ax_d.set_xlabel("t - t_c (s)")
+    ax_f.set_xlim(-0.4, 0.8)
+    for ax in (ax_f, ax_d):
+        ax.grid(alpha=0.3)
+        ax.axhline(0.0, color="0.6", lw=0.4)
+    ax_f.legend(fontsize=7)
+    fig.suptitle("Light plate (0.026 kg/m^2), A/H = 0.3, D/H = 0.06, Aitken + fictitious mass")
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=80)
+    plt.close(fig)
+
+
 def report() -> int:
-    rows = []
+    rows, paths = [], []
     for path in sorted(RESULTS_DIR.glob("bottom_slamming_light_*.h5")):
         if path.name.endswith(".ckpt.h5"):
             continue
@@ -232,6 +269,7 @@ def report() -> int:
             continue
         try:
             rows.append(analyse_light(path))
+            paths.append(path)
         except (KeyError, ValueError) as exc:
             print(f"{path.name}: cannot analyse ({exc})")
     if not rows:
@@ -243,6 +281,7 @@ def report() -> int:
         CSV,
         comment="validation/bottom_slamming_light.py: the light plate with the fictitious mass",
     )
+    plot(paths, FIGURE)
     keys = ("l0", "d_over_h", "mf_factor", "rtol", "status", "t_end_s", "it_per_window_mean",
             "it_per_window_max", "unconverged_windows", "peak_uplift", "peak_uplift_smooth",
             "mf_raw", "mf_smooth", "mid_disp_max_mm", "wall_time_s")  # fmt: skip
@@ -251,7 +290,7 @@ def report() -> int:
         print(
             "  ".join(f"{k}={d[k]:.4g}" if isinstance(d[k], float) else f"{k}={d[k]}" for k in keys)
         )
-    print(f"wrote {CSV.relative_to(RESULTS_DIR.parents[1])}")
+    print(f"wrote {CSV.relative_to(RESULTS_DIR.parents[1])}, docs/figures/{FIGURE.name}")
     return 0
 
 
