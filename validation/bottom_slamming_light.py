@@ -10,7 +10,7 @@ the overrides are validation/bottom_slamming.py's :func:`case_overrides` for the
 plus :func:`light_overrides`, and every measurement is that script's :func:`analyse` plus the
 iterations per window. Writes validation/results/bottom_slamming_light.csv (one row per results
 file found, MF against the rigid run of the same case and spacing in
-validation/results/bottom_slamming_<l0>.csv where there is one). The page
+validation/results/bottom_slamming_0.004.csv). The page
 docs/validation_bottom_slamming_light.md quotes it.
 
     python validation/bottom_slamming_light.py [--l0 0.004] [--cases 0.3:0.06]
@@ -105,25 +105,30 @@ def added_mass_estimate(h: float = 0.002, wetted: float = 1.0, mode: str = "sin"
     return float(WATER_DENSITY * abs(np.sum(phi_surface * w)) / np.sum(w[wet] ** 2))
 
 
-def light_overrides(mf_factor: float, rtol: float) -> list[str]:
-    """The light section, the fictitious mass (``mf_factor`` x the estimate) and Aitken."""
+def light_overrides(mf_factor: float, rtol: float, relative_to: str = "displacement") -> list[str]:
+    """The light section, the fictitious mass (``mf_factor`` x the estimate), Aitken and the
+    convergence measure (rtol relative to the whole displacement or to the window's motion)."""
     return [
         f"structure.members.0.area={AREA!r}",
         f"structure.members.0.second_moment={SECOND_MOMENT!r}",
         f"structure.members.0.fictitious_mass={mf_factor * ADDED_MASS_ESTIMATE!r}",
         'coupling.acceleration.kind="aitken"',
         f"coupling.convergence.relative_tolerance={rtol!r}",
+        f'coupling.convergence.relative_to="{relative_to}"',
     ]
 
 
-def run_path(l0_label: str, case: Case, mf_factor: float, rtol: float) -> Path:
+def run_path(
+    l0_label: str, case: Case, mf_factor: float, rtol: float, relative_to: str = "displacement"
+) -> Path:
+    wm = "wm" if relative_to == "window_motion" else ""
     return RESULTS_DIR / (
-        f"bottom_slamming_light_{l0_label}_mf{mf_factor:g}_rtol{rtol:g}_{case.label()}.h5"
+        f"bottom_slamming_light_{l0_label}_mf{mf_factor:g}_rtol{rtol:g}{wm}_{case.label()}.h5"
     )
 
 
 NAME = re.compile(
-    r"bottom_slamming_light_(?P<l0>[0-9.e-]+)_mf(?P<mf>[0-9.e-]+)_rtol(?P<rtol>[0-9.e-]+)_"
+    r"bottom_slamming_light_(?P<l0>[0-9.e-]+)_mf(?P<mf>[0-9.e-]+)_rtol(?P<rtol>[0-9.e-]+)(?P<wm>(wm)?)_"
     r"AH(?P<a>[0-9.]+)_DH(?P<d>[0-9.]+)\.h5$"
 )
 
@@ -139,6 +144,7 @@ class LightResult:
     mf_factor: float  # fictitious mass / ADDED_MASS_ESTIMATE
     fictitious_mass: float  # kg/m^2
     rtol: float
+    relative_to: str  # the convergence measure: "displacement" or "window_motion"
     status: str
     t_end_s: float
     windows: int
@@ -151,7 +157,7 @@ class LightResult:
     peak_uplift_smooth: float  # 11 ms running mean
     peak_smooth_time_s: float
     uplift_impulse: float
-    rigid_peak: float  # bottom_slamming_<l0>.csv, same case (NaN where none)
+    rigid_peak: float  # bottom_slamming_<RIGID_L0>.csv, same case (NaN where none)
     rigid_peak_smooth: float
     mf_raw: float
     mf_smooth: float
@@ -164,9 +170,15 @@ class LightResult:
     wall_time_s: float
 
 
-def rigid_reference(l0_label: str, case: Case) -> tuple[float, float]:
-    """(raw, 11 ms mean) rigid peak of the case from bottom_slamming_<l0>.csv, NaN if none."""
-    path = RESULTS_DIR / f"bottom_slamming_{l0_label}.csv"
+#: the rigid runs MF divides by: bottom_slamming_<RIGID_L0>.csv (there are none at H/20; the
+#: coarse runs' MF is against this spacing's rigid peak, a different lattice)
+RIGID_L0 = "0.004"
+
+
+def rigid_reference(case: Case) -> tuple[float, float]:
+    """(raw, 11 ms mean) rigid peak of the case from bottom_slamming_<RIGID_L0>.csv, NaN if
+    none."""
+    path = RESULTS_DIR / f"bottom_slamming_{RIGID_L0}.csv"
     if not path.is_file():
         return math.nan, math.nan
     for r in read_csv(path):
@@ -187,7 +199,7 @@ def analyse_light(path: Path) -> LightResult:
     with h5py.File(path, "r") as h5:
         its = h5["coupling"]["iterations"][:] if "coupling" in h5 else np.zeros(0, int)
     case = Case(base.a_over_h, base.d_over_h)
-    rigid, rigid_s = rigid_reference(m["l0"], case)
+    rigid, rigid_s = rigid_reference(case)
     mf = float(m["mf"])
     return LightResult(
         l0_label=m["l0"],
@@ -197,6 +209,7 @@ def analyse_light(path: Path) -> LightResult:
         mf_factor=mf,
         fictitious_mass=mf * ADDED_MASS_ESTIMATE,
         rtol=float(m["rtol"]),
+        relative_to="window_motion" if m["wm"] else "displacement",
         status=base.status,
         t_end_s=base.t_end_s,
         windows=int(its.size),
@@ -235,7 +248,7 @@ def plot(paths: list[Path], out: Path) -> None:
     for n, path in enumerate(paths):
         r = NAME.search(path.name)
         case = Case(float(r["a"]), float(r["d"]))
-        label = f"l0 {r['l0']}, M_f {float(r['mf']):g}x, rtol {float(r['rtol']):g}"
+        label = f"l0 {r['l0']}, M_f {float(r['mf']):g}x, rtol {float(r['rtol']):g}{r['wm']}"
         with h5py.File(path, "r") as h5:
             t, f = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:, 1]
             td, u = h5["probes"]["plate_mid"]["time"][:], h5["probes"]["plate_mid"]["value"][:, 1]
@@ -282,7 +295,7 @@ def report() -> int:
         comment="validation/bottom_slamming_light.py: the light plate with the fictitious mass",
     )
     plot(paths, FIGURE)
-    keys = ("l0", "d_over_h", "mf_factor", "rtol", "status", "t_end_s", "it_per_window_mean",
+    keys = ("l0", "d_over_h", "mf_factor", "rtol", "relative_to", "status", "t_end_s", "it_per_window_mean",
             "it_per_window_max", "unconverged_windows", "peak_uplift", "peak_uplift_smooth",
             "mf_raw", "mf_smooth", "mid_disp_max_mm", "wall_time_s")  # fmt: skip
     for r in rows:
@@ -300,6 +313,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cases", default="0.3:0.06", help="A/H:D/H pairs (default 0.3:0.06)")
     ap.add_argument("--mf", default="0.3,1", help="fictitious mass / estimate, comma-separated")
     ap.add_argument("--rtol", default="1e-3", help="coupling relative tolerance(s)")
+    ap.add_argument(
+        "--relative-to",
+        default="displacement",
+        choices=("displacement", "window_motion"),
+        help="coupling.convergence.relative_to (default displacement, as the scenario)",
+    )
     ap.add_argument("--added-mass", action="store_true", help="print the estimate and stop")
     case_runner.add_run_options(ap)
     args = ap.parse_args(argv)
@@ -329,8 +348,10 @@ def main(argv: list[str] | None = None) -> int:
         for case in cases:
             for rtol in rtols:
                 for f in factors:
-                    out = run_path(args.l0, case, f, rtol)
-                    overrides = case_overrides("elastic", case, spacing) + light_overrides(f, rtol)
+                    out = run_path(args.l0, case, f, rtol, args.relative_to)
+                    overrides = case_overrides("elastic", case, spacing) + light_overrides(
+                        f, rtol, args.relative_to
+                    )
                     tag = f"[light {case.label()} mf {f:g} rtol {rtol:g}]"
                     case_runner.ensure_case(
                         SCENARIOS["elastic"], out, overrides, args.threads, args.retry_failed, tag
