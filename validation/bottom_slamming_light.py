@@ -165,6 +165,8 @@ class LightResult:
     mid_disp_max_mm: float
     mid_disp_min_mm: float
     mid_disp_max_time_s: float
+    mid_disp_at_crest_mm: float  # at t_c, the design crest at the front edge
+    mid_velocity_last_mm_s: float  # mean mid-span velocity over the record's last 0.1 s
     interface_work_error_pct: float
     steps: int
     wall_time_s: float
@@ -198,9 +200,13 @@ def analyse_light(path: Path) -> LightResult:
     base = analyse(path)
     with h5py.File(path, "r") as h5:
         its = h5["coupling"]["iterations"][:] if "coupling" in h5 else np.zeros(0, int)
+        td = h5["probes"]["plate_mid"]["time"][:]
+        uy = h5["probes"]["plate_mid"]["value"][:, 1]
     case = Case(base.a_over_h, base.d_over_h)
     rigid, rigid_s = rigid_reference(case)
     mf = float(m["mf"])
+    last = td >= td[-1] - 0.1
+    velocity = (uy[last][-1] - uy[last][0]) / max(td[last][-1] - td[last][0], 1e-12)
     return LightResult(
         l0_label=m["l0"],
         l0=base.l0,
@@ -230,6 +236,8 @@ def analyse_light(path: Path) -> LightResult:
         mid_disp_max_mm=base.mid_disp_max_mm,
         mid_disp_min_mm=base.mid_disp_min_mm,
         mid_disp_max_time_s=base.mid_disp_max_time_s,
+        mid_disp_at_crest_mm=float(np.interp(case.crest_time, td, uy)) * 1e3,
+        mid_velocity_last_mm_s=float(velocity) * 1e3,
         interface_work_error_pct=base.interface_work_error_pct,
         steps=base.steps,
         wall_time_s=base.wall_time_s,
@@ -256,7 +264,8 @@ def plot(paths: list[Path], out: Path) -> None:
         ax_f.plot(t - case.crest_time, f, color=c, lw=0.3, alpha=0.3)
         ax_f.plot(t - case.crest_time, running_mean(f, 11), color=c, lw=1.0, label=label)
         ax_d.plot(td - case.crest_time, u * 1e3, color=c, lw=1.0, label=label)
-    ax_f.set_ylabel("uplift (N/m)")
+    ax_f.set_ylabel("uplift (N/m), clipped to -30 ... 80")
+    ax_f.set_ylim(-30.0, 80.0)  # a diverging window's spike would hide the rest
     ax_d.set_ylabel("mid-span uy (mm)")
     ax_d.set_xlabel("t - t_c (s)")
     ax_f.set_xlim(-0.4, 0.8)
