@@ -105,7 +105,9 @@ def added_mass_estimate(h: float = 0.002, wetted: float = 1.0, mode: str = "sin"
     return float(WATER_DENSITY * abs(np.sum(phi_surface * w)) / np.sum(w[wet] ** 2))
 
 
-def light_overrides(mf_factor: float, rtol: float, relative_to: str = "displacement") -> list[str]:
+def light_overrides(
+    mf_factor: float, rtol: float, relative_to: str = "displacement", max_iterations: int = 30
+) -> list[str]:
     """The light section, the fictitious mass (``mf_factor`` x the estimate), Aitken and the
     convergence measure (rtol relative to the whole displacement or to the window's motion)."""
     return [
@@ -115,20 +117,28 @@ def light_overrides(mf_factor: float, rtol: float, relative_to: str = "displacem
         'coupling.acceleration.kind="aitken"',
         f"coupling.convergence.relative_tolerance={rtol!r}",
         f'coupling.convergence.relative_to="{relative_to}"',
+        f"coupling.convergence.max_iterations={max_iterations}",
     ]
 
 
 def run_path(
-    l0_label: str, case: Case, mf_factor: float, rtol: float, relative_to: str = "displacement"
+    l0_label: str,
+    case: Case,
+    mf_factor: float,
+    rtol: float,
+    relative_to: str = "displacement",
+    max_iterations: int = 30,
 ) -> Path:
     wm = "wm" if relative_to == "window_motion" else ""
+    if max_iterations != 30:  # the scenario's
+        wm += f"it{max_iterations}"
     return RESULTS_DIR / (
         f"bottom_slamming_light_{l0_label}_mf{mf_factor:g}_rtol{rtol:g}{wm}_{case.label()}.h5"
     )
 
 
 NAME = re.compile(
-    r"bottom_slamming_light_(?P<l0>[0-9.e-]+)_mf(?P<mf>[0-9.e-]+)_rtol(?P<rtol>[0-9.e-]+)(?P<wm>(wm)?)_"
+    r"bottom_slamming_light_(?P<l0>[0-9.e-]+)_mf(?P<mf>[0-9.e-]+)_rtol(?P<rtol>[0-9.e-]+)(?P<wm>(wm)?)(?:it(?P<maxit>[0-9]+))?_"
     r"AH(?P<a>[0-9.]+)_DH(?P<d>[0-9.]+)\.h5$"
 )
 
@@ -145,6 +155,7 @@ class LightResult:
     fictitious_mass: float  # kg/m^2
     rtol: float
     relative_to: str  # the convergence measure: "displacement" or "window_motion"
+    max_iterations: int  # per window (the scenario: 30)
     status: str
     t_end_s: float
     windows: int
@@ -216,6 +227,7 @@ def analyse_light(path: Path) -> LightResult:
         fictitious_mass=mf * ADDED_MASS_ESTIMATE,
         rtol=float(m["rtol"]),
         relative_to="window_motion" if m["wm"] else "displacement",
+        max_iterations=int(m["maxit"] or 30),
         status=base.status,
         t_end_s=base.t_end_s,
         windows=int(its.size),
@@ -257,6 +269,8 @@ def plot(paths: list[Path], out: Path) -> None:
         r = NAME.search(path.name)
         case = Case(float(r["a"]), float(r["d"]))
         label = f"l0 {r['l0']}, M_f {float(r['mf']):g}x, rtol {float(r['rtol']):g}{r['wm']}"
+        if r["maxit"]:
+            label += f", {r['maxit']} it."
         with h5py.File(path, "r") as h5:
             t, f = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:, 1]
             td, u = h5["probes"]["plate_mid"]["time"][:], h5["probes"]["plate_mid"]["value"][:, 1]
@@ -304,7 +318,7 @@ def report() -> int:
         comment="validation/bottom_slamming_light.py: the light plate with the fictitious mass",
     )
     plot(paths, FIGURE)
-    keys = ("l0", "d_over_h", "mf_factor", "rtol", "relative_to", "status", "t_end_s", "it_per_window_mean",
+    keys = ("l0", "d_over_h", "mf_factor", "rtol", "relative_to", "max_iterations", "status", "t_end_s", "it_per_window_mean",
             "it_per_window_max", "unconverged_windows", "peak_uplift", "peak_uplift_smooth",
             "mf_raw", "mf_smooth", "mid_disp_max_mm", "wall_time_s")  # fmt: skip
     for r in rows:
@@ -327,6 +341,9 @@ def main(argv: list[str] | None = None) -> int:
         default="displacement",
         choices=("displacement", "window_motion"),
         help="coupling.convergence.relative_to (default displacement, as the scenario)",
+    )
+    ap.add_argument(
+        "--max-iterations", type=int, default=30, help="per window (default 30, as the scenario)"
     )
     ap.add_argument("--added-mass", action="store_true", help="print the estimate and stop")
     case_runner.add_run_options(ap)
@@ -357,9 +374,9 @@ def main(argv: list[str] | None = None) -> int:
         for case in cases:
             for rtol in rtols:
                 for f in factors:
-                    out = run_path(args.l0, case, f, rtol, args.relative_to)
+                    out = run_path(args.l0, case, f, rtol, args.relative_to, args.max_iterations)
                     overrides = case_overrides("elastic", case, spacing) + light_overrides(
-                        f, rtol, args.relative_to
+                        f, rtol, args.relative_to, args.max_iterations
                     )
                     tag = f"[light {case.label()} mf {f:g} rtol {rtol:g}]"
                     case_runner.ensure_case(
