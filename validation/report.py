@@ -321,7 +321,8 @@ def bottom_slamming() -> list[str]:
         "([validation_bottom_slamming.md](validation_bottom_slamming.md))",
         "",
     ]
-    for path in sorted(RESULTS.glob("bottom_slamming_*.csv")):
+    # bottom_slamming_<l0>.csv only (not bottom_slamming_light.csv: another study, its own page)
+    for path in sorted(RESULTS.glob("bottom_slamming_[0-9]*.csv")):
         rows_in = read_csv(path)
         peak = {
             (r["kind"], num(r["a_over_h"]), num(r["d_over_h"])): num(r["peak_uplift"])

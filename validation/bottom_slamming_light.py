@@ -1,0 +1,389 @@
+"""The thesis's light bottom-slamming plate with the fictitious mass (issue 21, task H7).
+
+scenarios/bottom_slamming_elastic_2d.toml with the section the thesis's tables imply
+(A = 2.5e-5 m^2, I = 1e-9 m^4, rho = 1040 kg/m^3: 0.026 kg/m^2 per unit width;
+docs/validation.md, "Choices", items 1 and 3), coupled by Aitken with the member's
+``fictitious_mass`` set to a multiple of the estimated added mass of the plate's first wet mode
+(:data:`ADDED_MASS_ESTIMATE`, derived by :func:`added_mass_estimate`). Each run is one
+``mpsfem run`` subprocess (validation/case_runner.py: resumable, a finished file is skipped);
+the overrides are validation/bottom_slamming.py's :func:`case_overrides` for the elastic plate
+plus :func:`light_overrides`, and every measurement is that script's :func:`analyse` plus the
+iterations per window. Writes validation/results/bottom_slamming_light.csv (one row per results
+file found, MF against the rigid run of the same case and spacing in
+validation/results/bottom_slamming_0.004.csv). The page
+docs/validation_bottom_slamming_light.md quotes it.
+
+    python validation/bottom_slamming_light.py [--l0 0.004] [--cases 0.3:0.06]
+                                               [--mf 0.3,1] [--rtol 1e-3] [--threads 1]
+                                               [--analyse-only] [--retry-failed]
+    python validation/bottom_slamming_light.py --added-mass   # the estimate, printed
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import sys
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import case_runner  # noqa: E402
+from bottom_slamming import (  # noqa: E402 - the rigid/elastic study's set-up and analysis
+    DEPTH,
+    PLATE_FRONT,
+    PLATE_LENGTH,
+    RESULTS_DIR,
+    SCENARIOS,
+    THESIS_MF,
+    Case,
+    analyse,
+    case_overrides,
+    parse_cases,
+    running_mean,
+    spacing_for,
+)
+from results_csv import read_csv, write_csv  # noqa: E402
+
+CSV = RESULTS_DIR / "bottom_slamming_light.csv"
+FIGURE = Path(__file__).resolve().parents[1] / "docs" / "figures" / "bottom_slamming_light.png"
+AREA = 2.5e-5  # m^2, thesis Tables 5-3, 5-7
+SECOND_MOMENT = 1e-9  # m^4, thesis Tables 5-3, 5-7 read as 1e-9 (docs/validation.md item 3)
+MEMBER_DENSITY = 1040.0  # kg/m^3, thesis Tables 5-3, 5-7
+WATER_DENSITY = 1000.0  # kg/m^3, thesis Table 5-4
+TANK_LENGTH = 2.5  # m, paddle face at rest to the end wall (scenario)
+#: kg/m^2: the added mass of the light plate's first mode, sin(pi s / L), fully wetted from
+#: below, free surface (p = 0) beside it, water depth H, tank walls at 0 and 2.5 m: the
+#: Rayleigh quotient of potential flow solved by :func:`added_mass_estimate` (167.4 at h = 2 mm,
+#: 167.6 at 1 mm). Rounded; the page derives it.
+ADDED_MASS_ESTIMATE = 167.0
+
+
+def added_mass_estimate(h: float = 0.002, wetted: float = 1.0, mode: str = "sin") -> float:
+    """Added mass (kg/m^2) of the plate's mode w(s) per unit area by the Rayleigh quotient
+    m_a = rho int(phi w) / int(w^2): phi the potential of unit normal acceleration w on the
+    wetted part (length ``wetted`` x L from the front edge) of the still-water surface,
+    phi = 0 on the rest of the surface (the high-frequency free-surface condition, the limit of
+    an impact: Faltinsen 1990, Sea Loads, ch. 9), no flux through the bed (depth H) and the end
+    walls; five-point finite differences on cells of ``h`` m. ``mode``: "sin" (the simply
+    supported first mode sin(pi s / L)) or "heave" (w = 1)."""
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spl
+
+    nx, ny = round(TANK_LENGTH / h), round(DEPTH / h)
+    xc = (np.arange(nx) + 0.5) * h
+    wet = (xc > PLATE_FRONT) & (xc < PLATE_FRONT + wetted * PLATE_LENGTH)
+    shape = np.sin(np.pi * (xc - PLATE_FRONT) / PLATE_LENGTH) if mode == "sin" else np.ones(nx)
+    w = np.where(wet, shape, 0.0)
+    idx = np.arange(nx * ny).reshape(ny, nx)  # row 0 the bed, row ny - 1 the surface
+    diag = np.zeros((ny, nx))
+    rows, cols = [], []
+    for di, dj in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+        i0, i1 = max(0, -di), nx - max(0, di)
+        j0, j1 = max(0, -dj), ny - max(0, dj)
+        rows.append(idx[j0:j1, i0:i1].ravel())
+        cols.append(idx[j0 + dj : j1 + dj, i0 + di : i1 + di].ravel())
+        diag[j0:j1, i0:i1] -= 1.0
+    b = np.zeros((ny, nx))
+    # surface face: Neumann dphi/dy = w on the wetted part (ghost phi + h w), else phi = 0
+    diag[-1, :] -= np.where(wet, 0.0, 2.0)
+    b[-1, :] -= np.where(wet, w * h, 0.0)
+    n = nx * ny
+    a = sp.csr_matrix(
+        (
+            np.concatenate([np.ones(sum(r.size for r in rows)), diag.ravel()]),
+            (np.concatenate([*rows, np.arange(n)]), np.concatenate([*cols, np.arange(n)])),
+        ),
+        shape=(n, n),
+    )
+    phi = spl.spsolve(a.tocsc(), b.ravel()).reshape(ny, nx)
+    phi_surface = phi[-1] + 0.5 * h * w  # at the face, half a cell above the top centres
+    return float(WATER_DENSITY * abs(np.sum(phi_surface * w)) / np.sum(w[wet] ** 2))
+
+
+def light_overrides(
+    mf_factor: float, rtol: float, relative_to: str = "displacement", max_iterations: int = 30
+) -> list[str]:
+    """The light section, the fictitious mass (``mf_factor`` x the estimate), Aitken and the
+    convergence measure (rtol relative to the whole displacement or to the window's motion)."""
+    return [
+        f"structure.members.0.area={AREA!r}",
+        f"structure.members.0.second_moment={SECOND_MOMENT!r}",
+        f"structure.members.0.fictitious_mass={mf_factor * ADDED_MASS_ESTIMATE!r}",
+        'coupling.acceleration.kind="aitken"',
+        f"coupling.convergence.relative_tolerance={rtol!r}",
+        f'coupling.convergence.relative_to="{relative_to}"',
+        f"coupling.convergence.max_iterations={max_iterations}",
+    ]
+
+
+def run_path(
+    l0_label: str,
+    case: Case,
+    mf_factor: float,
+    rtol: float,
+    relative_to: str = "displacement",
+    max_iterations: int = 30,
+) -> Path:
+    wm = "wm" if relative_to == "window_motion" else ""
+    if max_iterations != 30:  # the scenario's
+        wm += f"it{max_iterations}"
+    return RESULTS_DIR / (
+        f"bottom_slamming_light_{l0_label}_mf{mf_factor:g}_rtol{rtol:g}{wm}_{case.label()}.h5"
+    )
+
+
+NAME = re.compile(
+    r"bottom_slamming_light_(?P<l0>[0-9.e-]+)_mf(?P<mf>[0-9.e-]+)_rtol(?P<rtol>[0-9.e-]+)(?P<wm>(wm)?)(?:it(?P<maxit>[0-9]+))?_"
+    r"AH(?P<a>[0-9.]+)_DH(?P<d>[0-9.]+)\.h5$"
+)
+
+
+@dataclass
+class LightResult:
+    """One row of validation/results/bottom_slamming_light.csv (N/m, s, mm)."""
+
+    l0_label: str
+    l0: float
+    a_over_h: float
+    d_over_h: float
+    mf_factor: float  # fictitious mass / ADDED_MASS_ESTIMATE
+    fictitious_mass: float  # kg/m^2
+    rtol: float
+    relative_to: str  # the convergence measure: "displacement" or "window_motion"
+    max_iterations: int  # per window (the scenario: 30)
+    status: str
+    t_end_s: float
+    windows: int
+    it_per_window_mean: float
+    it_per_window_max: int
+    unconverged_windows: int
+    contact_time_s: float
+    peak_uplift: float
+    peak_time_s: float
+    peak_uplift_smooth: float  # 11 ms running mean
+    peak_smooth_time_s: float
+    uplift_impulse: float
+    rigid_peak: float  # bottom_slamming_<RIGID_L0>.csv, same case (NaN where none)
+    rigid_peak_smooth: float
+    mf_raw: float
+    mf_smooth: float
+    thesis_mf: float
+    mid_disp_max_mm: float
+    mid_disp_min_mm: float
+    mid_disp_max_time_s: float
+    mid_disp_at_crest_mm: float  # at t_c, the design crest at the front edge
+    mid_velocity_last_mm_s: float  # mean mid-span velocity over the record's last 0.1 s
+    interface_work_error_pct: float
+    steps: int
+    wall_time_s: float
+
+
+#: the rigid runs MF divides by: bottom_slamming_<RIGID_L0>.csv (there are none at H/20; the
+#: coarse runs' MF is against this spacing's rigid peak, a different lattice)
+RIGID_L0 = "0.004"
+
+
+def rigid_reference(case: Case) -> tuple[float, float]:
+    """(raw, 11 ms mean) rigid peak of the case from bottom_slamming_<RIGID_L0>.csv, NaN if
+    none."""
+    path = RESULTS_DIR / f"bottom_slamming_{RIGID_L0}.csv"
+    if not path.is_file():
+        return math.nan, math.nan
+    for r in read_csv(path):
+        if (
+            r["kind"] == "rigid"
+            and math.isclose(float(r["a_over_h"]), case.ratio)
+            and math.isclose(float(r["d_over_h"]), case.clearance)
+        ):
+            return float(r["peak_uplift"]), float(r["peak_uplift_smooth"])
+    return math.nan, math.nan
+
+
+def analyse_light(path: Path) -> LightResult:
+    m = NAME.search(path.name)
+    if m is None:
+        raise ValueError(f"{path.name}: not a bottom_slamming_light results file")
+    base = analyse(path)
+    with h5py.File(path, "r") as h5:
+        its = h5["coupling"]["iterations"][:] if "coupling" in h5 else np.zeros(0, int)
+        td = h5["probes"]["plate_mid"]["time"][:]
+        uy = h5["probes"]["plate_mid"]["value"][:, 1]
+    case = Case(base.a_over_h, base.d_over_h)
+    rigid, rigid_s = rigid_reference(case)
+    mf = float(m["mf"])
+    last = td >= td[-1] - 0.1
+    velocity = (uy[last][-1] - uy[last][0]) / max(td[last][-1] - td[last][0], 1e-12)
+    return LightResult(
+        l0_label=m["l0"],
+        l0=base.l0,
+        a_over_h=base.a_over_h,
+        d_over_h=base.d_over_h,
+        mf_factor=mf,
+        fictitious_mass=mf * ADDED_MASS_ESTIMATE,
+        rtol=float(m["rtol"]),
+        relative_to="window_motion" if m["wm"] else "displacement",
+        max_iterations=int(m["maxit"] or 30),
+        status=base.status,
+        t_end_s=base.t_end_s,
+        windows=int(its.size),
+        it_per_window_mean=float(its.mean()) if its.size else math.nan,
+        it_per_window_max=int(its.max()) if its.size else 0,
+        unconverged_windows=base.unconverged_windows,
+        contact_time_s=base.contact_time_s,
+        peak_uplift=base.peak_uplift,
+        peak_time_s=base.peak_time_s,
+        peak_uplift_smooth=base.peak_uplift_smooth,
+        peak_smooth_time_s=base.peak_smooth_time_s,
+        uplift_impulse=base.uplift_impulse,
+        rigid_peak=rigid,
+        rigid_peak_smooth=rigid_s,
+        mf_raw=base.peak_uplift / rigid,
+        mf_smooth=base.peak_uplift_smooth / rigid_s,
+        thesis_mf=THESIS_MF.get((case.ratio, case.clearance), math.nan),
+        mid_disp_max_mm=base.mid_disp_max_mm,
+        mid_disp_min_mm=base.mid_disp_min_mm,
+        mid_disp_max_time_s=base.mid_disp_max_time_s,
+        mid_disp_at_crest_mm=float(np.interp(case.crest_time, td, uy)) * 1e3,
+        mid_velocity_last_mm_s=float(velocity) * 1e3,
+        interface_work_error_pct=base.interface_work_error_pct,
+        steps=base.steps,
+        wall_time_s=base.wall_time_s,
+    )
+
+
+def plot(paths: list[Path], out: Path) -> None:
+    """Uplift (11 ms running mean, every sample light) and mid-span displacement against
+    t - t_c of every results file, one colour each."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax_f, ax_d) = plt.subplots(2, 1, figsize=(7.0, 5.5), sharex=True)
+    for n, path in enumerate(paths):
+        r = NAME.search(path.name)
+        case = Case(float(r["a"]), float(r["d"]))
+        label = f"l0 {r['l0']}, M_f {float(r['mf']):g}x, rtol {float(r['rtol']):g}{r['wm']}"
+        if r["maxit"]:
+            label += f", {r['maxit']} it."
+        with h5py.File(path, "r") as h5:
+            t, f = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:, 1]
+            td, u = h5["probes"]["plate_mid"]["time"][:], h5["probes"]["plate_mid"]["value"][:, 1]
+        c = f"C{n}"
+        ax_f.plot(t - case.crest_time, f, color=c, lw=0.3, alpha=0.3)
+        ax_f.plot(t - case.crest_time, running_mean(f, 11), color=c, lw=1.0, label=label)
+        ax_d.plot(td - case.crest_time, u * 1e3, color=c, lw=1.0, label=label)
+    ax_f.set_ylabel("uplift (N/m), clipped to -30 ... 80")
+    ax_f.set_ylim(-30.0, 80.0)  # a diverging window's spike would hide the rest
+    ax_d.set_ylabel("mid-span uy (mm)")
+    ax_d.set_xlabel("t - t_c (s)")
+    ax_f.set_xlim(-0.4, 0.8)
+    for ax in (ax_f, ax_d):
+        ax.grid(alpha=0.3)
+        ax.axhline(0.0, color="0.6", lw=0.4)
+    ax_f.legend(fontsize=7)
+    fig.suptitle("Light plate (0.026 kg/m^2), A/H = 0.3, D/H = 0.06, Aitken + fictitious mass")
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=80)
+    plt.close(fig)
+
+
+def report() -> int:
+    rows, paths = [], []
+    for path in sorted(RESULTS_DIR.glob("bottom_slamming_light_*.h5")):
+        if path.name.endswith(".ckpt.h5"):
+            continue
+        status = case_runner.read_status(path)
+        if status is None or status == "locked" or status.startswith("unreadable"):
+            print(f"{path.name}: {status}, skipped")
+            continue
+        try:
+            rows.append(analyse_light(path))
+            paths.append(path)
+        except (KeyError, ValueError) as exc:
+            print(f"{path.name}: cannot analyse ({exc})")
+    if not rows:
+        print("nothing to analyse")
+        return 1
+    rows.sort(key=lambda r: (-r.l0, r.a_over_h, r.d_over_h, r.rtol, r.mf_factor))
+    write_csv(
+        rows,
+        CSV,
+        comment="validation/bottom_slamming_light.py: the light plate with the fictitious mass",
+    )
+    plot(paths, FIGURE)
+    keys = ("l0", "d_over_h", "mf_factor", "rtol", "relative_to", "max_iterations", "status", "t_end_s", "it_per_window_mean",
+            "it_per_window_max", "unconverged_windows", "peak_uplift", "peak_uplift_smooth",
+            "mf_raw", "mf_smooth", "mid_disp_max_mm", "wall_time_s")  # fmt: skip
+    for r in rows:
+        d = asdict(r)
+        print(
+            "  ".join(f"{k}={d[k]:.4g}" if isinstance(d[k], float) else f"{k}={d[k]}" for k in keys)
+        )
+    print(f"wrote {CSV.relative_to(RESULTS_DIR.parents[1])}, docs/figures/{FIGURE.name}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--l0", default="0.004", help="particle spacing, m (default 0.004)")
+    ap.add_argument("--cases", default="0.3:0.06", help="A/H:D/H pairs (default 0.3:0.06)")
+    ap.add_argument("--mf", default="0.3,1", help="fictitious mass / estimate, comma-separated")
+    ap.add_argument("--rtol", default="1e-3", help="coupling relative tolerance(s)")
+    ap.add_argument(
+        "--relative-to",
+        default="displacement",
+        choices=("displacement", "window_motion"),
+        help="coupling.convergence.relative_to (default displacement, as the scenario)",
+    )
+    ap.add_argument(
+        "--max-iterations", type=int, default=30, help="per window (default 30, as the scenario)"
+    )
+    ap.add_argument("--added-mass", action="store_true", help="print the estimate and stop")
+    case_runner.add_run_options(ap)
+    args = ap.parse_args(argv)
+    if args.added_mass:
+        for h in (0.004, 0.002, 0.001):
+            print(f"h = {h} m: first mode {added_mass_estimate(h):.1f} kg/m^2, "
+                  f"heave {added_mass_estimate(h, mode='heave'):.1f} kg/m^2")  # fmt: skip
+        for f in (0.25, 0.5, 0.75):
+            print(f"wetted {f:g} L from the front edge: {added_mass_estimate(0.002, f):.1f} kg/m^2")
+        k = math.pi / PLATE_LENGTH
+        print(f"periodic mode rho / k coth(k H): {WATER_DENSITY / k / math.tanh(k * DEPTH):.1f}")
+        print(f"plate mass rho A: {MEMBER_DENSITY * AREA:.4g} kg/m^2")
+        return 0
+    try:
+        l0 = float(args.l0)
+        factors = [float(x) for x in args.mf.split(",")]
+        rtols = [float(x) for x in args.rtol.split(",")]
+        cases = parse_cases(args.cases)
+    except ValueError as exc:
+        ap.error(str(exc))
+    if not l0 > 0.0 or any(f <= 0.0 for f in factors) or any(not 0.0 < r < 1.0 for r in rtols):
+        ap.error(f"--l0 {args.l0}, --mf {args.mf}, --rtol {args.rtol}: need l0 > 0, mf > 0, "
+                 "0 < rtol < 1")  # fmt: skip
+    spacing = spacing_for(l0, DEPTH)
+    print(f"l0 = {l0:g} m -> {spacing:.7g} m; M_f estimate {ADDED_MASS_ESTIMATE} kg/m^2")
+    if not args.analyse_only:
+        for case in cases:
+            for rtol in rtols:
+                for f in factors:
+                    out = run_path(args.l0, case, f, rtol, args.relative_to, args.max_iterations)
+                    overrides = case_overrides("elastic", case, spacing) + light_overrides(
+                        f, rtol, args.relative_to, args.max_iterations
+                    )
+                    tag = f"[light {case.label()} mf {f:g} rtol {rtol:g}]"
+                    case_runner.ensure_case(
+                        SCENARIOS["elastic"], out, overrides, args.threads, args.retry_failed, tag
+                    )
+    return report()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
