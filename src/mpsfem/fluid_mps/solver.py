@@ -819,14 +819,11 @@ class FluidSolver:
         """The next step (s) on the way to ``t_end``: the stable dt, except that the last one or
         two steps split the remainder equally (never a tiny last step: the pressure equation's
         source term scales with 1/dt^2)."""
-        remaining = t_end - self.t
-        n_left = math.ceil(remaining / self.dt_next * (1.0 - 1e-12))
-        return remaining / n_left if n_left <= 2 else self.dt_next
+        return time_integration.step_towards(self.t, t_end, self.dt_next)
 
     def substeps(self, window: float) -> tuple[int, float]:
         """Split ``window`` (s) into n equal steps no longer than the stable dt."""
-        n = max(1, math.ceil(window / self.dt_next * (1.0 - 1e-12)))
-        return n, window / n
+        return time_integration.split_window(window, self.dt_next)
 
     # ------------------------------------------------------------------ state for checkpoints
     def state(self) -> dict[str, np.ndarray]:

@@ -7,6 +7,8 @@ Only fluid particles move here; walls follow their prescribed motion.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit, prange
 
@@ -93,3 +95,18 @@ def first_bad_particle(pos, vel, p, kind, lo, hi):
             if pos[i, a] < lo[a] or pos[i, a] > hi[a]:
                 return i, 3
     return -1, 0
+
+
+def step_towards(t: float, t_end: float, dt_next: float) -> float:
+    """The next step (s) from ``t`` towards ``t_end`` for a solver whose stable step is
+    ``dt_next``: that step, except that the last one or two split the remainder equally (never
+    a tiny last step; both fluid solvers)."""
+    remaining = t_end - t
+    n_left = math.ceil(remaining / dt_next * (1.0 - 1e-12))
+    return remaining / n_left if n_left <= 2 else dt_next
+
+
+def split_window(window: float, dt_next: float) -> tuple[int, float]:
+    """``window`` (s) split into n equal steps no longer than ``dt_next`` (s): (n, step)."""
+    n = max(1, math.ceil(window / dt_next * (1.0 - 1e-12)))
+    return n, window / n

@@ -15,14 +15,13 @@ Every law is shifted so that s(0) = 0: the wall starts where the scenario puts i
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 
 from mpsfem.fluid_mps.wavemaker import RegularPaddle, SolitaryPaddle
 from mpsfem.scenario.fluid import WallMotion
-from mpsfem.scenario.motion import read_motion_table
+from mpsfem.scenario.motion import harmonic_motion, read_motion_table, table_motion
 
 
 class MotionLaw:
@@ -91,16 +90,10 @@ class MotionLaw:
             x, v = self.paddle(t)
             return x - self._s0, v
         if self.kind == "harmonic":
-            w = 2.0 * math.pi / s.period
-            return (
-                s.amplitude * math.sin(w * t + s.phase) - self._s0,
-                s.amplitude * w * math.cos(w * t + s.phase),
-            )
+            x, v = harmonic_motion(s.amplitude, s.period, s.phase, t)
+            return x - self._s0, v
         if self.kind == "table":
-            x = float(np.interp(t, self.t_table, self.s_table))
-            # the segment holding t - eps: at a knot, the one ending there
-            k = int(np.searchsorted(self.t_table, t - self._knot_eps, side="right")) - 1
-            v = float(self.v_table[k]) if 0 <= k < self.v_table.size else 0.0
+            x, v = table_motion(self.t_table, self.s_table, self.v_table, self._knot_eps, t)
             return x - self._s0, v
         return 0.0, 0.0
 

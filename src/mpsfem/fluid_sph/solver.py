@@ -25,7 +25,7 @@ from mpsfem.fluid_mps.geometry import ParticleSet, build_particles, default_dumm
 from mpsfem.fluid_mps.geometry import hydrostatic_pressure as hydrostatic_column_pressure
 from mpsfem.fluid_mps.neighbours import NeighbourSearch, build_neighbours
 from mpsfem.fluid_mps.sponge import SpongeLayer
-from mpsfem.fluid_mps.time_integration import first_bad_particle
+from mpsfem.fluid_mps.time_integration import first_bad_particle, split_window, step_towards
 from mpsfem.fluid_mps.wall_motion import MotionLaw, place_moving_walls
 from mpsfem.fluid_sph import delta_sph, time_stepping
 from mpsfem.fluid_sph.candidate_pairs import CandidatePairs
@@ -543,14 +543,11 @@ class DeltaSPHSolver:
 
     def dt_towards(self, t_end: float) -> float:
         """The next step (s) on the way to ``t_end``; the last one or two split the rest."""
-        remaining = t_end - self.t
-        n_left = math.ceil(remaining / self.dt_next * (1.0 - 1e-12))
-        return remaining / n_left if n_left <= 2 else self.dt_next
+        return step_towards(self.t, t_end, self.dt_next)
 
     def substeps(self, window: float) -> tuple[int, float]:
         """Split ``window`` (s) into n equal steps no longer than the stable dt."""
-        n = max(1, math.ceil(window / self.dt_next * (1.0 - 1e-12)))
-        return n, window / n
+        return split_window(window, self.dt_next)
 
     # ------------------------------------------------------------------ state
     def state(self) -> dict[str, np.ndarray]:

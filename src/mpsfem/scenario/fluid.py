@@ -10,6 +10,7 @@ from pydantic import Field, field_validator, model_validator
 from mpsfem.fluid_methods import FLUID_METHODS, METHOD_TABLES
 from mpsfem.scenario.base import COORDINATE_LIMIT, InvalidValue, Point, Section
 from mpsfem.scenario.fluid_sph import DeltaSPHSection
+from mpsfem.scenario.motion import unit_direction
 
 Vector = list[float]
 
@@ -379,15 +380,7 @@ class WallMotion(Section):
     @field_validator("direction")
     @classmethod
     def _unit_direction(cls, v: Vector | None) -> Vector | None:
-        """Normalised without overflow (scaled by its largest entry first): [1e200, 0] is +x."""
-        if v is None:
-            return v
-        big = max((abs(x) for x in v), default=0.0)
-        if big == 0.0:
-            raise ValueError("must not be the zero vector (the motion needs a direction)")
-        scaled = [x / big for x in v]
-        norm = math.sqrt(sum(x * x for x in scaled))
-        return [x / norm for x in scaled]
+        return unit_direction(v)
 
     @model_validator(mode="after")
     def _check(self) -> WallMotion:

@@ -28,7 +28,14 @@ from pydantic import Field, field_validator, model_validator
 
 from .base import COORDINATE_LIMIT, InvalidValue, Section
 
-__all__ = ["MemberMotion", "RigidTranslation", "MOTION_KEYS"]
+__all__ = [
+    "MemberMotion",
+    "RigidTranslation",
+    "MOTION_KEYS",
+    "unit_direction",
+    "harmonic_motion",
+    "table_motion",
+]
 
 #: the keys each moving kind uses (besides ``kind`` and ``direction``)
 MOTION_KEYS: dict[str, set[str]] = {
@@ -42,6 +49,37 @@ MOTION_KEYS: dict[str, set[str]] = {
 MIN_PERIOD = 1e-6
 #: largest speed of a prescribed motion, m/s (the fluid's velocity bound, scenario/fluid.py)
 MAX_MOTION_SPEED = 1e3
+
+
+def unit_direction(v: list[float] | None) -> list[float] | None:
+    """``v`` normalised without overflow (scaled by its largest entry first: [1e200, 0] is +x);
+    raises ValueError for the zero vector. Shared by the walls' and the members' motions."""
+    if v is None:
+        return v
+    big = max((abs(x) for x in v), default=0.0)
+    if big == 0.0:
+        raise ValueError("must not be the zero vector (the motion needs a direction)")
+    scaled = [x / big for x in v]
+    norm = math.sqrt(sum(x * x for x in scaled))
+    return [x / norm for x in scaled]
+
+
+def harmonic_motion(amplitude: float, period: float, phase: float, t: float) -> tuple[float, float]:
+    """(s m, ds/dt m/s) of s = amplitude sin(2 pi t / period + phase) at time t (s)."""
+    w = 2.0 * math.pi / period
+    return amplitude * math.sin(w * t + phase), amplitude * w * math.cos(w * t + phase)
+
+
+def table_motion(
+    t_table: np.ndarray, s_table: np.ndarray, v_table: np.ndarray, knot_eps: float, t: float
+) -> tuple[float, float]:
+    """(s m, ds/dt m/s) of a motion table at time t (s): s interpolated linearly, the velocity
+    the slope of the segment holding t - knot_eps (at a knot, the segment ending there), 0
+    before the first row and from the last on."""
+    x = float(np.interp(t, t_table, s_table))
+    k = int(np.searchsorted(t_table, t - knot_eps, side="right")) - 1
+    v = float(v_table[k]) if 0 <= k < v_table.size else 0.0
+    return x, v
 
 
 class MemberMotion(Section):
@@ -88,15 +126,7 @@ class MemberMotion(Section):
     @field_validator("direction")
     @classmethod
     def _unit_direction(cls, v: list[float] | None) -> list[float] | None:
-        """Normalised without overflow (scaled by its largest entry first)."""
-        if v is None:
-            return v
-        big = max((abs(x) for x in v), default=0.0)
-        if big == 0.0:
-            raise ValueError("must not be the zero vector (the motion needs a direction)")
-        scaled = [x / big for x in v]
-        norm = math.sqrt(sum(x * x for x in scaled))
-        return [x / norm for x in scaled]
+        return unit_direction(v)
 
     @model_validator(mode="after")
     def _check(self) -> MemberMotion:
@@ -208,15 +238,10 @@ class RigidTranslation:
         if self.kind == "constant_velocity":
             return s.velocity * t, s.velocity
         if self.kind == "harmonic":
-            w = 2.0 * math.pi / s.period
-            return (
-                s.amplitude * math.sin(w * t + s.phase) - self._s0,
-                s.amplitude * w * math.cos(w * t + s.phase),
-            )
+            x, v = harmonic_motion(s.amplitude, s.period, s.phase, t)
+            return x - self._s0, v
         if self.kind == "table":
-            x = float(np.interp(t, self.t_table, self.s_table))
-            k = int(np.searchsorted(self.t_table, t - self._knot_eps, side="right")) - 1
-            v = float(self.v_table[k]) if 0 <= k < self.v_table.size else 0.0
+            x, v = table_motion(self.t_table, self.s_table, self.v_table, self._knot_eps, t)
             return x - self._s0, v
         return 0.0, 0.0
 
