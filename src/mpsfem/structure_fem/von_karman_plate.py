@@ -47,6 +47,7 @@ from skfem import (
 )
 from skfem.helpers import ddot, dot, sym_grad
 
+from .linsolve import SinglePrecisionJacobian
 from .plate import PlateModel, area_mass_form, plate_bending_form
 
 __all__ = ["VonKarmanPlateModel"]
@@ -212,6 +213,9 @@ class VonKarmanPlateModel(PlateModel):
     """Von Karman plate (BFS rectangles); dofs ``[w (BFS) | u, v (vector Q2)]``."""
 
     nonlinear = True
+    #: mark the time-step Jacobian for a single-precision factor (:mod:`.linsolve`); False
+    #: restores the double-precision factor (results differ at the Newton tolerance level)
+    single_precision_factor: bool = True
 
     @classmethod
     def create(cls, *, element: str, **kw) -> VonKarmanPlateModel:
@@ -320,18 +324,22 @@ class VonKarmanPlateModel(PlateModel):
         self._K_on_S, self._M_on_S = on_pattern(self.K), on_pattern(self.M)
         self._free_plan: tuple[np.ndarray, tuple] | None = None
 
-    def _reduction(self, free: np.ndarray) -> tuple:
-        """(indptr, indices, gather) of the pattern restricted to the `free` dofs: the reduced
-        matrix's data is the full data array at `gather` (computed once per `free`)."""
+    def _reduction(self, free: np.ndarray, layout: str = "csr") -> tuple:
+        """(indptr, indices, gather) of the pattern restricted to the `free` dofs, compressed by
+        rows (``layout = "csr"``) or columns (``"csc"``): the reduced matrix's data is the full
+        data array at `gather` (computed once per `free`)."""
         if self._free_plan is None or not np.array_equal(self._free_plan[0], free):
             indptr, indices = self._S
             n = self.n_dof
             ids = sp.csr_matrix((np.arange(1.0, len(indices) + 1.0), indices, indptr), shape=(n, n))
-            R = ids[free][:, free].tocsr()
-            R.sort_indices()
-            gather = np.rint(R.data).astype(np.int64) - 1
-            self._free_plan = (free.copy(), (R.indptr.copy(), R.indices.copy(), gather))
-        return self._free_plan[1]
+            R = ids[free][:, free]
+            plans = {}
+            for name, Rl in (("csr", R.tocsr()), ("csc", R.tocsc())):
+                Rl.sort_indices()
+                gather = np.rint(Rl.data).astype(np.int64) - 1
+                plans[name] = (Rl.indptr.copy(), Rl.indices.copy(), gather)
+            self._free_plan = (free.copy(), plans)
+        return self._free_plan[1][layout]
 
     def _tangent_data(self, q: np.ndarray, ck: float, cm: float) -> np.ndarray:
         """Data of ``ck K_t(q) + cm M`` on the fixed pattern (all dofs)."""
@@ -444,15 +452,19 @@ class VonKarmanPlateModel(PlateModel):
 
     def reduced_effective(
         self, q: np.ndarray, free: np.ndarray, ck: float, cm: float, cc: float
-    ) -> sp.csr_matrix:
+    ) -> sp.csr_matrix | SinglePrecisionJacobian:
         """``ck K_t(q) + cm M + cc C`` over the `free` dofs (sparse), C = a1 M + a2 K (the
-        linear K), refilled into the fixed pattern."""
-        indptr, indices, gather = self._reduction(free)
+        linear K), refilled into the fixed pattern: the Jacobian of a time step. With
+        :attr:`single_precision_factor` (default) it is a
+        :class:`.linsolve.SinglePrecisionJacobian` (CSC, same values), else CSR."""
+        single = self.single_precision_factor
+        indptr, indices, gather = self._reduction(free, "csc" if single else "csr")
         data = self._tangent_data(q, ck, cm + cc * self.rayleigh_a1)
         if cc * self.rayleigh_a2:
             data += (cc * self.rayleigh_a2) * self._K_on_S
         n = len(free)
-        return sp.csr_matrix((data[gather], indices, indptr), shape=(n, n))
+        kind = SinglePrecisionJacobian if single else sp.csr_matrix
+        return kind((data[gather], indices, indptr), shape=(n, n))
 
     def strain_energy(self, q: np.ndarray) -> float:
         """Bending plus membrane strain energy (J)."""
