@@ -166,8 +166,8 @@ class SinglePrecisionJacobian(sp.csc_matrix):
 
 class SinglePrecisionFactor:
     """SuperLU factor of ``A`` rounded to float32 (same ordering as :class:`Factor`, no
-    pivoting); :meth:`solve` takes and returns float64. Raises ``np.linalg.LinAlgError`` when
-    the solve of ``A x = b`` (b = cos(0, 1, 2, ...), deterministic) leaves a residual above
+    pivoting); :meth:`solve` takes and returns float64. Raises ``np.linalg.LinAlgError`` when a
+    pivot is not positive (not positive definite: the double-precision path pivots), when the solve of ``A x = b`` (b = cos(0, 1, 2, ...), deterministic) leaves a residual above
     `limit` x ||b||, or SuperLU finds a zero pivot. ``error``: that relative residual."""
 
     def __init__(self, A: sp.spmatrix, *, limit: float = SINGLE_PRECISION_ERROR) -> None:
@@ -183,6 +183,9 @@ class SinglePrecisionFactor:
             )
         except RuntimeError as exc:  # "Factor is exactly singular"
             raise np.linalg.LinAlgError(f"single-precision factor: {exc}") from exc
+        # positive definite only (no pivoting is stable there); the others take the pivoted LU
+        if not (self._lu.U.diagonal() > 0).all():
+            raise np.linalg.LinAlgError("single-precision factor: not positive definite")
         b = np.cos(np.arange(self.n, dtype=float))  # fixed, excites every dof
         with np.errstate(all="ignore"):
             err = float(np.linalg.norm(A @ self.solve(b) - b) / np.linalg.norm(b))
