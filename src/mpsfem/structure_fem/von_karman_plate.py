@@ -67,7 +67,7 @@ TABLE_RTOL = 1e-12
 
 
 def _shared_tables(es: np.ndarray, dx: np.ndarray, rtol: float = TABLE_RTOL) -> tuple:
-    """(es_t, dx_t, tid): the distinct membrane tables of the elements, es (el, qp, 3, i) and
+    """(es_t, dx_t, tid): the distinct membrane tables of the elements, es (el, ...) and
     dx (el, qp), and the table of each element (element e uses es_t[tid[e]], dx_t[tid[e]]).
     Elements whose tables round to the same multiples of `rtol` x (largest entry) share the
     first one's: a uniform mesh has one table (fewer bytes per force evaluation, 8.6 MB -> 11
@@ -109,55 +109,81 @@ def _vk_strain(qw, qm, gw, es, e, t, p):
     g0 = 0.0
     g1 = 0.0
     for i in range(qw.shape[0]):
-        g0 += qw[i] * gw[e, p, 0, i]
-        g1 += qw[i] * gw[e, p, 1, i]
+        g0 += qw[i] * gw[e, 0, i, p]
+        g1 += qw[i] * gw[e, 1, i, p]
     e00 = 0.5 * g0 * g0
     e01 = 0.5 * g0 * g1
     e11 = 0.5 * g1 * g1
     for i in range(qm.shape[0]):
-        e00 += qm[i] * es[t, p, 0, i]
-        e01 += qm[i] * es[t, p, 1, i]
-        e11 += qm[i] * es[t, p, 2, i]
+        e00 += qm[i] * es[t, 0, i, p]
+        e01 += qm[i] * es[t, 1, i, p]
+        e11 += qm[i] * es[t, 2, i, p]
     return g0, g1, e00, e01, e11
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath={"reassoc", "contract"})
 def _vk_forces(q, ew, em, gw, es, dx, tid, C, nu, f):
     """Add the nonlinear internal force (N) to f: int grad(dw) . N grad w on the w dofs,
     int N : eps(du) on (u, v), N = C [(1 - nu) eps + nu tr(eps) I] (T & W-K 1959, eq. 219).
-    gw: per element; es, dx: per membrane table, element e uses table tid[e]."""
+    gw (el, 2, i, qp): per element; es (table, 3, i, qp), dx (table, qp): element e uses table
+    tid[e]. The quadrature points are the inner loop (vectorised; sums reassociated: round-off
+    only, IEEE NaN / inf semantics kept)."""
     nw = ew.shape[0]
     nm = em.shape[0]
+    nq = gw.shape[3]
     qw = np.empty(nw)
     qm = np.empty(nm)
-    fw = np.empty(nw)
-    fm = np.empty(nm)
+    g0 = np.empty(nq)
+    g1 = np.empty(nq)
+    e00 = np.empty(nq)
+    e01 = np.empty(nq)
+    e11 = np.empty(nq)
     for e in range(gw.shape[0]):
         t = tid[e]
         for i in range(nw):
             qw[i] = q[ew[i, e]]
         for i in range(nm):
             qm[i] = q[em[i, e]]
-        fw[:] = 0.0
-        fm[:] = 0.0
-        for p in range(gw.shape[1]):
-            g0, g1, e00, e01, e11 = _vk_strain(qw, qm, gw, es, e, t, p)
-            tr = nu * (e00 + e11)
-            w = dx[t, p]
-            n00 = w * C * ((1.0 - nu) * e00 + tr)
-            n01 = w * C * (1.0 - nu) * e01
-            n11 = w * C * ((1.0 - nu) * e11 + tr)
-            a0 = n00 * g0 + n01 * g1
-            a1 = n01 * g0 + n11 * g1
-            for i in range(nw):
-                fw[i] += a0 * gw[e, p, 0, i] + a1 * gw[e, p, 1, i]
-            n01 *= 2.0
-            for i in range(nm):
-                fm[i] += n00 * es[t, p, 0, i] + n01 * es[t, p, 1, i] + n11 * es[t, p, 2, i]
-        for i in range(nw):
-            f[ew[i, e]] += fw[i]
+        g0[:] = 0.0
+        g1[:] = 0.0
+        for i in range(nw):  # grad w at the quadrature points
+            c = qw[i]
+            for p in range(nq):
+                g0[p] += c * gw[e, 0, i, p]
+                g1[p] += c * gw[e, 1, i, p]
+        for p in range(nq):  # eps = sym grad (u, v) + 1/2 grad w (x) grad w (T & W-K eq. 220)
+            e00[p] = 0.5 * g0[p] * g0[p]
+            e01[p] = 0.5 * g0[p] * g1[p]
+            e11[p] = 0.5 * g1[p] * g1[p]
         for i in range(nm):
-            f[em[i, e]] += fm[i]
+            c = qm[i]
+            for p in range(nq):
+                e00[p] += c * es[t, 0, i, p]
+                e01[p] += c * es[t, 1, i, p]
+                e11[p] += c * es[t, 2, i, p]
+        for p in range(nq):  # weighted N, then N grad w (in g) and N with 2 N12 (in e)
+            tr = nu * (e00[p] + e11[p])
+            w = dx[t, p]
+            n00 = w * C * ((1.0 - nu) * e00[p] + tr)
+            n01 = w * C * (1.0 - nu) * e01[p]
+            n11 = w * C * ((1.0 - nu) * e11[p] + tr)
+            a0 = n00 * g0[p] + n01 * g1[p]
+            a1 = n01 * g0[p] + n11 * g1[p]
+            g0[p] = a0
+            g1[p] = a1
+            e00[p] = n00
+            e01[p] = 2.0 * n01
+            e11[p] = n11
+        for i in range(nw):
+            s = 0.0
+            for p in range(nq):
+                s += g0[p] * gw[e, 0, i, p] + g1[p] * gw[e, 1, i, p]
+            f[ew[i, e]] += s
+        for i in range(nm):
+            s = 0.0
+            for p in range(nq):
+                s += e00[p] * es[t, 0, i, p] + e01[p] * es[t, 1, i, p] + e11[p] * es[t, 2, i, p]
+            f[em[i, e]] += s
 
 
 @njit(cache=True)
@@ -181,7 +207,7 @@ def _vk_tangent(q, ew, em, gw, es, dx, tid, C, nu, ck, slot_ww, slot_mw, slot_wm
             qm[i] = q[em[i, e]]
         kww[:] = 0.0
         kmw[:] = 0.0
-        for p in range(gw.shape[1]):
+        for p in range(gw.shape[3]):
             g0, g1, e00, e01, e11 = _vk_strain(qw, qm, gw, es, e, t, p)
             tr = nu * (e00 + e11)
             w = ck * dx[t, p]
@@ -190,21 +216,21 @@ def _vk_tangent(q, ew, em, gw, es, dx, tid, C, nu, ck, slot_ww, slot_mw, slot_wm
             q01 = w * (C * (1.0 - nu) * e01 + 0.5 * C * (1.0 + nu) * g0 * g1)
             q11 = w * (C * ((1.0 - nu) * e11 + tr) + 0.5 * C * (1.0 + nu) * g1 * g1 + gg)
             for j in range(nw):
-                b0 = q00 * gw[e, p, 0, j] + q01 * gw[e, p, 1, j]
-                b1 = q01 * gw[e, p, 0, j] + q11 * gw[e, p, 1, j]
+                b0 = q00 * gw[e, 0, j, p] + q01 * gw[e, 1, j, p]
+                b1 = q01 * gw[e, 0, j, p] + q11 * gw[e, 1, j, p]
                 for i in range(nw):
-                    kww[i, j] += gw[e, p, 0, i] * b0 + gw[e, p, 1, i] * b1
+                    kww[i, j] += gw[e, 0, i, p] * b0 + gw[e, 1, i, p] * b1
             for i in range(nm):
-                d = nu * (es[t, p, 0, i] + es[t, p, 2, i])
+                d = nu * (es[t, 0, i, p] + es[t, 2, i, p])
                 ag[i, 0] = (
-                    w * C * ((1.0 - nu) * (es[t, p, 0, i] * g0 + es[t, p, 1, i] * g1) + d * g0)
+                    w * C * ((1.0 - nu) * (es[t, 0, i, p] * g0 + es[t, 1, i, p] * g1) + d * g0)
                 )
                 ag[i, 1] = (
-                    w * C * ((1.0 - nu) * (es[t, p, 1, i] * g0 + es[t, p, 2, i] * g1) + d * g1)
+                    w * C * ((1.0 - nu) * (es[t, 1, i, p] * g0 + es[t, 2, i, p] * g1) + d * g1)
                 )
             for i in range(nm):
                 for j in range(nw):
-                    kmw[i, j] += ag[i, 0] * gw[e, p, 0, j] + ag[i, 1] * gw[e, p, 1, j]
+                    kmw[i, j] += ag[i, 0] * gw[e, 0, j, p] + ag[i, 1] * gw[e, 1, j, p]
         for i in range(nw):
             for j in range(nw):
                 data[slot_ww[e, i, j]] += kww[i, j]
@@ -285,10 +311,10 @@ class VonKarmanPlateModel(PlateModel):
         """Element-major basis gradients for the numba kernels, and the fixed sparsity pattern
         of ``K + M + K_nl`` (all dofs) with each element entry's slot in its data array."""
         Gw, Em = self._Gw, self._Em
-        self._gw = np.ascontiguousarray(Gw.transpose(2, 3, 1, 0))  # (el, qp, 2, i)
+        self._gw = np.ascontiguousarray(Gw.transpose(2, 1, 0, 3))  # (el, 2, i, qp)
         es = np.stack([Em[:, 0, 0], Em[:, 0, 1], Em[:, 1, 1]], axis=-1)  # (i, el, qp, 3)
         self._es, self._dxc, self._tid = _shared_tables(
-            np.ascontiguousarray(es.transpose(1, 2, 3, 0)),  # (el, qp, 3, i)
+            np.ascontiguousarray(es.transpose(1, 3, 0, 2)),  # (el, 3, i, qp)
             np.ascontiguousarray(self._dx),
         )
         self._force_memo: tuple[np.ndarray, np.ndarray] | None = None
