@@ -22,7 +22,8 @@ into a sparsity pattern fixed at build time: each element entry knows its slot i
 of ``K + M + K_nl`` over all dofs, and the free-dof matrix is a fixed gather of that array, so a
 Jacobian costs one kernel call and two array operations instead of a COO assembly and slicing.
 The einsum path (:meth:`VonKarmanPlateModel._fields`) stays for the strain energy and as the
-check of the kernels. Per Newton iteration (issue 21): congruent elements share one membrane
+check of the kernels. Per Newton iteration (issue 21): the force kernel runs the quadrature
+points innermost (vectorised), congruent elements share one membrane
 table (:func:`_shared_tables`; the kernel then reads the BFS gradients alone, 5 of the 14 MB it
 read, and keeps the cache for the solve), the internal force is memoised at its last q (a step
 starts at the displacement where the previous step's last residual evaluated it), and the
@@ -103,21 +104,21 @@ def _membrane_energy(w):
 
 
 @njit(cache=True)
-def _vk_strain(qw, qm, gw, es, e, t, p):
-    """(grad w, membrane strain [e11, e12, e22]) at quadrature point p of element e (membrane
-    table t) from the element's local dofs qw (w), qm (u, v)."""
+def _vk_strain(qw, qm, gl, el, p):
+    """(grad w, membrane strain [e11, e12, e22]) at quadrature point p of an element from its
+    local dofs qw (w), qm (u, v) and its tables gl (qp, 2, i), el (qp, 3, i)."""
     g0 = 0.0
     g1 = 0.0
     for i in range(qw.shape[0]):
-        g0 += qw[i] * gw[e, 0, i, p]
-        g1 += qw[i] * gw[e, 1, i, p]
+        g0 += qw[i] * gl[p, 0, i]
+        g1 += qw[i] * gl[p, 1, i]
     e00 = 0.5 * g0 * g0
     e01 = 0.5 * g0 * g1
     e11 = 0.5 * g1 * g1
     for i in range(qm.shape[0]):
-        e00 += qm[i] * es[t, 0, i, p]
-        e01 += qm[i] * es[t, 1, i, p]
-        e11 += qm[i] * es[t, 2, i, p]
+        e00 += qm[i] * el[p, 0, i]
+        e01 += qm[i] * el[p, 1, i]
+        e11 += qm[i] * el[p, 2, i]
     return g0, g1, e00, e01, e11
 
 
@@ -199,16 +200,30 @@ def _vk_tangent(q, ew, em, gw, es, dx, tid, C, nu, ck, slot_ww, slot_mw, slot_wm
     ag = np.empty((nm, 2))
     qw = np.empty(nw)
     qm = np.empty(nm)
+    nq = gw.shape[3]
+    gl = np.empty((nq, 2, nw))  # the element's tables, point-major (unit stride below)
+    el = np.empty((nq, 3, nm))
+    t_el = -1
     for e in range(gw.shape[0]):
         t = tid[e]
+        for c in range(2):
+            for i in range(nw):
+                for p in range(nq):
+                    gl[p, c, i] = gw[e, c, i, p]
+        if t != t_el:
+            for c in range(3):
+                for i in range(nm):
+                    for p in range(nq):
+                        el[p, c, i] = es[t, c, i, p]
+            t_el = t
         for i in range(nw):
             qw[i] = q[ew[i, e]]
         for i in range(nm):
             qm[i] = q[em[i, e]]
         kww[:] = 0.0
         kmw[:] = 0.0
-        for p in range(gw.shape[3]):
-            g0, g1, e00, e01, e11 = _vk_strain(qw, qm, gw, es, e, t, p)
+        for p in range(nq):
+            g0, g1, e00, e01, e11 = _vk_strain(qw, qm, gl, el, p)
             tr = nu * (e00 + e11)
             w = ck * dx[t, p]
             gg = 0.5 * C * (1.0 - nu) * (g0 * g0 + g1 * g1)
@@ -216,21 +231,17 @@ def _vk_tangent(q, ew, em, gw, es, dx, tid, C, nu, ck, slot_ww, slot_mw, slot_wm
             q01 = w * (C * (1.0 - nu) * e01 + 0.5 * C * (1.0 + nu) * g0 * g1)
             q11 = w * (C * ((1.0 - nu) * e11 + tr) + 0.5 * C * (1.0 + nu) * g1 * g1 + gg)
             for j in range(nw):
-                b0 = q00 * gw[e, 0, j, p] + q01 * gw[e, 1, j, p]
-                b1 = q01 * gw[e, 0, j, p] + q11 * gw[e, 1, j, p]
+                b0 = q00 * gl[p, 0, j] + q01 * gl[p, 1, j]
+                b1 = q01 * gl[p, 0, j] + q11 * gl[p, 1, j]
                 for i in range(nw):
-                    kww[i, j] += gw[e, 0, i, p] * b0 + gw[e, 1, i, p] * b1
+                    kww[i, j] += gl[p, 0, i] * b0 + gl[p, 1, i] * b1
             for i in range(nm):
-                d = nu * (es[t, 0, i, p] + es[t, 2, i, p])
-                ag[i, 0] = (
-                    w * C * ((1.0 - nu) * (es[t, 0, i, p] * g0 + es[t, 1, i, p] * g1) + d * g0)
-                )
-                ag[i, 1] = (
-                    w * C * ((1.0 - nu) * (es[t, 1, i, p] * g0 + es[t, 2, i, p] * g1) + d * g1)
-                )
+                d = nu * (el[p, 0, i] + el[p, 2, i])
+                ag[i, 0] = w * C * ((1.0 - nu) * (el[p, 0, i] * g0 + el[p, 1, i] * g1) + d * g0)
+                ag[i, 1] = w * C * ((1.0 - nu) * (el[p, 1, i] * g0 + el[p, 2, i] * g1) + d * g1)
             for i in range(nm):
                 for j in range(nw):
-                    kmw[i, j] += ag[i, 0] * gw[e, 0, j, p] + ag[i, 1] * gw[e, 1, j, p]
+                    kmw[i, j] += ag[i, 0] * gl[p, 0, j] + ag[i, 1] * gl[p, 1, j]
         for i in range(nw):
             for j in range(nw):
                 data[slot_ww[e, i, j]] += kww[i, j]
