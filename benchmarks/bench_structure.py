@@ -18,13 +18,17 @@ and the Newton iterations and Jacobian factorisations per step are reported.
 
 Von Karman plate (issue 21): the 800-element plate with ``kinematics = "von_karman"``
 (``vk_plate_800``; 9126 free dofs against the linear plate's 2964: the in-plane Q2 field) under
-the same small random forces, at most ``--vk-steps`` steps per repeat. Target: a step at most 5x
-the linear plate's step measured in the same run. Besides the step, the columns give the cost per
-Newton iteration (step / iterations), and the parts of one iteration: the internal force
-(``force_ms``), one triangular solve with the kept factor (``solve_ms``), and forming the Newton
-Jacobian (``factorisation_ms`` is forming + factorising, ``jacobian_ms`` the forming alone).
+the same small random forces, at most ``--vk-steps`` steps per repeat; ``vk_plate_800_f64`` is
+the same with the double-precision Newton factor (``single_precision_factor = False``, the path
+before the single-precision one). Target: a step at most 5x the linear plate's step measured in
+the same run. Besides the step, the columns give the cost per Newton iteration (step /
+iterations), and the parts of one iteration: the internal force (``force_ms``, the kernel
+evaluated afresh), one triangular solve with the kept factor (``solve_ms``), forming the Newton
+Jacobian (``jacobian_ms``) and forming + factorising it (``factorisation_ms``); ``other_ms`` is
+what the step costs beyond iterations x (force + solve) + factorisations x factorisation_ms.
 
-Prints a table and writes benchmarks/results/structure.csv (median of the repeats).
+Prints a table and writes benchmarks/results/structure.csv (median of the repeats), with the
+clock used and the 1-minute load average at the start and the end of the run.
 """
 
 from __future__ import annotations
@@ -40,6 +44,9 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
+
+#: the timer: wall clock, or this process's CPU time (``--clock cpu``, for a loaded machine)
+clock = time.perf_counter
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
@@ -66,9 +73,9 @@ def section_of(name: str, **member) -> StructureSection:
 
 def bench_case(label: str, scenario: str, target_ms: float, steps: int, repeats: int) -> dict:
     sec = section_of(scenario)
-    t0 = time.perf_counter()
+    t0 = clock()
     part = StructureParticipant(sec)
-    build = time.perf_counter() - t0
+    build = clock() - t0
     dt = sec.time.dt
     n_pts = part.interface().n_points
     rng = np.random.default_rng(0)
@@ -76,27 +83,27 @@ def bench_case(label: str, scenario: str, target_ms: float, steps: int, repeats:
     # factorisation of K_eff (a fresh dt forces one)
     fac = []
     for k in range(repeats):
-        t0 = time.perf_counter()
+        t0 = clock()
         part.integrator.factor(dt * (1.0 + 1e-6 * (k + 1)))
-        fac.append(time.perf_counter() - t0)
+        fac.append(clock() - t0)
     part.integrator.factor(dt)
     # participant step: write + advance
     per_step = []
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        t0 = clock()
         for _ in range(steps):
             part.write("forces", forces)
             part.advance(dt)
-        per_step.append((time.perf_counter() - t0) / steps)
+        per_step.append((clock() - t0) / steps)
     # bare Newmark step
     nm = part.integrator
     F = nm.M @ np.ones(nm.n) * 1e-6
     bare = []
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        t0 = clock()
         for _ in range(steps):
             nm.step(dt, F)
-        bare.append((time.perf_counter() - t0) / steps)
+        bare.append((clock() - t0) / steps)
     step_ms = statistics.median(per_step) * 1e3
     return {
         "case": label,
@@ -123,9 +130,9 @@ def bench_corotational(
     if large:
         member["bc"] = ["clamped", "free"]
     sec = section_of(scenario, **member)
-    t0 = time.perf_counter()
+    t0 = clock()
     part = StructureParticipant(sec)
-    build = time.perf_counter() - t0
+    build = clock() - t0
     dt = sec.time.dt
     n_pts = part.interface().n_points
     nm = part.integrator
@@ -156,30 +163,30 @@ def bench_corotational(
     fac = []
     u = nm.state.u
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        t0 = clock()
         nm.tangent.form(
             lambda x: part.system.effective_tangent(x, 1.0, 1.0 / (0.25 * dt * dt), 0.0), u, -1.0
         )
-        fac.append(time.perf_counter() - t0)
+        fac.append(clock() - t0)
     it0, f0 = nm.iterations, nm.factorizations
     per_step = []
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        t0 = clock()
         for _ in range(steps):
             k += 1
             part.write("forces", forces(k))
             part.advance(dt)
-        per_step.append((time.perf_counter() - t0) / steps)
+        per_step.append((clock() - t0) / steps)
     iters = (nm.iterations - it0) / (steps * repeats)
     facs = (nm.factorizations - f0) / (steps * repeats)
     rot = float(np.abs(part.read("rotation")).max())
     F = np.zeros(nm.n)
     bare = []
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        t0 = clock()
         for _ in range(steps):
             nm.step(dt, F)
-        bare.append((time.perf_counter() - t0) / steps)
+        bare.append((clock() - t0) / steps)
     step_ms = statistics.median(per_step) * 1e3
     return {
         "case": label,
@@ -203,23 +210,26 @@ def bench_corotational(
 def _median_ms(fn, n: int, repeats: int) -> float:
     times = []
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        t0 = clock()
         for _ in range(n):
             fn()
-        times.append((time.perf_counter() - t0) / n)
+        times.append((clock() - t0) / n)
     return statistics.median(times) * 1e3
 
 
-def bench_von_karman(linear_step_ms: float, steps: int, repeats: int) -> dict:
+def bench_von_karman(
+    linear_step_ms: float, steps: int, repeats: int, *, single: bool = True
+) -> dict:
     scenario = "structure_bottom_slamming_3d.toml"
     sec = section_of(scenario, kinematics="von_karman")
-    t0 = time.perf_counter()
+    t0 = clock()
     part = StructureParticipant(sec)
-    build = time.perf_counter() - t0
+    build = clock() - t0
     dt = sec.time.dt
     n_pts = part.interface().n_points
     nm = part.integrator
     m = part.system.models[0]
+    m.single_precision_factor = single
     free = part.system.frees[0]
     rng = np.random.default_rng(0)
     forces = 1e-3 * rng.standard_normal((n_pts, part.dim))
@@ -236,29 +246,30 @@ def bench_von_karman(linear_step_ms: float, steps: int, repeats: int) -> dict:
         1,
         repeats,
     )
-    force = _median_ms(lambda: m.internal_force(q), 20, repeats)
+    force = _median_ms(lambda: m.compute_internal_force(q), 20, repeats)
     nm.tangent.form(lambda x: part.system.effective_tangent(x, 1.0, c0, 0.0), nm.state.u, dt)
     b = rng.standard_normal(part.system.n)
     solve = _median_ms(lambda: nm.tangent.factor.solve(b), 20, repeats)
+    factor_kind = type(nm.tangent.factor).__name__
     it0, f0 = nm.iterations, nm.tangent.count
     per_step = []
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        t0 = clock()
         for _ in range(steps):
             part.write("forces", forces)
             part.advance(dt)
-        per_step.append((time.perf_counter() - t0) / steps)
+        per_step.append((clock() - t0) / steps)
     iters = (nm.iterations - it0) / (steps * repeats)
     facs = (nm.tangent.count - f0) / (steps * repeats)
     step_ms = statistics.median(per_step) * 1e3
     target = 5.0 * linear_step_ms
     return {
-        "case": "vk_plate_800",
+        "case": "vk_plate_800" if single else "vk_plate_800_f64",
         "scenario": scenario,
         "elements": 800,
         "dofs_free": part.system.n,
         "interface_points": n_pts,
-        "solver": "SuperLU (modified Newton)",
+        "solver": f"SuperLU {'float32' if single else 'float64'} (modified Newton)",
         "build_s": round(build, 4),
         "factorisation_ms": round(fac, 3),
         "step_ms": round(step_ms, 4),
@@ -272,6 +283,8 @@ def bench_von_karman(linear_step_ms: float, steps: int, repeats: int) -> dict:
         "force_ms": round(force, 4),
         "solve_ms": round(solve, 4),
         "jacobian_ms": round(jac, 3),
+        "other_ms": round(step_ms - iters * (force + solve) - facs * fac, 4),
+        "factor": factor_kind,
     }
 
 
@@ -281,24 +294,35 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--vk-steps", type=int, default=100, help="steps per repeat, vK plate")
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "structure.csv")
+    ap.add_argument(
+        "--clock", choices=("wall", "cpu"), default="wall", help="cpu: process CPU time"
+    )
     args = ap.parse_args(argv)
+    global clock
+    clock = time.process_time if args.clock == "cpu" else time.perf_counter
+    load0 = os.getloadavg()[0]
     rows = [bench_case(*c, steps=args.steps, repeats=args.repeats) for c in CASES]
     rows += [bench_corotational(*c, steps=args.steps, repeats=args.repeats) for c in COROT_CASES]
     linear_plate = next(r for r in rows if r["case"] == "plate_800")
-    rows.append(
-        bench_von_karman(linear_plate["step_ms"], min(args.steps, args.vk_steps), args.repeats)
-    )
+    vk_steps = min(args.steps, args.vk_steps)
+    rows.append(bench_von_karman(linear_plate["step_ms"], vk_steps, args.repeats))
+    rows.append(bench_von_karman(linear_plate["step_ms"], vk_steps, args.repeats, single=False))
+    load1 = os.getloadavg()[0]
     extra = ("newton_iterations_per_step", "factorisations_per_step", "max_rotation_rad",
-             "ms_per_newton_iteration", "force_ms", "solve_ms", "jacobian_ms")  # fmt: skip
+             "ms_per_newton_iteration", "force_ms", "solve_ms", "jacobian_ms", "other_ms",
+             "factor")  # fmt: skip
     for r in rows:
         for key in extra:
             r.setdefault(key, "")
+        r["clock"] = args.clock
+        r["load_1min"] = f"{load0:.2f} -> {load1:.2f}"
     host = f"{platform.node()} {platform.processor() or platform.machine()}, {os.cpu_count()} cpus"
-    print(f"structure solver, {host}, python {platform.python_version()}")
+    print(f"structure solver, {host}, python {platform.python_version()}, {args.clock} clock, "
+          f"load average (1 min) {load0:.2f} at the start, {load1:.2f} at the end")  # fmt: skip
     cols = ["case", "elements", "dofs_free", "solver", "build_s", "factorisation_ms", "step_ms",
             "newmark_step_ms", "target_ms", "meets_target", "newton_iterations_per_step",
             "factorisations_per_step", "max_rotation_rad", "ms_per_newton_iteration",
-            "force_ms", "solve_ms", "jacobian_ms"]  # fmt: skip
+            "force_ms", "solve_ms", "jacobian_ms", "other_ms"]  # fmt: skip
     widths = [max(len(c), *(len(str(r[c])) for r in rows)) for c in cols]
     print("  ".join(c.ljust(w) for c, w in zip(cols, widths, strict=True)))
     for r in rows:

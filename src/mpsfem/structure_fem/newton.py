@@ -31,7 +31,13 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as sla
 
-from .linsolve import BandedFactor, BandMatrix, factorize
+from .linsolve import (
+    BandedFactor,
+    BandMatrix,
+    SinglePrecisionFactor,
+    SinglePrecisionJacobian,
+    factorize,
+)
 
 __all__ = [
     "ROUNDOFF",
@@ -80,7 +86,14 @@ class _GeneralLU:
 
 def factorize_jacobian(A):
     """Cholesky when A is positive definite (banded LAPACK for a :class:`.linsolve.BandMatrix`,
-    else :func:`.linsolve.factorize`), LU with pivoting otherwise."""
+    else :func:`.linsolve.factorize`), LU with pivoting otherwise. A
+    :class:`.linsolve.SinglePrecisionJacobian` is first factorised in single precision
+    (:class:`.linsolve.SinglePrecisionFactor`), in double as above if that one is refused."""
+    if isinstance(A, SinglePrecisionJacobian):
+        try:
+            return SinglePrecisionFactor(A)
+        except np.linalg.LinAlgError:
+            A = sp.csc_matrix(A)  # unmarked: the double-precision factors below
     try:
         if isinstance(A, BandMatrix):
             return BandedFactor(A)

@@ -22,7 +22,13 @@ into a sparsity pattern fixed at build time: each element entry knows its slot i
 of ``K + M + K_nl`` over all dofs, and the free-dof matrix is a fixed gather of that array, so a
 Jacobian costs one kernel call and two array operations instead of a COO assembly and slicing.
 The einsum path (:meth:`VonKarmanPlateModel._fields`) stays for the strain energy and as the
-check of the kernels.
+check of the kernels. Per Newton iteration (issue 21): the force kernel runs the quadrature
+points innermost (vectorised), congruent elements share one membrane
+table (:func:`_shared_tables`; the kernel then reads the BFS gradients alone, 5 of the 14 MB it
+read, and keeps the cache for the solve), the internal force is memoised at its last q (a step
+starts at the displacement where the previous step's last residual evaluated it), and the
+time-step Jacobian is marked for a single-precision factor
+(:class:`.linsolve.SinglePrecisionJacobian`; :attr:`VonKarmanPlateModel.single_precision_factor`).
 
 Supports: a ``clamped`` or ``simply_supported`` edge also holds the in-plane displacements
 (u = v = 0, an immovable edge: stretching carries the load); a ``free`` edge holds nothing.
@@ -47,12 +53,35 @@ from skfem import (
 )
 from skfem.helpers import ddot, dot, sym_grad
 
+from .linsolve import SinglePrecisionJacobian
 from .plate import PlateModel, area_mass_form, plate_bending_form
 
 __all__ = ["VonKarmanPlateModel"]
 
 #: polynomial degree integrated exactly by the quadrature of both bases
 INTORDER = 8
+#: elements whose membrane tables (symmetric gradients of the Q2 functions and quadrature
+#: weights) agree to this fraction of the tables' largest entry share one table in the kernels
+#: (congruent elements differ at round-off, ~1e-14; the BFS gradients are kept per element:
+#: scikit-fem's BFS basis differs by up to 6e-6 between congruent elements)
+TABLE_RTOL = 1e-12
+
+
+def _shared_tables(es: np.ndarray, dx: np.ndarray, rtol: float = TABLE_RTOL) -> tuple:
+    """(es_t, dx_t, tid): the distinct membrane tables of the elements, es (el, ...) and
+    dx (el, qp), and the table of each element (element e uses es_t[tid[e]], dx_t[tid[e]]).
+    Elements whose tables round to the same multiples of `rtol` x (largest entry) share the
+    first one's: a uniform mesh has one table (fewer bytes per force evaluation, 8.6 MB -> 11
+    kB for 800 elements), so the kernels run from the cache."""
+    nel = es.shape[0]
+    scaled = [a.reshape(nel, -1) / max(float(np.abs(a).max()), 1e-300) for a in (es, dx)]
+    key = np.round(np.hstack(scaled) / rtol)
+    _, first, tid = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    return (
+        np.ascontiguousarray(es[first]),
+        np.ascontiguousarray(dx[first]),
+        np.ascontiguousarray(tid.ravel(), dtype=np.int64),
+    )
 
 
 @BilinearForm
@@ -75,67 +104,95 @@ def _membrane_energy(w):
 
 
 @njit(cache=True)
-def _vk_strain(qw, qm, gw, es, e, p):
-    """(grad w, membrane strain [e11, e12, e22]) at quadrature point p of element e from the
-    element's local dofs qw (w), qm (u, v)."""
+def _vk_strain(qw, qm, gl, el, p):
+    """(grad w, membrane strain [e11, e12, e22]) at quadrature point p of an element from its
+    local dofs qw (w), qm (u, v) and its tables gl (qp, 2, i), el (qp, 3, i)."""
     g0 = 0.0
     g1 = 0.0
     for i in range(qw.shape[0]):
-        g0 += qw[i] * gw[e, p, 0, i]
-        g1 += qw[i] * gw[e, p, 1, i]
+        g0 += qw[i] * gl[p, 0, i]
+        g1 += qw[i] * gl[p, 1, i]
     e00 = 0.5 * g0 * g0
     e01 = 0.5 * g0 * g1
     e11 = 0.5 * g1 * g1
     for i in range(qm.shape[0]):
-        e00 += qm[i] * es[e, p, 0, i]
-        e01 += qm[i] * es[e, p, 1, i]
-        e11 += qm[i] * es[e, p, 2, i]
+        e00 += qm[i] * el[p, 0, i]
+        e01 += qm[i] * el[p, 1, i]
+        e11 += qm[i] * el[p, 2, i]
     return g0, g1, e00, e01, e11
 
 
-@njit(cache=True)
-def _vk_forces(q, ew, em, gw, es, dx, C, nu, f):
+@njit(cache=True, fastmath={"reassoc", "contract"})
+def _vk_forces(q, ew, em, gw, es, dx, tid, C, nu, f):
     """Add the nonlinear internal force (N) to f: int grad(dw) . N grad w on the w dofs,
-    int N : eps(du) on (u, v), N = C [(1 - nu) eps + nu tr(eps) I] (T & W-K 1959, eq. 219)."""
+    int N : eps(du) on (u, v), N = C [(1 - nu) eps + nu tr(eps) I] (T & W-K 1959, eq. 219).
+    gw (el, 2, i, qp): per element; es (table, 3, i, qp), dx (table, qp): element e uses table
+    tid[e]. The quadrature points are the inner loop (vectorised; sums reassociated: round-off
+    only, IEEE NaN / inf semantics kept)."""
     nw = ew.shape[0]
     nm = em.shape[0]
+    nq = gw.shape[3]
     qw = np.empty(nw)
     qm = np.empty(nm)
-    fw = np.empty(nw)
-    fm = np.empty(nm)
-    for e in range(dx.shape[0]):
+    g0 = np.empty(nq)
+    g1 = np.empty(nq)
+    e00 = np.empty(nq)
+    e01 = np.empty(nq)
+    e11 = np.empty(nq)
+    for e in range(gw.shape[0]):
+        t = tid[e]
         for i in range(nw):
             qw[i] = q[ew[i, e]]
         for i in range(nm):
             qm[i] = q[em[i, e]]
-        fw[:] = 0.0
-        fm[:] = 0.0
-        for p in range(dx.shape[1]):
-            g0, g1, e00, e01, e11 = _vk_strain(qw, qm, gw, es, e, p)
-            tr = nu * (e00 + e11)
-            w = dx[e, p]
-            n00 = w * C * ((1.0 - nu) * e00 + tr)
-            n01 = w * C * (1.0 - nu) * e01
-            n11 = w * C * ((1.0 - nu) * e11 + tr)
-            a0 = n00 * g0 + n01 * g1
-            a1 = n01 * g0 + n11 * g1
-            for i in range(nw):
-                fw[i] += a0 * gw[e, p, 0, i] + a1 * gw[e, p, 1, i]
-            n01 *= 2.0
-            for i in range(nm):
-                fm[i] += n00 * es[e, p, 0, i] + n01 * es[e, p, 1, i] + n11 * es[e, p, 2, i]
-        for i in range(nw):
-            f[ew[i, e]] += fw[i]
+        g0[:] = 0.0
+        g1[:] = 0.0
+        for i in range(nw):  # grad w at the quadrature points
+            c = qw[i]
+            for p in range(nq):
+                g0[p] += c * gw[e, 0, i, p]
+                g1[p] += c * gw[e, 1, i, p]
+        for p in range(nq):  # eps = sym grad (u, v) + 1/2 grad w (x) grad w (T & W-K eq. 220)
+            e00[p] = 0.5 * g0[p] * g0[p]
+            e01[p] = 0.5 * g0[p] * g1[p]
+            e11[p] = 0.5 * g1[p] * g1[p]
         for i in range(nm):
-            f[em[i, e]] += fm[i]
+            c = qm[i]
+            for p in range(nq):
+                e00[p] += c * es[t, 0, i, p]
+                e01[p] += c * es[t, 1, i, p]
+                e11[p] += c * es[t, 2, i, p]
+        for p in range(nq):  # weighted N, then N grad w (in g) and N with 2 N12 (in e)
+            tr = nu * (e00[p] + e11[p])
+            w = dx[t, p]
+            n00 = w * C * ((1.0 - nu) * e00[p] + tr)
+            n01 = w * C * (1.0 - nu) * e01[p]
+            n11 = w * C * ((1.0 - nu) * e11[p] + tr)
+            a0 = n00 * g0[p] + n01 * g1[p]
+            a1 = n01 * g0[p] + n11 * g1[p]
+            g0[p] = a0
+            g1[p] = a1
+            e00[p] = n00
+            e01[p] = 2.0 * n01
+            e11[p] = n11
+        for i in range(nw):
+            s = 0.0
+            for p in range(nq):
+                s += g0[p] * gw[e, 0, i, p] + g1[p] * gw[e, 1, i, p]
+            f[ew[i, e]] += s
+        for i in range(nm):
+            s = 0.0
+            for p in range(nq):
+                s += e00[p] * es[t, 0, i, p] + e01[p] * es[t, 1, i, p] + e11[p] * es[t, 2, i, p]
+            f[em[i, e]] += s
 
 
 @njit(cache=True)
-def _vk_tangent(q, ew, em, gw, es, dx, C, nu, ck, slot_ww, slot_mw, slot_wm, data):
+def _vk_tangent(q, ew, em, gw, es, dx, tid, C, nu, ck, slot_ww, slot_mw, slot_wm, data):
     """Add ck x the nonlinear element tangents into data (the fixed pattern's slots): ww block
     int grad(v) . Q grad(u), Q = N + C (1 - nu) / 2 |g|^2 I + C (1 + nu) / 2 g (x) g, and the
     membrane-bending block int grad(d) . C [(1 - nu) eps(v) g + nu div(v) g] and its transpose
-    (derivation in :meth:`VonKarmanPlateModel.tangent_stiffness`)."""
+    (derivation in :meth:`VonKarmanPlateModel.tangent_stiffness`); tables as :func:`_vk_forces`."""
     nw = ew.shape[0]
     nm = em.shape[0]
     kww = np.empty((nw, nw))
@@ -143,37 +200,48 @@ def _vk_tangent(q, ew, em, gw, es, dx, C, nu, ck, slot_ww, slot_mw, slot_wm, dat
     ag = np.empty((nm, 2))
     qw = np.empty(nw)
     qm = np.empty(nm)
-    for e in range(dx.shape[0]):
+    nq = gw.shape[3]
+    gl = np.empty((nq, 2, nw))  # the element's tables, point-major (unit stride below)
+    el = np.empty((nq, 3, nm))
+    t_el = -1
+    for e in range(gw.shape[0]):
+        t = tid[e]
+        for c in range(2):
+            for i in range(nw):
+                for p in range(nq):
+                    gl[p, c, i] = gw[e, c, i, p]
+        if t != t_el:
+            for c in range(3):
+                for i in range(nm):
+                    for p in range(nq):
+                        el[p, c, i] = es[t, c, i, p]
+            t_el = t
         for i in range(nw):
             qw[i] = q[ew[i, e]]
         for i in range(nm):
             qm[i] = q[em[i, e]]
         kww[:] = 0.0
         kmw[:] = 0.0
-        for p in range(dx.shape[1]):
-            g0, g1, e00, e01, e11 = _vk_strain(qw, qm, gw, es, e, p)
+        for p in range(nq):
+            g0, g1, e00, e01, e11 = _vk_strain(qw, qm, gl, el, p)
             tr = nu * (e00 + e11)
-            w = ck * dx[e, p]
+            w = ck * dx[t, p]
             gg = 0.5 * C * (1.0 - nu) * (g0 * g0 + g1 * g1)
             q00 = w * (C * ((1.0 - nu) * e00 + tr) + 0.5 * C * (1.0 + nu) * g0 * g0 + gg)
             q01 = w * (C * (1.0 - nu) * e01 + 0.5 * C * (1.0 + nu) * g0 * g1)
             q11 = w * (C * ((1.0 - nu) * e11 + tr) + 0.5 * C * (1.0 + nu) * g1 * g1 + gg)
             for j in range(nw):
-                b0 = q00 * gw[e, p, 0, j] + q01 * gw[e, p, 1, j]
-                b1 = q01 * gw[e, p, 0, j] + q11 * gw[e, p, 1, j]
+                b0 = q00 * gl[p, 0, j] + q01 * gl[p, 1, j]
+                b1 = q01 * gl[p, 0, j] + q11 * gl[p, 1, j]
                 for i in range(nw):
-                    kww[i, j] += gw[e, p, 0, i] * b0 + gw[e, p, 1, i] * b1
+                    kww[i, j] += gl[p, 0, i] * b0 + gl[p, 1, i] * b1
             for i in range(nm):
-                d = nu * (es[e, p, 0, i] + es[e, p, 2, i])
-                ag[i, 0] = (
-                    w * C * ((1.0 - nu) * (es[e, p, 0, i] * g0 + es[e, p, 1, i] * g1) + d * g0)
-                )
-                ag[i, 1] = (
-                    w * C * ((1.0 - nu) * (es[e, p, 1, i] * g0 + es[e, p, 2, i] * g1) + d * g1)
-                )
+                d = nu * (el[p, 0, i] + el[p, 2, i])
+                ag[i, 0] = w * C * ((1.0 - nu) * (el[p, 0, i] * g0 + el[p, 1, i] * g1) + d * g0)
+                ag[i, 1] = w * C * ((1.0 - nu) * (el[p, 1, i] * g0 + el[p, 2, i] * g1) + d * g1)
             for i in range(nm):
                 for j in range(nw):
-                    kmw[i, j] += ag[i, 0] * gw[e, p, 0, j] + ag[i, 1] * gw[e, p, 1, j]
+                    kmw[i, j] += ag[i, 0] * gl[p, 0, j] + ag[i, 1] * gl[p, 1, j]
         for i in range(nw):
             for j in range(nw):
                 data[slot_ww[e, i, j]] += kww[i, j]
@@ -187,6 +255,9 @@ class VonKarmanPlateModel(PlateModel):
     """Von Karman plate (BFS rectangles); dofs ``[w (BFS) | u, v (vector Q2)]``."""
 
     nonlinear = True
+    #: mark the time-step Jacobian for a single-precision factor (:mod:`.linsolve`); False
+    #: restores the double-precision factor (results differ at the Newton tolerance level)
+    single_precision_factor: bool = True
 
     @classmethod
     def create(cls, *, element: str, **kw) -> VonKarmanPlateModel:
@@ -251,10 +322,13 @@ class VonKarmanPlateModel(PlateModel):
         """Element-major basis gradients for the numba kernels, and the fixed sparsity pattern
         of ``K + M + K_nl`` (all dofs) with each element entry's slot in its data array."""
         Gw, Em = self._Gw, self._Em
-        self._gw = np.ascontiguousarray(Gw.transpose(2, 3, 1, 0))  # (el, qp, 2, i)
+        self._gw = np.ascontiguousarray(Gw.transpose(2, 1, 0, 3))  # (el, 2, i, qp)
         es = np.stack([Em[:, 0, 0], Em[:, 0, 1], Em[:, 1, 1]], axis=-1)  # (i, el, qp, 3)
-        self._es = np.ascontiguousarray(es.transpose(1, 2, 3, 0))  # (el, qp, 3, i)
-        self._dxc = np.ascontiguousarray(self._dx)
+        self._es, self._dxc, self._tid = _shared_tables(
+            np.ascontiguousarray(es.transpose(1, 3, 0, 2)),  # (el, 3, i, qp)
+            np.ascontiguousarray(self._dx),
+        )
+        self._force_memo: tuple[np.ndarray, np.ndarray] | None = None
         self._ewi = np.ascontiguousarray(self._ew, dtype=np.int64)
         self._emi = np.ascontiguousarray(self._em, dtype=np.int64)
         n = self.n_dof
@@ -292,18 +366,22 @@ class VonKarmanPlateModel(PlateModel):
         self._K_on_S, self._M_on_S = on_pattern(self.K), on_pattern(self.M)
         self._free_plan: tuple[np.ndarray, tuple] | None = None
 
-    def _reduction(self, free: np.ndarray) -> tuple:
-        """(indptr, indices, gather) of the pattern restricted to the `free` dofs: the reduced
-        matrix's data is the full data array at `gather` (computed once per `free`)."""
+    def _reduction(self, free: np.ndarray, layout: str = "csr") -> tuple:
+        """(indptr, indices, gather) of the pattern restricted to the `free` dofs, compressed by
+        rows (``layout = "csr"``) or columns (``"csc"``): the reduced matrix's data is the full
+        data array at `gather` (computed once per `free`)."""
         if self._free_plan is None or not np.array_equal(self._free_plan[0], free):
             indptr, indices = self._S
             n = self.n_dof
             ids = sp.csr_matrix((np.arange(1.0, len(indices) + 1.0), indices, indptr), shape=(n, n))
-            R = ids[free][:, free].tocsr()
-            R.sort_indices()
-            gather = np.rint(R.data).astype(np.int64) - 1
-            self._free_plan = (free.copy(), (R.indptr.copy(), R.indices.copy(), gather))
-        return self._free_plan[1]
+            R = ids[free][:, free]
+            plans = {}
+            for name, Rl in (("csr", R.tocsr()), ("csc", R.tocsc())):
+                Rl.sort_indices()
+                gather = np.rint(Rl.data).astype(np.int64) - 1
+                plans[name] = (Rl.indptr.copy(), Rl.indices.copy(), gather)
+            self._free_plan = (free.copy(), plans)
+        return self._free_plan[1][layout]
 
     def _tangent_data(self, q: np.ndarray, ck: float, cm: float) -> np.ndarray:
         """Data of ``ck K_t(q) + cm M`` on the fixed pattern (all dofs)."""
@@ -312,7 +390,7 @@ class VonKarmanPlateModel(PlateModel):
             data += cm * self._M_on_S
         _vk_tangent(
             np.ascontiguousarray(q, dtype=np.float64), self._ewi, self._emi, self._gw, self._es,
-            self._dxc, self.C_membrane, self.nu, ck, self._slot_ww, self._slot_mw,
+            self._dxc, self._tid, self.C_membrane, self.nu, ck, self._slot_ww, self._slot_mw,
             self._slot_wm, data,
         )  # fmt: skip
         return data
@@ -341,13 +419,28 @@ class VonKarmanPlateModel(PlateModel):
         return f
 
     def internal_force(self, q: np.ndarray) -> np.ndarray:
-        """Internal force over all dofs (N) at the full dof vector `q` (numba kernel)."""
+        """Internal force over all dofs (N) at the full dof vector `q` (numba kernel).
+
+        The last result is kept with its `q`: a call at the same `q` (bit for bit) returns a copy
+        of it. A Newton step starts from the last converged displacement, where the previous
+        step's final residual already evaluated the force: one kernel call saved per step."""
+        q = np.ascontiguousarray(q, dtype=np.float64)
+        memo = self._force_memo
+        if memo is not None and np.array_equal(memo[0], q):
+            return memo[1].copy()
+        f = self.compute_internal_force(q)
+        self._force_memo = (q.copy(), f.copy())
+        return f
+
+    def compute_internal_force(self, q: np.ndarray) -> np.ndarray:
+        """:meth:`internal_force` evaluated afresh (N)."""
         q = np.ascontiguousarray(q, dtype=np.float64)
         f = np.zeros(self.n_dof)
         f[: self.Nw] = self.Kb @ q[: self.Nw]
         _vk_forces(
-            q, self._ewi, self._emi, self._gw, self._es, self._dxc, self.C_membrane, self.nu, f
-        )
+            q, self._ewi, self._emi, self._gw, self._es, self._dxc, self._tid, self.C_membrane,
+            self.nu, f,
+        )  # fmt: skip
         return f
 
     def internal_force_einsum(self, q: np.ndarray) -> np.ndarray:
@@ -401,15 +494,19 @@ class VonKarmanPlateModel(PlateModel):
 
     def reduced_effective(
         self, q: np.ndarray, free: np.ndarray, ck: float, cm: float, cc: float
-    ) -> sp.csr_matrix:
+    ) -> sp.csr_matrix | SinglePrecisionJacobian:
         """``ck K_t(q) + cm M + cc C`` over the `free` dofs (sparse), C = a1 M + a2 K (the
-        linear K), refilled into the fixed pattern."""
-        indptr, indices, gather = self._reduction(free)
+        linear K), refilled into the fixed pattern: the Jacobian of a time step. With
+        :attr:`single_precision_factor` (default) it is a
+        :class:`.linsolve.SinglePrecisionJacobian` (CSC, same values), else CSR."""
+        single = self.single_precision_factor
+        indptr, indices, gather = self._reduction(free, "csc" if single else "csr")
         data = self._tangent_data(q, ck, cm + cc * self.rayleigh_a1)
         if cc * self.rayleigh_a2:
             data += (cc * self.rayleigh_a2) * self._K_on_S
         n = len(free)
-        return sp.csr_matrix((data[gather], indices, indptr), shape=(n, n))
+        kind = SinglePrecisionJacobian if single else sp.csr_matrix
+        return kind((data[gather], indices, indptr), shape=(n, n))
 
     def strain_energy(self, q: np.ndarray) -> float:
         """Bending plus membrane strain energy (J)."""
