@@ -12,7 +12,7 @@ to validation/results/delta_sph_obstacle_mps.toml), so both rows are of the curr
 copies get an instantaneous twin of the force probe (``force_last_step``, average = false).
 
 Cases (``mpsfem run`` subprocesses, resumable; NUMBA_NUM_THREADS = --threads): δ-SPH and MPS
-at l0 = L/20 and L/40 to 0.3 s (the co-rotational MPS study's end, past the first tip peak), and
+at l0 = L/20, L/40 and L/80 (issue 21) to 0.3 s (the co-rotational MPS study's end, past the first tip peak), and
 at L/20 to 0.6 s (the scenario's end: the mean tip u_x of 0.1 s blocks from 0.3 s). Per case: the tip's peak u_x and its time (and u_y there), the
 first contact (first 1 ms force sample with |F_x| > 1 N/m), the peak of the interval-mean force
 |F_x| over the impact 0.12-0.25 s and its ringing (RMS of the sample-to-sample jump of the 1 ms
@@ -25,7 +25,7 @@ residual_external (dP - G + sum_b J_b, relative to sum_b |J_b|, per component). 
 validation/results/delta_sph_obstacle.csv and prints the table.
 
     python validation/delta_sph_obstacle.py [--threads 1] [--analyse-only] [--retry-failed]
-        [--cases dsph20 dsph40 mps20 mps40 dsph20_long mps20_long]
+        [--cases dsph20 dsph40 mps20 mps40 dsph80 mps80 dsph20_long mps20_long]
 
 ``--cases`` picks the cases to run; the CSV lists every case, reading the others' results files.
 """
@@ -65,6 +65,8 @@ CASES = {
     "dsph40": ("delta-sph", 40, 0.3),
     "mps20": ("mps", 20, 0.3),
     "mps40": ("mps", 40, 0.3),
+    "dsph80": ("delta-sph", 80, 0.3),
+    "mps80": ("mps", 80, 0.3),
     "dsph20_long": ("delta-sph", 20, 0.6),
     "mps20_long": ("mps", 20, 0.6),
 }
