@@ -77,7 +77,8 @@ BLOCKS = ((0.3, 0.4), (0.4, 0.5), (0.5, 0.6))
 SPH_TEXT = (
     """# written by validation/delta_sph_obstacle.py: scenarios/dam_break_elastic_obstacle_2d.toml
 # with fluid.method = "delta-sph"; MPS's numerical tables ([fluid.pressure],
-# fluid.time_step.courant) dropped, the default [fluid.sph], the momentum budget opted in
+# fluid.time_step.courant) dropped, the default [fluid.sph], the momentum budget opted in,
+# the tank's force reported as its pair exchange (boundary_force = "momentum_exchange")
 [run]
 end_time = 0.6
 
@@ -94,6 +95,7 @@ density = 1000.0
 viscosity = 1e-6
 gravity = [0.0, -9.81]
 momentum_budget = true
+boundary_force = "momentum_exchange"
 
 [fluid.sph]
 smoothing_ratio = 1.3

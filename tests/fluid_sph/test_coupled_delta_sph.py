@@ -193,7 +193,7 @@ def test_3d_plate_is_refused():
 
 
 # ------------------------------------------------------------ a free member end under δ-SPH
-def _shelf(use_filter: bool = True, steps: int = 20):
+def _shelf(use_filter: bool = True, steps: int = 20, load: str = "normal"):
     """Still water 0.3 m deep (l0 = 0.01 m) in a tank 0.41 m wide around a horizontal member one
     spacing thick at y = 0.155 m, from the left wall to its free end at x = 0.3 m (tests/
     fluid_mps/test_thin_member.py's shelf scene), ``steps`` δ-SPH steps of the participant (the
@@ -215,6 +215,7 @@ def _shelf(use_filter: bool = True, steps: int = 20):
             "spacing": l0,
             "blocks": [{"lower": [0, 0], "upper": [0.41, 0.3]}],
             "walls": [{"shape": "tank", "name": "tank", "lower": [0, 0], "upper": [0.41, 0.5]}],
+            "sph": {"structure_load": load},
         }
     )
     fl = SPHParticipant(fluid, mesh, member_names=["shelf"])
@@ -227,7 +228,22 @@ def _shelf(use_filter: bool = True, steps: int = 20):
     return fl
 
 
-def test_free_end_keeps_still_water_hydrostatic():
+#: fluid.sph.structure_load = "normal_pairs" projects every pair of the fluid with a member's
+#: particles on the member's normals: the (p_i + p_j) pairs then lose the kernel's zeroth-order
+#: consistency where the member's particles are not symmetric about a fluid particle along the
+#: face (its root at a wall, its free end: 30 m/s^2 along the shelf at rest, measured) and where
+#: the pressure varies along a face (a vertical member in still water)
+PAIRS_COST = pytest.mark.xfail(
+    strict=True,
+    reason="structure_load = 'normal_pairs' drops the tangential part of the member's pairs, "
+    "which the fluid's pressure gradient needs near the member's ends and along faces the "
+    "pressure varies on: shelf rms 66 / 71 / 100 Pa (above / below / tip, tolerance 49), "
+    "partition F_x 153.6 N/m (+4.4 %, tolerance 3 %); docs/fluid_sph.md",
+)
+
+
+@pytest.mark.parametrize("load", ["normal", pytest.param("normal_pairs", marks=PAIRS_COST)])
+def test_free_end_keeps_still_water_hydrostatic(load):
     """The shelf scene under δ-SPH after 20 steps (6 ms): the fluid within 4 spacings of the
     member, above it, below it and around its free end, keeps rho g (0.3 - y) within
     rho g l0 / 2 rms (a face is resolved to +-l0/2; MPS's tolerance, tests/fluid_mps/
@@ -255,18 +271,19 @@ def test_free_end_keeps_still_water_hydrostatic():
             out[k] = float(np.sqrt(np.mean((s.p[m] - rho * g * (0.3 - y[m])) ** 2)))
         return out
 
-    fl = _shelf()
+    fl = _shelf(load=load)
     e = errors(fl)
     fy = fl.member_force("shelf")[1]
     print(f"δ-SPH shelf: rms p error {e} Pa (tolerance {tol:.1f}); net F_y {fy:.2f} N/m")
     assert max(e.values()) < tol
     assert fy == pytest.approx(rho * g * l0 * 0.3, rel=0.05)
-    unfiltered = errors(_shelf(use_filter=False))
+    unfiltered = errors(_shelf(use_filter=False, load=load))
     print(f"without the filter: rms p error {unfiltered} Pa")
     assert unfiltered["below"] > tol
 
 
-def test_partition_carries_the_hydrostatic_resultant():
+@pytest.mark.parametrize("load", ["normal", pytest.param("normal_pairs", marks=PAIRS_COST)])
+def test_partition_carries_the_hydrostatic_resultant(load):
     """A vertical member one spacing thick (l0 = 0.01 m) from the floor to a free end at 0.3 m,
     water 0.2 m deep on its left and 0.1 m on its right (MPS's partition scene, tests/fluid_mps/
     test_thin_member.py), 20 δ-SPH steps: the horizontal load is rho g (H1^2 - H2^2) / 2 =
@@ -294,6 +311,7 @@ def test_partition_carries_the_hydrostatic_resultant():
             "spacing": l0,
             "blocks": [{"lower": lo, "upper": hi} for lo, hi in blocks],
             "walls": [{"shape": "tank", "name": "tank", "lower": [0, 0], "upper": [0.41, 0.4]}],
+            "sph": {"structure_load": load},
         }
     )
     fl = SPHParticipant(fluid, mesh, member_names=["m"])
