@@ -12,8 +12,9 @@ to validation/results/delta_sph_obstacle_mps.toml), so both rows are of the curr
 copies get an instantaneous twin of the force probe (``force_last_step``, average = false).
 
 Cases (``mpsfem run`` subprocesses, resumable; NUMBA_NUM_THREADS = --threads): δ-SPH and MPS
-at l0 = L/20, L/40 and L/80 (issue 21) to 0.3 s (the co-rotational MPS study's end, past the first tip peak), and
-at L/20 to 0.6 s (the scenario's end: the mean tip u_x of 0.1 s blocks from 0.3 s). Per case: the tip's peak u_x and its time (and u_y there), the
+at l0 = L/20, L/40 and L/80 (issue 21) to 0.3 s (the co-rotational MPS study's end, past the
+first tip peak), δ-SPH at L/20 and L/40 also with fluid.sph.structure_load = "normal_pairs"
+(``*_pairs``: the fluid's pairs with the member projected too), and at L/20 to 0.6 s (the scenario's end: the mean tip u_x of 0.1 s blocks from 0.3 s). Per case: the tip's peak u_x and its time (and u_y there), the
 first contact (first 1 ms force sample with |F_x| > 1 N/m), the peak of the interval-mean force
 |F_x| over the impact 0.12-0.25 s and its ringing (RMS of the sample-to-sample jump of the 1 ms
 samples over that peak: validation/momentum_budget.py's metric, issue 20), the same for the
@@ -25,7 +26,8 @@ residual_external (dP - G + sum_b J_b, relative to sum_b |J_b|, per component). 
 validation/results/delta_sph_obstacle.csv and prints the table.
 
     python validation/delta_sph_obstacle.py [--threads 1] [--analyse-only] [--retry-failed]
-        [--cases dsph20 dsph40 mps20 mps40 dsph80 mps80 dsph20_long mps20_long]
+        [--cases dsph20 dsph40 mps20 mps40 dsph80 mps80 dsph20_long mps20_long dsph20_pairs
+        dsph40_pairs]
 
 ``--cases`` picks the cases to run; the CSV lists every case, reading the others' results files.
 """
@@ -59,7 +61,9 @@ AXIAL_EVERY = 4  # windows between two samples of the pair split
 L = 0.146  # m, the column width
 IMPACT = (0.12, 0.25)  # s, the impact window of validation/momentum_budget.py
 CONTACT_FORCE = 1.0  # N/m, |F_x| of the first sample counted as contact
-#: key -> (fluid method, L / l0, end time in s)
+#: fluid.sph.structure_load = "normal_pairs": the fluid's pairs with the member projected too
+PAIRS = ('fluid.sph.structure_load="normal_pairs"',)
+#: key -> (fluid method, L / l0, end time in s[, extra --set overrides])
 CASES = {
     "dsph20": ("delta-sph", 20, 0.3),
     "dsph40": ("delta-sph", 40, 0.3),
@@ -69,6 +73,8 @@ CASES = {
     "mps80": ("mps", 80, 0.3),
     "dsph20_long": ("delta-sph", 20, 0.6),
     "mps20_long": ("mps", 20, 0.6),
+    "dsph20_pairs": ("delta-sph", 20, 0.3, PAIRS),
+    "dsph40_pairs": ("delta-sph", 40, 0.3, PAIRS),
 }
 #: 0.1 s blocks after the first peak whose mean tip u_x is reported (the water piled up behind
 #: the plate; docs/validation.md gives MPS's of an earlier fluid)
@@ -194,12 +200,13 @@ def case_path(key: str) -> Path:
     return RESULTS / f"delta_sph_obstacle_{key}.h5"
 
 
-def overrides(n: int, end_time: float) -> list[str]:
+def overrides(n: int, end_time: float, extra: tuple[str, ...] = ()) -> list[str]:
     return [
         f"fluid.spacing={L / n:.6g}",
         f"run.end_time={end_time}",
         "output.snapshot_interval=0",
         f"output.checkpoint_interval={min(0.1, end_time)}",
+        *extra,
     ]
 
 
@@ -311,9 +318,9 @@ def load_centroid(key: str, t_end: float) -> tuple[list[dict], list[dict]]:
     from mpsfem.simulation import member_nodes
     from mpsfem.structure_fem.participant import StructureParticipant
 
-    method, n, _ = CASES[key]
+    method, n, _, *extra = CASES[key]
     scenario = SPH_SCENARIO if method == "delta-sph" else MPS_SCENARIO
-    loaded = load_scenario(scenario, overrides(n, t_end))
+    loaded = load_scenario(scenario, overrides(n, t_end, *extra))
     sc = loaded.scenario
     st = StructureParticipant(sc.structure, base_dir=scenario.parent)
     names = [m for m, _ in member_nodes(sc)]
@@ -389,7 +396,7 @@ def axial_split(key: str) -> list[dict]:
     from mpsfem.simulation import member_nodes
     from mpsfem.structure_fem.participant import StructureParticipant
 
-    method, n, _ = CASES[key]
+    method, n, *_ = CASES[key]
     if method != "delta-sph":
         raise SystemExit(f"--axial takes δ-SPH cases, not {key}")
     extra = ['fluid.sph.structure_load="exchange"']
@@ -530,7 +537,7 @@ def main() -> int:
     # a case neither selected nor on disk (results files are not kept in git) keeps its CSV row
     kept = {r["case"]: r for r in _read(CSV)}
     kept_cases: list[str] = []
-    for key, (method, n, t_end) in CASES.items():  # cases not selected are read, not run
+    for key, (method, n, t_end, *extra) in CASES.items():  # cases not selected: read, not run
         scenario = SPH_SCENARIO if method == "delta-sph" else MPS_SCENARIO
         out = case_path(key)
         if key not in args.cases and not out.is_file() and key in kept:
@@ -540,7 +547,7 @@ def main() -> int:
         status = case_runner.case_status(
             scenario,
             out,
-            overrides(n, t_end),
+            overrides(n, t_end, *extra),
             args.threads,
             args.analyse_only or key not in args.cases,
             args.retry_failed,
