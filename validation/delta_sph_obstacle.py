@@ -211,15 +211,30 @@ def overrides(n: int, end_time: float, extra: tuple[str, ...] = ()) -> list[str]
 
 
 def budget(path: Path) -> dict:
-    """Member impulse and residual_external over the impact window, if the run kept a budget."""
+    """Over the impact window, if the run kept a budget: the member's reported impulse, the
+    residuals, the fluid's exchange with the member (what the fluid lost at it), the impulse of
+    the load the member received (the force probe's interval means x 1 ms) and their gap
+    relative to the exchange, and ``residual_load_rel``: residual_external with the member's
+    received load in place of its reported impulse (dP - G + J_walls + J_load, over sum |J|;
+    issue 20: the impulse the member receives against the momentum the fluid loses)."""
     with h5py.File(path, "r") as h5:
         if "momentum_budget" not in h5:
             return {}
+        tf = h5["probes/obstacle_force/time"][:]
+        ff = h5["probes/obstacle_force/value"][:]
     t0, t1 = IMPACT
     b = momentum_budget.window_sums(path, t0, t1)
     rep = b["patch_reported"]
     member = [k for k, p in enumerate(b["patches"]) if p.startswith("obstacle")]
     res = momentum_budget.residuals(b, rep)
+    sel = (tf > t0 + 1e-9) & (tf <= t1 + 1e-9)
+    dt = np.diff(tf, prepend=0.0)
+    load = (ff[sel] * dt[sel, None]).sum(axis=0)  # N s/m, the interval means' impulse
+    exch = b["patch_exchange"][member].sum(axis=0)
+    received = rep.copy()
+    received[member] = 0.0
+    received[member[0]] = load
+    res_load = momentum_budget.residuals(b, received)
     return {
         "member_impulse_x": float(rep[member, 0].sum()),
         "member_impulse_y": float(rep[member, 1].sum()),
@@ -227,6 +242,14 @@ def budget(path: Path) -> dict:
         "residual_external_rel_y": res["residual_external_rel_y"],
         "residual_rel_x": res["residual_x"] / res["boundary_impulse_x"],
         "residual_rel_y": res["residual_y"] / res["boundary_impulse_y"],
+        "member_exchange_x": float(exch[0]),
+        "member_exchange_y": float(exch[1]),
+        "member_load_x": float(load[0]),
+        "member_load_y": float(load[1]),
+        "load_gap_rel_x": float((load[0] - exch[0]) / abs(exch[0])),
+        "load_gap_rel_y": float((load[1] - exch[1]) / abs(exch[0])),
+        "residual_load_rel_x": res_load["residual_external_rel_x"],
+        "residual_load_rel_y": res_load["residual_external_rel_y"],
     }
 
 
@@ -291,7 +314,9 @@ COLUMNS = [
     "chord_length_at_peak_mm", "force_peak_mean", "ringing_mean", "force_peak_last_step",
     "ringing_last_step", "windows", "iterations_mean", "iterations_max", "not_converged",
     "not_converged_times_s", *(f"tip_mean_mm_{a}_{b}" for a, b in BLOCKS), "member_impulse_x", "member_impulse_y", "residual_external_rel_x",
-    "residual_external_rel_y", "residual_rel_x", "residual_rel_y",
+    "residual_external_rel_y", "residual_rel_x", "residual_rel_y", "member_exchange_x",
+    "member_exchange_y", "member_load_x", "member_load_y", "load_gap_rel_x", "load_gap_rel_y",
+    "residual_load_rel_x", "residual_load_rel_y",
 ]  # fmt: skip
 
 
