@@ -13,10 +13,16 @@ validation/momentum_budget.py takes MPS's (collapse 0-0.2 s, impact 0.2-0.4 s), 
   the ledger's own closure (round-off by construction of the split,
   tests/fluid_sph/test_delta_sph_budget.py).
 
+Two cases, the same fluid run: the walls' force reported as the pressure integral (the default,
+``boundary_force`` = pressure_and_contact) and as the pair exchange averaged over each step with
+RK4's weights (``fluid.boundary_force = "momentum_exchange"``). ``--models`` picks the cases to
+run; rows of the others are read from their results files or kept from the CSV.
+
 Writes validation/results/delta_sph_momentum_budget.csv and prints the table (docs/fluid_sph.md,
 "Momentum budget").
 
     python validation/delta_sph_momentum_budget.py [--threads 1] [--analyse-only] [--retry-failed]
+        [--models pressure_and_contact momentum_exchange]
 """
 
 from __future__ import annotations
@@ -30,18 +36,25 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import case_runner  # noqa: E402
-from results_csv import write_csv  # noqa: E402
+from results_csv import read_csv, write_csv  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "validation" / "results"
 SCENARIO = RESULTS / "delta_sph_dam_break.toml"
-OUT = RESULTS / "delta_sph_momentum_budget_L40.h5"
 CSV = RESULTS / "delta_sph_momentum_budget.csv"
 OVERRIDES = ["fluid.spacing=0.00365", "run.end_time=0.4", "fluid.momentum_budget=true"]
+#: the walls' reported force -> (results file, extra overrides)
+MODELS = {
+    "pressure_and_contact": (RESULTS / "delta_sph_momentum_budget_L40.h5", []),
+    "momentum_exchange": (
+        RESULTS / "delta_sph_momentum_budget_L40_exchange.h5",
+        ['fluid.boundary_force="momentum_exchange"'],
+    ),
+}
 WINDOWS = [("collapse", 0.0, 0.2), ("impact", 0.2, 0.4)]  # as validation/momentum_budget.py
 
 
-def window_row(path: Path, label: str, t0: float, t1: float) -> dict:
+def window_row(path: Path, model: str, label: str, t0: float, t1: float) -> dict:
     """The budget rows with t0 < time <= t1 summed, and the residuals of the window."""
     with h5py.File(path, "r") as h5:
         g = h5["momentum_budget"]
@@ -56,6 +69,7 @@ def window_row(path: Path, label: str, t0: float, t1: float) -> dict:
     res_ext = b["momentum_change"] - b["gravity"] + rep  # dP - G + sum_b J_b
     closure = b["momentum_change"] - b["gravity"] - internal + exch  # dP - G - I + sum_b E_b
     row = {"window": label, "t0_s": t0, "t1_s": t1, "steps": int(sel.sum()), "wall_s": wall}
+    row = {"boundary_force": model, **row}
     for a, ax in enumerate("xy"):
         row[f"momentum_change_{ax}"] = float(b["momentum_change"][a])
         row[f"gravity_{ax}"] = float(b["gravity"][a])
@@ -71,28 +85,42 @@ def window_row(path: Path, label: str, t0: float, t1: float) -> dict:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     case_runner.add_run_options(ap)
+    ap.add_argument("--models", nargs="+", choices=list(MODELS), default=list(MODELS))
     args = ap.parse_args()
     if not SCENARIO.is_file():
         print(f"{SCENARIO} is missing: run validation/delta_sph_dam_break.py first")
         return 1
-    status = case_runner.case_status(
-        SCENARIO, OUT, OVERRIDES, args.threads, args.analyse_only, args.retry_failed, "δ-SPH"
-    )
-    if status != "finished":
-        print(f"δ-SPH dam break L/40: {status}, not analysed")
-        return 1
-    rows = [window_row(OUT, *w) for w in WINDOWS]
+    old = read_csv(CSV) if CSV.is_file() else []
+    rows = []
+    for model, (out, extra) in MODELS.items():
+        status = case_runner.case_status(
+            SCENARIO,
+            out,
+            [*OVERRIDES, *extra],
+            args.threads,
+            args.analyse_only or model not in args.models,
+            args.retry_failed,
+            f"δ-SPH {model}",
+        )
+        if status == "finished":
+            rows += [window_row(out, model, *w) for w in WINDOWS]
+            continue
+        kept = [r for r in old if r.get("boundary_force", "pressure_and_contact") == model]
+        print(f"δ-SPH dam break L/40, {model}: {status}; {len(kept)} rows kept from {CSV.name}")
+        rows += [{"boundary_force": model, **r} for r in kept]
     write_csv(
         rows,
         CSV,
-        comment="δ-SPH dam break L/40 momentum budget per window, impulses N s/m "
-        "(validation/delta_sph_momentum_budget.py)",
+        list(dict.fromkeys(k for r in rows for k in r)),
+        comment="δ-SPH dam break L/40 momentum budget per window and wall force model, "
+        "impulses N s/m (validation/delta_sph_momentum_budget.py)",
     )
     for r in rows:
         print(
-            f"{r['window']:9s} residual_external x {100 * r['residual_external_rel_x']:7.2f} % "
-            f"y {100 * r['residual_external_rel_y']:7.2f} %   closure x "
-            f"{r['closure_rel_x']:.1e} y {r['closure_rel_y']:.1e}"
+            f"{r['boundary_force']:21s} {r['window']:9s} residual_external x "
+            f"{100 * float(r['residual_external_rel_x']):9.2e} % y "
+            f"{100 * float(r['residual_external_rel_y']):9.2e} %   closure x "
+            f"{float(r['closure_rel_x']):.1e} y {float(r['closure_rel_y']):.1e}"
         )
     return 0
 

@@ -12,8 +12,9 @@ to validation/results/delta_sph_obstacle_mps.toml), so both rows are of the curr
 copies get an instantaneous twin of the force probe (``force_last_step``, average = false).
 
 Cases (``mpsfem run`` subprocesses, resumable; NUMBA_NUM_THREADS = --threads): δ-SPH and MPS
-at l0 = L/20 and L/40 to 0.3 s (the co-rotational MPS study's end, past the first tip peak), and
-at L/20 to 0.6 s (the scenario's end: the mean tip u_x of 0.1 s blocks from 0.3 s). Per case: the tip's peak u_x and its time (and u_y there), the
+at l0 = L/20, L/40 and L/80 (issue 21) to 0.3 s (the co-rotational MPS study's end, past the
+first tip peak), δ-SPH at L/20 and L/40 also with fluid.sph.structure_load = "normal_pairs"
+(``*_pairs``: the fluid's pairs with the member projected too), and at L/20 to 0.6 s (the scenario's end: the mean tip u_x of 0.1 s blocks from 0.3 s). Per case: the tip's peak u_x and its time (and u_y there), the
 first contact (first 1 ms force sample with |F_x| > 1 N/m), the peak of the interval-mean force
 |F_x| over the impact 0.12-0.25 s and its ringing (RMS of the sample-to-sample jump of the 1 ms
 samples over that peak: validation/momentum_budget.py's metric, issue 20), the same for the
@@ -25,7 +26,8 @@ residual_external (dP - G + sum_b J_b, relative to sum_b |J_b|, per component). 
 validation/results/delta_sph_obstacle.csv and prints the table.
 
     python validation/delta_sph_obstacle.py [--threads 1] [--analyse-only] [--retry-failed]
-        [--cases dsph20 dsph40 mps20 mps40 dsph20_long mps20_long]
+        [--cases dsph20 dsph40 mps20 mps40 dsph80 mps80 dsph20_long mps20_long dsph20_pairs
+        dsph40_pairs]
 
 ``--cases`` picks the cases to run; the CSV lists every case, reading the others' results files.
 """
@@ -59,14 +61,20 @@ AXIAL_EVERY = 4  # windows between two samples of the pair split
 L = 0.146  # m, the column width
 IMPACT = (0.12, 0.25)  # s, the impact window of validation/momentum_budget.py
 CONTACT_FORCE = 1.0  # N/m, |F_x| of the first sample counted as contact
-#: key -> (fluid method, L / l0, end time in s)
+#: fluid.sph.structure_load = "normal_pairs": the fluid's pairs with the member projected too
+PAIRS = ('fluid.sph.structure_load="normal_pairs"',)
+#: key -> (fluid method, L / l0, end time in s[, extra --set overrides])
 CASES = {
     "dsph20": ("delta-sph", 20, 0.3),
     "dsph40": ("delta-sph", 40, 0.3),
     "mps20": ("mps", 20, 0.3),
     "mps40": ("mps", 40, 0.3),
+    "dsph80": ("delta-sph", 80, 0.3),
+    "mps80": ("mps", 80, 0.3),
     "dsph20_long": ("delta-sph", 20, 0.6),
     "mps20_long": ("mps", 20, 0.6),
+    "dsph20_pairs": ("delta-sph", 20, 0.3, PAIRS),
+    "dsph40_pairs": ("delta-sph", 40, 0.3, PAIRS),
 }
 #: 0.1 s blocks after the first peak whose mean tip u_x is reported (the water piled up behind
 #: the plate; docs/validation.md gives MPS's of an earlier fluid)
@@ -75,7 +83,8 @@ BLOCKS = ((0.3, 0.4), (0.4, 0.5), (0.5, 0.6))
 SPH_TEXT = (
     """# written by validation/delta_sph_obstacle.py: scenarios/dam_break_elastic_obstacle_2d.toml
 # with fluid.method = "delta-sph"; MPS's numerical tables ([fluid.pressure],
-# fluid.time_step.courant) dropped, the default [fluid.sph], the momentum budget opted in
+# fluid.time_step.courant) dropped, the default [fluid.sph], the momentum budget opted in,
+# the tank's force reported as its pair exchange (boundary_force = "momentum_exchange")
 [run]
 end_time = 0.6
 
@@ -92,6 +101,7 @@ density = 1000.0
 viscosity = 1e-6
 gravity = [0.0, -9.81]
 momentum_budget = true
+boundary_force = "momentum_exchange"
 
 [fluid.sph]
 smoothing_ratio = 1.3
@@ -190,25 +200,41 @@ def case_path(key: str) -> Path:
     return RESULTS / f"delta_sph_obstacle_{key}.h5"
 
 
-def overrides(n: int, end_time: float) -> list[str]:
+def overrides(n: int, end_time: float, extra: tuple[str, ...] = ()) -> list[str]:
     return [
         f"fluid.spacing={L / n:.6g}",
         f"run.end_time={end_time}",
         "output.snapshot_interval=0",
         f"output.checkpoint_interval={min(0.1, end_time)}",
+        *extra,
     ]
 
 
 def budget(path: Path) -> dict:
-    """Member impulse and residual_external over the impact window, if the run kept a budget."""
+    """Over the impact window, if the run kept a budget: the member's reported impulse, the
+    residuals, the fluid's exchange with the member (what the fluid lost at it), the impulse of
+    the load the member received (the force probe's interval means x 1 ms) and their gap
+    relative to the exchange, and ``residual_load_rel``: residual_external with the member's
+    received load in place of its reported impulse (dP - G + J_walls + J_load, over sum |J|;
+    issue 20: the impulse the member receives against the momentum the fluid loses)."""
     with h5py.File(path, "r") as h5:
         if "momentum_budget" not in h5:
             return {}
+        tf = h5["probes/obstacle_force/time"][:]
+        ff = h5["probes/obstacle_force/value"][:]
     t0, t1 = IMPACT
     b = momentum_budget.window_sums(path, t0, t1)
     rep = b["patch_reported"]
     member = [k for k, p in enumerate(b["patches"]) if p.startswith("obstacle")]
     res = momentum_budget.residuals(b, rep)
+    sel = (tf > t0 + 1e-9) & (tf <= t1 + 1e-9)
+    dt = np.diff(tf, prepend=0.0)
+    load = (ff[sel] * dt[sel, None]).sum(axis=0)  # N s/m, the interval means' impulse
+    exch = b["patch_exchange"][member].sum(axis=0)
+    received = rep.copy()
+    received[member] = 0.0
+    received[member[0]] = load
+    res_load = momentum_budget.residuals(b, received)
     return {
         "member_impulse_x": float(rep[member, 0].sum()),
         "member_impulse_y": float(rep[member, 1].sum()),
@@ -216,6 +242,14 @@ def budget(path: Path) -> dict:
         "residual_external_rel_y": res["residual_external_rel_y"],
         "residual_rel_x": res["residual_x"] / res["boundary_impulse_x"],
         "residual_rel_y": res["residual_y"] / res["boundary_impulse_y"],
+        "member_exchange_x": float(exch[0]),
+        "member_exchange_y": float(exch[1]),
+        "member_load_x": float(load[0]),
+        "member_load_y": float(load[1]),
+        "load_gap_rel_x": float((load[0] - exch[0]) / abs(exch[0])),
+        "load_gap_rel_y": float((load[1] - exch[1]) / abs(exch[0])),
+        "residual_load_rel_x": res_load["residual_external_rel_x"],
+        "residual_load_rel_y": res_load["residual_external_rel_y"],
     }
 
 
@@ -280,8 +314,17 @@ COLUMNS = [
     "chord_length_at_peak_mm", "force_peak_mean", "ringing_mean", "force_peak_last_step",
     "ringing_last_step", "windows", "iterations_mean", "iterations_max", "not_converged",
     "not_converged_times_s", *(f"tip_mean_mm_{a}_{b}" for a, b in BLOCKS), "member_impulse_x", "member_impulse_y", "residual_external_rel_x",
-    "residual_external_rel_y", "residual_rel_x", "residual_rel_y",
+    "residual_external_rel_y", "residual_rel_x", "residual_rel_y", "member_exchange_x",
+    "member_exchange_y", "member_load_x", "member_load_y", "load_gap_rel_x", "load_gap_rel_y",
+    "residual_load_rel_x", "residual_load_rel_y",
 ]  # fmt: skip
+
+
+#: the member's exchange against its load (δ-SPH only)
+GAP_COLUMNS = (
+    "member_exchange_x", "member_exchange_y", "member_load_x", "member_load_y", "load_gap_rel_x",
+    "load_gap_rel_y", "residual_load_rel_x", "residual_load_rel_y",
+)  # fmt: skip
 
 
 def load_centroid(key: str, t_end: float) -> tuple[list[dict], list[dict]]:
@@ -307,9 +350,9 @@ def load_centroid(key: str, t_end: float) -> tuple[list[dict], list[dict]]:
     from mpsfem.simulation import member_nodes
     from mpsfem.structure_fem.participant import StructureParticipant
 
-    method, n, _ = CASES[key]
+    method, n, _, *extra = CASES[key]
     scenario = SPH_SCENARIO if method == "delta-sph" else MPS_SCENARIO
-    loaded = load_scenario(scenario, overrides(n, t_end))
+    loaded = load_scenario(scenario, overrides(n, t_end, *extra))
     sc = loaded.scenario
     st = StructureParticipant(sc.structure, base_dir=scenario.parent)
     names = [m for m, _ in member_nodes(sc)]
@@ -385,7 +428,7 @@ def axial_split(key: str) -> list[dict]:
     from mpsfem.simulation import member_nodes
     from mpsfem.structure_fem.participant import StructureParticipant
 
-    method, n, _ = CASES[key]
+    method, n, *_ = CASES[key]
     if method != "delta-sph":
         raise SystemExit(f"--axial takes δ-SPH cases, not {key}")
     extra = ['fluid.sph.structure_load="exchange"']
@@ -526,7 +569,7 @@ def main() -> int:
     # a case neither selected nor on disk (results files are not kept in git) keeps its CSV row
     kept = {r["case"]: r for r in _read(CSV)}
     kept_cases: list[str] = []
-    for key, (method, n, t_end) in CASES.items():  # cases not selected are read, not run
+    for key, (method, n, t_end, *extra) in CASES.items():  # cases not selected: read, not run
         scenario = SPH_SCENARIO if method == "delta-sph" else MPS_SCENARIO
         out = case_path(key)
         if key not in args.cases and not out.is_file() and key in kept:
@@ -536,7 +579,7 @@ def main() -> int:
         status = case_runner.case_status(
             scenario,
             out,
-            overrides(n, t_end),
+            overrides(n, t_end, *extra),
             args.threads,
             args.analyse_only or key not in args.cases,
             args.retry_failed,
@@ -552,6 +595,9 @@ def main() -> int:
         }
         if status == "finished":
             row.update(analyse(out))
+        if method == "mps":  # its pair exchange misses most of the push (non-antisymmetric
+            for key in GAP_COLUMNS:  # gradient, docs/fluid.md): no gap to the load to report
+                row.pop(key, None)
         rows.append(row)
     write_csv(
         rows,

@@ -193,7 +193,7 @@ def test_3d_plate_is_refused():
 
 
 # ------------------------------------------------------------ a free member end under δ-SPH
-def _shelf(use_filter: bool = True, steps: int = 20):
+def _shelf(use_filter: bool = True, steps: int = 20, load: str = "normal"):
     """Still water 0.3 m deep (l0 = 0.01 m) in a tank 0.41 m wide around a horizontal member one
     spacing thick at y = 0.155 m, from the left wall to its free end at x = 0.3 m (tests/
     fluid_mps/test_thin_member.py's shelf scene), ``steps`` δ-SPH steps of the participant (the
@@ -215,6 +215,7 @@ def _shelf(use_filter: bool = True, steps: int = 20):
             "spacing": l0,
             "blocks": [{"lower": [0, 0], "upper": [0.41, 0.3]}],
             "walls": [{"shape": "tank", "name": "tank", "lower": [0, 0], "upper": [0.41, 0.5]}],
+            "sph": {"structure_load": load},
         }
     )
     fl = SPHParticipant(fluid, mesh, member_names=["shelf"])
@@ -227,7 +228,22 @@ def _shelf(use_filter: bool = True, steps: int = 20):
     return fl
 
 
-def test_free_end_keeps_still_water_hydrostatic():
+#: fluid.sph.structure_load = "normal_pairs" projects every pair of the fluid with a member's
+#: particles on the member's normals: the (p_i + p_j) pairs then lose the kernel's zeroth-order
+#: consistency where the member's particles are not symmetric about a fluid particle along the
+#: face (its root at a wall, its free end: 30 m/s^2 along the shelf at rest, measured) and where
+#: the pressure varies along a face (a vertical member in still water)
+PAIRS_COST = pytest.mark.xfail(
+    strict=True,
+    reason="structure_load = 'normal_pairs' drops the tangential part of the member's pairs, "
+    "which the fluid's pressure gradient needs near the member's ends and along faces the "
+    "pressure varies on: shelf rms 66 / 71 / 100 Pa (above / below / tip, tolerance 49), "
+    "partition F_x 153.6 N/m (+4.4 %, tolerance 3 %); docs/fluid_sph.md",
+)
+
+
+@pytest.mark.parametrize("load", ["normal", pytest.param("normal_pairs", marks=PAIRS_COST)])
+def test_free_end_keeps_still_water_hydrostatic(load):
     """The shelf scene under δ-SPH after 20 steps (6 ms): the fluid within 4 spacings of the
     member, above it, below it and around its free end, keeps rho g (0.3 - y) within
     rho g l0 / 2 rms (a face is resolved to +-l0/2; MPS's tolerance, tests/fluid_mps/
@@ -255,18 +271,19 @@ def test_free_end_keeps_still_water_hydrostatic():
             out[k] = float(np.sqrt(np.mean((s.p[m] - rho * g * (0.3 - y[m])) ** 2)))
         return out
 
-    fl = _shelf()
+    fl = _shelf(load=load)
     e = errors(fl)
     fy = fl.member_force("shelf")[1]
     print(f"δ-SPH shelf: rms p error {e} Pa (tolerance {tol:.1f}); net F_y {fy:.2f} N/m")
     assert max(e.values()) < tol
     assert fy == pytest.approx(rho * g * l0 * 0.3, rel=0.05)
-    unfiltered = errors(_shelf(use_filter=False))
+    unfiltered = errors(_shelf(use_filter=False, load=load))
     print(f"without the filter: rms p error {unfiltered} Pa")
     assert unfiltered["below"] > tol
 
 
-def test_partition_carries_the_hydrostatic_resultant():
+@pytest.mark.parametrize("load", ["normal", pytest.param("normal_pairs", marks=PAIRS_COST)])
+def test_partition_carries_the_hydrostatic_resultant(load):
     """A vertical member one spacing thick (l0 = 0.01 m) from the floor to a free end at 0.3 m,
     water 0.2 m deep on its left and 0.1 m on its right (MPS's partition scene, tests/fluid_mps/
     test_thin_member.py), 20 δ-SPH steps: the horizontal load is rho g (H1^2 - H2^2) / 2 =
@@ -294,6 +311,7 @@ def test_partition_carries_the_hydrostatic_resultant():
             "spacing": l0,
             "blocks": [{"lower": lo, "upper": hi} for lo, hi in blocks],
             "walls": [{"shape": "tank", "name": "tank", "lower": [0, 0], "upper": [0.41, 0.4]}],
+            "sph": {"structure_load": load},
         }
     )
     fl = SPHParticipant(fluid, mesh, member_names=["m"])
@@ -312,19 +330,27 @@ def test_partition_carries_the_hydrostatic_resultant():
 @pytest.mark.slow
 def test_obstacle_study_results():
     """validation/results/delta_sph_obstacle.csv (validation/delta_sph_obstacle.py: the dam break
-    on the elastic obstacle, δ-SPH and MPS at L/20 and L/40 to 0.3 s, at L/20 to 0.6 s). Every
-    run finished and every coupling window converged (measured: all of them; δ-SPH at most 3
-    iterations); the 0.6 s runs repeat the 0.3 s runs' impact figures exactly, and δ-SPH's
-    momentum budget's internal pairs cancel: the residual with them equals the one without them
-    to round-off (the δ-SPHC pressure and viscous pairs are antisymmetric; docs/fluid_sph.md;
-    MPS's do not cancel)."""
+    on the elastic obstacle, δ-SPH and MPS at L/20, L/40 and L/80 to 0.3 s, at L/20 to 0.6 s,
+    δ-SPH with structure_load = "normal_pairs" at L/20 and L/40). Every run finished and every
+    coupling window converged (measured: all of them; δ-SPH at most 3 iterations); the 0.6 s
+    runs repeat the 0.3 s runs' impact figures exactly. δ-SPH's momentum budget closes: its
+    internal pairs cancel (the residual with them equals the one without them to round-off;
+    docs/fluid_sph.md; MPS's do not cancel), and with the tank's force reported as its pair
+    exchange (boundary_force = "momentum_exchange") residual_external is round-off (1e-9 of the
+    boundary impulse; it was -2 to -12 % with the pressure integral). With "normal_pairs" the
+    member's load impulse (force probe) over the impact is the fluid's exchange with it (1e-6:
+    round-off of the 1 ms interval means); with the default "normal" it is not (measured
+    -4.4 % / +1.5 % in x at L/20 / L/40)."""
     import sys
 
     sys.path.insert(0, str(ROOT / "validation"))
     from results_csv import read_csv
 
     rows = {r["case"]: r for r in read_csv(ROOT / "validation/results/delta_sph_obstacle.csv")}
-    assert set(rows) == {"dsph20", "dsph40", "mps20", "mps40", "dsph20_long", "mps20_long"}
+    assert set(rows) == {
+        "dsph20", "dsph40", "mps20", "mps40", "dsph80", "mps80", "dsph20_long", "mps20_long",
+        "dsph20_pairs", "dsph40_pairs",
+    }  # fmt: skip
     for key, r in rows.items():
         t_end = 0.6 if key.endswith("_long") else 0.3
         assert r["status"] == "finished" and float(r["t_end_s"]) == pytest.approx(t_end)
@@ -332,13 +358,18 @@ def test_obstacle_study_results():
     for key in ("dsph20", "mps20"):  # the 0.6 s run is the 0.3 s run continued, bit for bit
         for col in ("tip_peak_mm", "tip_peak_time_s", "member_impulse_x", "ringing_mean"):
             assert rows[key][col] == rows[f"{key}_long"][col]
-    sph = [rows["dsph20"], rows["dsph40"]]
+    sph = [r for k, r in rows.items() if k.startswith("dsph")]
     for r in sph:
         assert int(r["iterations_max"]) < 30
         for ax in "xy":
             assert float(r[f"residual_rel_{ax}"]) == pytest.approx(
                 float(r[f"residual_external_rel_{ax}"]), abs=1e-9
             )
+            assert abs(float(r[f"residual_external_rel_{ax}"])) < 1e-9
+    for key in ("dsph20_pairs", "dsph40_pairs"):
+        for ax in "xy":
+            assert abs(float(rows[key][f"load_gap_rel_{ax}"])) < 1e-6
+    assert abs(float(rows["dsph20"]["load_gap_rel_x"])) > 0.01
 
 
 @pytest.mark.slow

@@ -39,12 +39,22 @@ def test_a_table_of_the_other_method_is_refused(method, key, value):
     assert f"{key} = " in msg and "belongs to fluid.method" in msg
 
 
-def test_delta_sph_gets_its_default_table_and_refuses_the_exchange_force():
+def test_delta_sph_gets_its_default_table_and_takes_the_exchange_force():
+    """δ-SPH reports its walls' pair exchange with boundary_force = "momentum_exchange" (its
+    pressure pairs are antisymmetric: MPS's gradient requirement does not apply); MPS still
+    refuses it with a non-antisymmetric gradient, and an unknown structure_load is refused
+    naming the key and the allowed values."""
     spec = FluidSection(**TANK, method="delta-sph")
     assert spec.sph is not None and spec.sph.smoothing_ratio == 1.3
+    ex = FluidSection(**TANK, method="delta-sph", boundary_force="momentum_exchange")
+    assert ex.boundary_force == "momentum_exchange"
     with pytest.raises(ValidationError, match="momentum_exchange"):
-        FluidSection(**TANK, method="delta-sph", boundary_force="momentum_exchange")
+        FluidSection(**TANK, boundary_force="momentum_exchange")  # MPS, corrected_pmin
     assert FluidSection(**TANK, method="delta-sph", momentum_budget=True).momentum_budget
+    with pytest.raises(ValidationError) as err:
+        FluidSection(**TANK, method="delta-sph", sph={"structure_load": "tangential"})
+    msg = str(err.value)
+    assert "structure_load" in msg and "normal_pairs" in msg
 
 
 def test_mps_has_no_sph_table():

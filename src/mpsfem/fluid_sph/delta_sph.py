@@ -221,7 +221,7 @@ def _make_pair_terms(DIM):  # noqa: N803 (a compile-time constant of the closure
     @njit(cache=True, parallel=True)
     def pair_terms_dim(pos, vel, rho, p, row_start, row_end, pair_j, fv_pair, n_fluid, h, rho0,
                        c0, delta, corrected, M, pM, grad_rho, alpha, gravity, omega2, center, acc,
-                       drho):  # fmt: skip
+                       drho, project, wall_group, ext_dir, ext_keep):  # fmt: skip
         eta2 = ETA2 * h * h
         nvis = 2.0 * (DIM + 2)
         for i in prange(n_fluid):
@@ -268,7 +268,38 @@ def _make_pair_terms(DIM):  # noqa: N803 (a compile-time constant of the closure
                     dot += u2 * g2
                 div += dot  # (u_j - u_i) . grad_i W_ij V_j
                 fluid_j = j < n_fluid
-                if corrected:
+                grp = -1
+                if project and not fluid_j:
+                    grp = wall_group[j - n_fluid]
+                if grp >= 0:
+                    # a projected wall particle (structure_load = "normal_pairs"): the pressure pair
+                    # term c = (p_i + p_j) M_i grad_i W_ij V_j (seed eqs. 6, 12) keeps only
+                    # sum_k keep_k (c . e_k) e_k, the components wall_reaction_projected hands on
+                    s = p_i + p[j]
+                    if corrected:
+                        c0_ = s * (m00 * g0 + m01 * g1)
+                        c1_ = s * (m10 * g0 + m11 * g1)
+                        c2_ = 0.0
+                        if DIM == 3:
+                            c0_ += s * m02 * g2
+                            c1_ += s * m12 * g2
+                            c2_ = s * (m20 * g0 + m21 * g1 + m22 * g2)
+                    else:
+                        c0_ = s * g0
+                        c1_ = s * g1
+                        c2_ = 0.0
+                        if DIM == 3:
+                            c2_ = s * g2
+                    for e in range(2):
+                        w_ = c0_ * ext_dir[grp, e, 0] + c1_ * ext_dir[grp, e, 1]
+                        if DIM == 3:
+                            w_ += c2_ * ext_dir[grp, e, 2]
+                        w_ *= ext_keep[grp, e]
+                        gp0 += w_ * ext_dir[grp, e, 0]
+                        gp1 += w_ * ext_dir[grp, e, 1]
+                        if DIM == 3:
+                            gp2 += w_ * ext_dir[grp, e, 2]
+                elif corrected:
                     # (p_i M_i + p_j M_j) grad_i W_ij V_j, seed eq. 12 (M_j = M_i at a wall)
                     if fluid_j:
                         a00 = q00 + pM[j, 0, 0]
@@ -333,8 +364,15 @@ def _make_pair_terms(DIM):  # noqa: N803 (a compile-time constant of the closure
 _PAIR_TERMS = {2: _make_pair_terms(2), 3: _make_pair_terms(3)}
 
 
+#: no projected wall particles (the arguments pair_terms passes when not given)
+_NO_GROUP = np.zeros(0, np.int64)
+_NO_DIR = np.zeros((0, 2, 2))
+_NO_KEEP = np.zeros((0, 2))
+
+
 def pair_terms(pos, vel, rho, p, row_start, row_end, pair_j, fv_pair, n_fluid, h, rho0, c0, delta,
-               corrected, M, pM, grad_rho, alpha, gravity, omega2, center, acc, drho):  # fmt: skip
+               corrected, M, pM, grad_rho, alpha, gravity, omega2, center, acc, drho,
+               wall_group=None, ext_dir=None, ext_keep=None):  # fmt: skip
     """Right-hand side of the fluid particles (seed eq. 13):
 
     drho_i/dt = -rho_i sum_j (u_j - u_i) . grad_i W_ij V_j + delta h c0 D_i      (eqs. 1, 2)
@@ -347,10 +385,21 @@ def pair_terms(pos, vel, rho, p, row_start, row_end, pair_j, fv_pair, n_fluid, h
 
     The pairs of row i are ``pair_j[k]`` with ``fv_pair[k]`` = F V_j for k in ``row_start[i]
     .. row_end[i] - 1``, as :func:`correction` wrote them (with ``M``, ``pM``, ``grad_rho``; a
-    pair with F = 0 is skipped). Compiled per dimension, as :func:`correction`."""
+    pair with F = 0 is skipped). Compiled per dimension, as :func:`correction`.
+
+    Projected walls (``fluid.sph.structure_load = "normal_pairs"``): a wall particle j with
+    ``wall_group[j - n_fluid]`` = g >= 0 gives fluid particle i only the part
+    sum_k keep[g, k] (c . e_k) e_k of its pressure pair term c, with the unit vectors
+    ``ext_dir[g, k]`` (or zero) and gates ``ext_keep[g, k]`` (0 or 1) that
+    :func:`wall_reaction_projected` computed at this right-hand side: the fluid loses exactly the
+    force the structure receives. Without ``wall_group`` every pair is whole."""
+    project = wall_group is not None
+    if not project:
+        wall_group, ext_dir, ext_keep = _NO_GROUP, _NO_DIR, _NO_KEEP
     _PAIR_TERMS[pos.shape[1]](pos, vel, rho, p, row_start, row_end, pair_j, fv_pair, n_fluid, h,
                               rho0, c0, delta, corrected, M, pM, grad_rho, alpha, gravity, omega2,
-                              center, acc, drho)  # fmt: skip
+                              center, acc, drho, project, wall_group, ext_dir,
+                              ext_keep)  # fmt: skip
 
 
 @njit(cache=True)
@@ -398,3 +447,125 @@ def wall_reaction(pos, rho, vol, p, indptr, indices, n_fluid, inv_h, coef, corre
                 out[s, 1] += g1
                 if dim == 3:
                     out[s, 2] += g2
+
+
+@njit(cache=True)
+def wall_reaction_projected(pos, vol, p, indptr, indices, n_fluid, inv_h, coef, corrected, M,
+                            slot, wall_group, slot_group, ext_dir, ext_push, comp, gsum, ext_keep,
+                            out):  # fmt: skip
+    """:func:`wall_reaction` with the free-slip projection of ``fluid.sph.structure_load =
+    "normal_pairs"``, N (N/m in 2D). Each external wall particle j of group g = ``wall_group[j -
+    n_fluid]`` >= 0 (a structure member's interface point and the dummies of its column) keeps
+    of each pair reaction R_ij = V_i (p_i + p_j) M_i grad_i W_ij V_j only its components
+    a_k = R_ij . e_k along the group's unit vectors e_k = ``ext_dir[g, k]`` (k = 0, 1: a face
+    point's normal and zero; an end-cap point's zero and its cap normal; a corner's face and
+    cap normals). Where ``ext_push[g, k]`` the component may only push: when the group's sum
+    A_k = sum a_k over its particles and pairs is > 0 (out of the structure: a pull) the gate
+    ``ext_keep[g, k]`` is 0, else 1. out[s] = sum_k keep_k (sum_i a_k) e_k; ``pair_terms`` gives
+    the fluid the same projected, gated pair terms, so the fluid loses exactly -out (Newton's
+    third law, pair by pair). Work arrays ``comp`` (slots, 2) and ``gsum`` (groups, 2). A
+    particle of group -1 gets the whole reaction. Serial, in the neighbour list's order:
+    deterministic."""
+    dim = pos.shape[1]
+    out[:] = 0.0
+    comp[:] = 0.0
+    gsum[:] = 0.0
+    for i in range(n_fluid):
+        vi = vol[i]
+        for k in range(indptr[i + 1] - 1, indptr[i] - 1, -1):
+            j = indices[k]
+            if j < n_fluid:
+                break  # ascending rows: walls last
+            s = slot[j]
+            if s < 0:
+                continue
+            d0 = pos[i, 0] - pos[j, 0]
+            d1 = pos[i, 1] - pos[j, 1]
+            d2 = pos[i, 2] - pos[j, 2] if dim == 3 else 0.0
+            f = gradient_factor_fast(np.sqrt(d0 * d0 + d1 * d1 + d2 * d2), inv_h, coef)
+            if f == 0.0:
+                continue
+            fv = f * vol[j] * (p[i] + p[j]) * vi  # V_i (p_i + p_j) F V_j
+            g0 = fv * d0
+            g1 = fv * d1
+            g2 = fv * d2
+            if corrected:  # seed eq. 12 with M_j = M_i at a wall
+                r0 = M[i, 0, 0] * g0 + M[i, 0, 1] * g1
+                r1 = M[i, 1, 0] * g0 + M[i, 1, 1] * g1
+                r2 = 0.0
+                if dim == 3:
+                    r0 += M[i, 0, 2] * g2
+                    r1 += M[i, 1, 2] * g2
+                    r2 = M[i, 2, 0] * g0 + M[i, 2, 1] * g1 + M[i, 2, 2] * g2
+            else:  # seed eq. 6
+                r0, r1, r2 = g0, g1, g2
+            grp = wall_group[j - n_fluid]
+            if grp < 0:
+                out[s, 0] += r0
+                out[s, 1] += r1
+                if dim == 3:
+                    out[s, 2] += r2
+                continue
+            for e in range(2):
+                a = r0 * ext_dir[grp, e, 0] + r1 * ext_dir[grp, e, 1]
+                if dim == 3:
+                    a += r2 * ext_dir[grp, e, 2]
+                comp[s, e] += a
+                gsum[grp, e] += a
+    for g in range(gsum.shape[0]):
+        for e in range(2):
+            # a free end is pushed, never pulled: no tension from negative pressures
+            ext_keep[g, e] = 0.0 if (ext_push[g, e] and gsum[g, e] > 0.0) else 1.0
+    for s in range(slot_group.shape[0]):
+        g = slot_group[s]
+        if g < 0:
+            continue
+        for e in range(2):
+            a = ext_keep[g, e] * comp[s, e]
+            for c in range(dim):
+                out[s, c] += a * ext_dir[g, e, c]
+
+
+@njit(cache=True)
+def patch_exchange(pos, vol, p, indptr, indices, n_fluid, inv_h, coef, corrected, M, wall_patch,
+                   out):  # fmt: skip
+    """Force of the fluid on each wall patch, N (N/m in 2D): the sum over the patch's particles
+    (``wall_patch[j - n_fluid]`` = its index; -1: not summed) of :func:`wall_reaction`'s pair
+    reactions V_i (p_i + p_j) M_i grad_i W_ij V_j (seed eqs. 6, 12): the momentum the fluid loses
+    at the patch per unit time (``fluid.boundary_force = "momentum_exchange"``). Serial, in the
+    neighbour list's order: deterministic."""
+    dim = pos.shape[1]
+    out[:] = 0.0
+    for i in range(n_fluid):
+        vi = vol[i]
+        for k in range(indptr[i + 1] - 1, indptr[i] - 1, -1):
+            j = indices[k]
+            if j < n_fluid:
+                break  # ascending rows: walls last
+            b = wall_patch[j - n_fluid]
+            if b < 0:
+                continue
+            d0 = pos[i, 0] - pos[j, 0]
+            d1 = pos[i, 1] - pos[j, 1]
+            d2 = pos[i, 2] - pos[j, 2] if dim == 3 else 0.0
+            f = gradient_factor_fast(np.sqrt(d0 * d0 + d1 * d1 + d2 * d2), inv_h, coef)
+            if f == 0.0:
+                continue
+            fv = f * vol[j] * (p[i] + p[j]) * vi  # V_i (p_i + p_j) F V_j
+            g0 = fv * d0
+            g1 = fv * d1
+            g2 = fv * d2
+            if corrected:
+                out[b, 0] += (
+                    M[i, 0, 0] * g0 + M[i, 0, 1] * g1 + (M[i, 0, 2] * g2 if dim == 3 else 0.0)
+                )
+                out[b, 1] += (
+                    M[i, 1, 0] * g0 + M[i, 1, 1] * g1 + (M[i, 1, 2] * g2 if dim == 3 else 0.0)
+                )
+                if dim == 3:
+                    out[b, 2] += M[i, 2, 0] * g0 + M[i, 2, 1] * g1 + M[i, 2, 2] * g2
+            else:
+                out[b, 0] += g0
+                out[b, 1] += g1
+                if dim == 3:
+                    out[b, 2] += g2

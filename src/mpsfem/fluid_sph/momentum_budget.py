@@ -24,12 +24,16 @@ from mpsfem.fluid_sph.wendland import gradient_factor_fast
 
 @njit(cache=True)
 def split_forces(pos, vel, rho, vol, p, indptr, indices, n_fluid, h, inv_h, coef, rho0, c0, mass,
-                 corrected, M, alpha, internal, wall):  # fmt: skip
+                 corrected, M, alpha, internal, wall, project, wall_group, ext_dir,
+                 ext_keep):  # fmt: skip
     """The pair forces of one right-hand side, split (N; N/m in 2D): ``internal[0]`` the sum over
     fluid-fluid pressure pairs of -V_i <grad p>_i's share, ``internal[1]`` the same for the
     artificial viscosity, ``wall[j - n_fluid]`` the pressure force of the fluid on wall / dummy
     particle j (the reaction to the pair term fluid particle i received, seed eqs. 6, 12). Same
-    pairs and arithmetic as ``delta_sph.pair_terms``; serial in index order (deterministic)."""
+    pairs and arithmetic as ``delta_sph.pair_terms``; serial in index order (deterministic).
+    With ``project`` a wall particle of group g = ``wall_group[j - n_fluid]`` >= 0 books only
+    sum_k keep[g, k] (c . e_k) e_k of its pair (``fluid.sph.structure_load = "normal_pairs"``, as
+    ``pair_terms`` gives it to the fluid)."""
     dim = pos.shape[1]
     eta2 = ETA2 * h * h
     nvis = 2.0 * (dim + 2)
@@ -87,6 +91,19 @@ def split_forces(pos, vel, rho, vol, p, indptr, indices, n_fluid, h, inv_h, coef
                     internal[1, 2] += w * g2
             else:
                 t = j - n_fluid
+                grp = wall_group[t] if project else -1
+                if grp >= 0:  # projected and gated as delta_sph.pair_terms
+                    q0, q1, q2 = gp0, gp1, gp2
+                    gp0 = gp1 = gp2 = 0.0
+                    for e in range(2):
+                        w_ = q0 * ext_dir[grp, e, 0] + q1 * ext_dir[grp, e, 1]
+                        if dim == 3:
+                            w_ += q2 * ext_dir[grp, e, 2]
+                        w_ *= ext_keep[grp, e]
+                        gp0 += w_ * ext_dir[grp, e, 0]
+                        gp1 += w_ * ext_dir[grp, e, 1]
+                        if dim == 3:
+                            gp2 += w_ * ext_dir[grp, e, 2]
                 wall[t, 0] += vi * gp0
                 wall[t, 1] += vi * gp1
                 if dim == 3:
@@ -162,7 +179,8 @@ class SPHMomentumBudget:
         """Split the right-hand side just computed by the solver ``s`` on the list ``nb``."""
         split_forces(s.pos, s.vel, s.rho, s.vol, s.p, nb.indptr, nb.indices, s.n_fluid, s.h, s.inv_h,
                      s.grad_coef, s.rho0, s.c0, s.mass, s.corrected, s.M, s.alpha,
-                     self._internal, self.wall_force)  # fmt: skip
+                     self._internal, self.wall_force, s.project_load, s.wall_group, s.ext_dir,
+                     s.ext_keep)  # fmt: skip
         body_force(s.pos, s.n_fluid, s.mass, s.gravity, s.omega2, s.center, self.split[0])
         self.split[1:] = self._internal
 

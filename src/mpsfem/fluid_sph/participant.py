@@ -131,7 +131,10 @@ class SPHParticipant(InterfaceMotionInputs):
             np.abs(np.einsum("ka,ka->k", n_ref, frame_n)),
             np.abs(np.einsum("ka,ka->k", n_ref, frame_t)),
         )
-        normal_load = sph.structure_load == "normal"
+        normal_load = sph.structure_load in ("normal", "normal_pairs")
+        #: "normal_pairs": the projection lives in the solver's pair kernels (fluid and member
+        #: alike); "normal": in :meth:`_forces`, on the step's whole exchange (member only)
+        self._in_kernel = sph.structure_load == "normal_pairs"
         self._project = along > 1.0 - 1e-9 if normal_load else np.zeros(n, dtype=bool)
         #: end-cap points (cap only) and corners (face and cap) of free ends: their cap
         #: component may only push (structure_load "normal"); a corner's face and cap unit
@@ -151,6 +154,15 @@ class SPHParticipant(InterfaceMotionInputs):
         self._ckpt: dict | None = None
         self.times = {"place": 0.0, "filter": 0.0, "forces": 0.0}
         self.surface.place(s, self._d, self._v)  # the normals' rows; positions unchanged
+        if self._in_kernel:  # each structure particle's group is its interface point
+            slot_group = np.full(s.ext_rows.size, -1, dtype=np.int64)
+            slot_group[slot] = target
+            s.project_external(slot_group, n)
+            s.ext_push[self._cap_only, 1] = True  # an end cap is pushed, never pulled
+            s.ext_push[self._corner, 1] = True
+            self._set_directions()
+            s.rhs()  # the initial right-hand side again, projected
+            s.reaction_step[...] = s.reaction
 
     # ------------------------------------------------------------------ protocol
     def interface(self) -> InterfaceMesh:
@@ -166,6 +178,34 @@ class SPHParticipant(InterfaceMotionInputs):
         self.times["forces"] += time.perf_counter() - tic
         return f
 
+    def _corner_axes(self) -> tuple[np.ndarray, np.ndarray]:
+        """The corner points' current face and cap unit vectors: their reference ones turned by
+        the angle from the reference normal to the current one."""
+        k = self._corner
+        cur = self.solver.normal[self._if_rows[k]]  # the reference normal turned by theta
+        cos = np.einsum("ka,ka->k", self._n_ref, cur)
+        sin = self._n_ref[:, 0] * cur[:, 1] - self._n_ref[:, 1] * cur[:, 0]
+        face, cap = (
+            np.c_[cos * u[:, 0] - sin * u[:, 1], sin * u[:, 0] + cos * u[:, 1]]
+            for u in (self._face_ref, self._cap_ref)
+        )
+        return face, cap
+
+    def _set_directions(self) -> None:
+        """structure_load = "normal_pairs": the solver's projection vectors of every interface point
+        for the next step, from the current normals (end of the step, as the placed particles):
+        a face point its normal, an end-cap point its cap normal (pushing only), a corner its
+        face and cap normals (the cap's pushing only)."""
+        s = self.solver
+        e = s.ext_dir
+        e[...] = 0.0
+        cur = s.normal[self._if_rows]
+        face_only = self._project & ~self._cap_only
+        e[face_only, 0] = cur[face_only]
+        e[self._cap_only, 1] = cur[self._cap_only]
+        if self._corner.any():
+            e[self._corner, 0], e[self._corner, 1] = self._corner_axes()
+
     def _forces(self) -> np.ndarray:
         """Per interface point, the step-mean reaction of its own particle and its dummies."""
         r = self.solver.reaction_step[self._slot]
@@ -173,7 +213,9 @@ class SPHParticipant(InterfaceMotionInputs):
         f = np.stack(
             [np.bincount(self._target, weights=r[:, a], minlength=n) for a in range(2)], axis=1
         )
-        if self._project.any():  # structure_load = "normal": free slip, f = (f . n) n
+        if self._in_kernel:  # "normal_pairs": the reactions are projected and gated already
+            return f
+        if self._project.any():  # "normal": free slip, f = (f . n) n
             k = self._project
             nrm = self.solver.normal[self._if_rows[k]]
             fn = np.einsum("ka,ka->k", f[k], nrm)
@@ -182,13 +224,7 @@ class SPHParticipant(InterfaceMotionInputs):
             f[k] = fn[:, None] * nrm
         if self._corner.any():  # face part along the face normal, cap part pushing only
             k = self._corner
-            cur = self.solver.normal[self._if_rows[k]]  # the reference normal turned by theta
-            cos = np.einsum("ka,ka->k", self._n_ref, cur)
-            sin = self._n_ref[:, 0] * cur[:, 1] - self._n_ref[:, 1] * cur[:, 0]
-            face, cap = (
-                np.c_[cos * u[:, 0] - sin * u[:, 1], sin * u[:, 0] + cos * u[:, 1]]
-                for u in (self._face_ref, self._cap_ref)
-            )
+            face, cap = self._corner_axes()
             a = np.einsum("ka,ka->k", f[k], face)
             b = np.minimum(np.einsum("ka,ka->k", f[k], cap), 0.0)
             f[k] = a[:, None] * face + b[:, None] * cap
@@ -198,6 +234,8 @@ class SPHParticipant(InterfaceMotionInputs):
         """Move the structure particles to the written state over one δ-SPH step of ``dt``."""
         tic = time.perf_counter()
         self.surface.place(self.solver, self._d, self._v)
+        if self._in_kernel:
+            self._set_directions()
         self.times["place"] += time.perf_counter() - tic
         self.solver.step(dt)
         self.times["filter"] = self.filter.seconds

@@ -151,6 +151,28 @@ class DeltaSPHSolver:
         #: fluid lost to it over the step, divided by dt), N (N/m in 2D)
         self.reaction = np.zeros((self.ext_rows.size, self.dim))
         self.reaction_step = np.zeros((self.ext_rows.size, self.dim))
+        #: the free-slip projection of the structure's pair forces (fluid.sph.structure_load =
+        #: "normal_pairs", :meth:`project_external`): per wall row its group (-1: whole pairs), per
+        #: external slot its group, per group two unit vectors (or zero), which of them may only
+        #: push, and their gates of the last right-hand side (delta_sph.wall_reaction_projected)
+        self.project_load = False
+        self.wall_group = np.full(n - nf, -1, dtype=np.int64)
+        self.slot_group = np.full(self.ext_rows.size, -1, dtype=np.int64)
+        self.ext_dir = np.zeros((0, 2, dim))
+        self.ext_push = np.zeros((0, 2), dtype=np.bool_)
+        self.ext_keep = np.ones((0, 2))
+        self._ext_comp = np.zeros((self.ext_rows.size, 2))
+        self._ext_gsum = np.zeros((0, 2))
+        #: fluid.boundary_force = "momentum_exchange": each rigid wall patch's force is the pair
+        #: exchange (delta_sph.patch_exchange) at the last right-hand side, and its mean over the
+        #: last step with the integrator's weights (the momentum the fluid lost at it / dt), N
+        self.exchange_walls = spec.boundary_force == "momentum_exchange"
+        self.wall_patch = np.full(n - nf, -1, dtype=np.int64)
+        for k, pt in enumerate(self.patches):
+            if pt.spec is not None:
+                self.wall_patch[pt.start - nf : pt.stop - nf] = k
+        self.wall_exchange = np.zeros((len(self.patches), dim))
+        self.wall_exchange_step = np.zeros((len(self.patches), dim))
         self.mass = self.rho0 * dx**dim  # kg (kg/m in 2D)
 
         self.c0 = self._sound_speed()
@@ -224,7 +246,10 @@ class DeltaSPHSolver:
         # (candidate_pairs.py); the exact list of the shared search where a neighbour filter,
         # the wall reaction or the budget needs it
         self.exact_neighbours = (
-            neighbour_filter is not None or self.ext_rows.size > 0 or self.budget.full
+            neighbour_filter is not None
+            or self.ext_rows.size > 0
+            or self.budget.full
+            or self.exchange_walls
         )
         skin = spec.neighbours.skin * dx
         domain = (self.lower, self.upper)
@@ -250,6 +275,7 @@ class DeltaSPHSolver:
         self.move_walls(0.0)
         self.rhs()  # the first kick's right-hand side (state from here on)
         self.reaction_step[...] = self.reaction  # the load before the first step
+        self.wall_exchange_step[...] = self.wall_exchange
         if self.budget.full:
             self.budget.start(self.vel, nf)
         ts = spec.time_step
@@ -344,13 +370,27 @@ class DeltaSPHSolver:
                 self.pos, nf, self.visc_alpha, self.damp_alpha, self.zone_axis,
                 self.zone_start, self.zone_inv, self.alpha,
             )  # fmt: skip
+        project = self.project_load and self.ext_rows.size > 0
+        if project:  # the projected reactions and their gates, which pair_terms then applies
+            delta_sph.wall_reaction_projected(
+                self.pos, self.vol, self.p, nb.indptr, nb.indices, nf, self.inv_h,
+                self.grad_coef, self.corrected, self.M, self.ext_slot, self.wall_group,
+                self.slot_group, self.ext_dir, self.ext_push, self._ext_comp, self._ext_gsum,
+                self.ext_keep, self.reaction,
+            )  # fmt: skip
         delta_sph.pair_terms(
             self.pos, self.vel, self.rho, self.p, nb.indptr, self.row_end, self.pair_j,
             self.fv_pair, nf, self.h, self.rho0, self.c0, self.sph.density_diffusion,
             self.corrected, self.M, self.pM, self.grad_rho, self.alpha, self.gravity, self.omega2,
             self.center, self.acc, self.drho,
+            *((self.wall_group, self.ext_dir, self.ext_keep) if project else ()),
         )  # fmt: skip
-        if self.ext_rows.size:
+        if self.exchange_walls:
+            delta_sph.patch_exchange(
+                self.pos, self.vol, self.p, nb.indptr, nb.indices, nf, self.inv_h,
+                self.grad_coef, self.corrected, self.M, self.wall_patch, self.wall_exchange,
+            )  # fmt: skip
+        if self.ext_rows.size and not project:
             delta_sph.wall_reaction(
                 self.pos, self.rho, self.vol, self.p, nb.indptr, nb.indices, nf, self.inv_h,
                 self.grad_coef, self.corrected, self.M, self.ext_slot, self.reaction,
@@ -390,6 +430,23 @@ class DeltaSPHSolver:
         rows = self.ext_slot[pt.start : pt.stop]
         self._ext_pos1[rows] = pos
         self._ext_vel1[rows] = vel
+
+    def project_external(self, slot_group: np.ndarray, n_group: int) -> None:
+        """Give the external particles the free-slip projection (fluid.sph.structure_load =
+        "normal_pairs"): ``slot_group`` (one per external slot, -1: whole pairs) names each particle's
+        group (a member's interface point with its column), ``n_group`` their number. The
+        driving participant fills :attr:`ext_dir` (groups, 2, dim: unit vectors or zero) and
+        :attr:`ext_push` (groups, 2: may only push) before each step; from the next
+        right-hand side the fluid and the reactions keep only those components (both sides
+        alike: delta_sph.wall_reaction_projected, pair_terms)."""
+        self.slot_group[:] = slot_group
+        self.wall_group[:] = -1
+        self.wall_group[self.ext_rows - self.n_fluid] = self.slot_group
+        self.ext_dir = np.zeros((n_group, 2, self.dim))
+        self.ext_push = np.zeros((n_group, 2), dtype=np.bool_)
+        self.ext_keep = np.ones((n_group, 2))
+        self._ext_gsum = np.zeros((n_group, 2))
+        self.project_load = True
 
     def patch(self, name: str):
         """The index range of the patch ``name`` (a WallPatch)."""
@@ -434,6 +491,8 @@ class DeltaSPHSolver:
             tic = time.perf_counter()
             if ext:  # leapfrog: the fluid's momentum changes by dt (F_start + F_end) / 2
                 np.multiply(self.reaction, 0.5, out=self.reaction_step)
+            if self.exchange_walls:
+                np.multiply(self.wall_exchange, 0.5, out=self.wall_exchange_step)
             if self.budget.full:  # the first kick's right-hand side, the last step's end
                 self.budget.book(0.5 * dt)
             time_stepping.kick(self.vel, self.rho, self.acc, self.drho, nf, 0.5 * dt)
@@ -446,6 +505,8 @@ class DeltaSPHSolver:
             tic = time.perf_counter()
             if ext:
                 self.reaction_step += 0.5 * self.reaction
+            if self.exchange_walls:
+                self.wall_exchange_step += 0.5 * self.wall_exchange
             if self.budget.full:
                 self.budget.book(0.5 * dt)
             time_stepping.kick(self.vel, self.rho, self.acc, self.drho, nf, 0.5 * dt)
@@ -507,6 +568,11 @@ class DeltaSPHSolver:
                     np.multiply(self.reaction, w / 6.0, out=self.reaction_step)
                 else:
                     self.reaction_step += (w / 6.0) * self.reaction
+            if self.exchange_walls:  # the walls' exchange, weighted alike
+                if stage == 0:
+                    np.multiply(self.wall_exchange, w / 6.0, out=self.wall_exchange_step)
+                else:
+                    self.wall_exchange_step += (w / 6.0) * self.wall_exchange
             if self.budget.full:  # the stage's weight in the velocity update
                 self.budget.book(w / 6.0 * dt)
             tic = time.perf_counter()
@@ -564,6 +630,9 @@ class DeltaSPHSolver:
         if self.ext_rows.size:  # coupled: the forces read after a restore
             arrays["reaction"] = self.reaction
             arrays["reaction_step"] = self.reaction_step
+        if self.exchange_walls:  # the walls' forces read after a restore, the leapfrog's start
+            arrays["wall_exchange"] = self.wall_exchange
+            arrays["wall_exchange_step"] = self.wall_exchange_step
         if self.budget.full:  # the ledger, and the split the next first kick reuses
             arrays["budget_ledger"] = self.budget.ledger
             arrays["budget_split"] = self.budget.split
@@ -621,10 +690,18 @@ class DeltaSPHSolver:
     def boundary_force(self, names: Sequence[str]) -> np.ndarray:
         """Force of the fluid on the named wall patches, N (N/m in 2D): the pressure integral
         -sum p_i l0^(d-1) n_i over each wall's first layer (thesis eq. 2-51, extrapolated
-        dummy pressures)."""
+        dummy pressures); with fluid.boundary_force = "momentum_exchange" the pair exchange
+        with the patch's particles over the last step (:attr:`wall_exchange_step`; an external
+        patch's :attr:`reaction_step`), exactly the momentum the fluid lost at it / dt."""
         f = np.zeros(self.dim)
         for name in names:
             pt = next(pt for pt in self.patches if pt.name == name)
+            if self.exchange_walls:
+                if pt.spec is None:
+                    f += self.reaction_step[self.ext_slot[pt.start : pt.stop]].sum(axis=0)
+                else:
+                    f += self.wall_exchange_step[self._patch_index[name]]
+                continue
             f += probes.patch_force(
                 self.p, self.normal, pt.start, pt.stop, self.kind, self.l0 ** (self.dim - 1)
             )

@@ -653,7 +653,9 @@ class FluidSection(Section):
             "collision model takes from fluid near a member reaches the member; "
             "'momentum_exchange', the reaction to every pair interaction, pressure included, so "
             "the impulse a boundary receives is exactly the momentum the fluid loses at it "
-            "(needs an antisymmetric fluid.pressure.gradient; docs/fluid.md, momentum budget)",
+            "(MPS: needs an antisymmetric fluid.pressure.gradient, docs/fluid.md, momentum "
+            "budget; δ-SPH: the walls' pressure pair exchange averaged over the step with the "
+            "integrator's weights, docs/fluid_sph.md)",
         )
     )
     momentum_budget: bool = Field(
@@ -743,14 +745,6 @@ class FluidSection(Section):
         if self.method == "delta-sph":
             if self.sph is None:
                 object.__setattr__(self, "sph", DeltaSPHSection())
-            if self.boundary_force == "momentum_exchange":
-                raise InvalidValue(
-                    "boundary_force",
-                    "'momentum_exchange' is not available under fluid.method = 'delta-sph' "
-                    "(its wall forces are the pressure integral over the wall's first layer); "
-                    "use 'pressure_integral' or 'pressure_and_contact'",
-                    self.boundary_force,
-                )
             c = self.sph.central_field_center
             if c is not None and len(c) != self.dim:
                 raise InvalidValue(
@@ -776,9 +770,10 @@ class FluidSection(Section):
                 "other models' wall terms do not carry the walls' acceleration",
                 True,
             )
-        if self.boundary_force == "momentum_exchange" and self.pressure.gradient not in (
-            "tanaka",
-            "cmps",
+        if (  # MPS only: δ-SPH's pressure pairs are antisymmetric (seed eqs. 6, 12)
+            self.method == "mps"
+            and self.boundary_force == "momentum_exchange"
+            and self.pressure.gradient not in ("tanaka", "cmps")
         ):
             raise InvalidValue(
                 "boundary_force",

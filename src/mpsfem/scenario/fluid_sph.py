@@ -116,11 +116,16 @@ class DeltaSPHSection(Section):
     central_field_center: Point | None = Field(
         None, description="centre of the central body force, m (default: the origin)"
     )
-    structure_load: Literal["normal", "exchange"] = Field(
+    structure_load: Literal["normal", "normal_pairs", "exchange"] = Field(
         "normal",
-        description="load handed to coupled structure members at each interface point: 'normal', "
-        "the pair exchange with its virtual particles projected on the face normal (a corner: "
-        "on the face and end-cap normals), the end-cap part pushing only (free slip, no tension "
-        "on a free end; docs/validation_delta_sph_coupled.md, 'Axial load'); 'exchange', the "
-        "whole pair exchange (the behaviour before this key)",
+        description="pressure pair forces between the fluid and coupled structure members: "
+        "'normal', the member receives at each interface point the pair exchange with its "
+        "virtual particles projected on the face normal (a corner: on the face and end-cap "
+        "normals), the end-cap part pushing only (free slip, no tension on a free end; "
+        "docs/validation_delta_sph_coupled.md, 'Axial load'), while the fluid feels the whole "
+        "pairs; 'normal_pairs', every pair projected and gated so for the fluid too: the member "
+        "receives exactly what the fluid loses, but the fluid near a member's ends and along "
+        "faces the pressure varies on loses the kernel's consistency (docs/fluid_sph.md, "
+        "'Coupled to a structure'); 'exchange', the whole pair exchange on both sides (the "
+        "behaviour before this key)",
     )
