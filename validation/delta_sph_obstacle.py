@@ -63,6 +63,13 @@ IMPACT = (0.12, 0.25)  # s, the impact window of validation/momentum_budget.py
 CONTACT_FORCE = 1.0  # N/m, |F_x| of the first sample counted as contact
 #: fluid.sph.structure_load = "normal_pairs": the fluid's pairs with the member projected too
 PAIRS = ('fluid.sph.structure_load="normal_pairs"',)
+#: the plate's wetted (left) face at x = 0.292 m, as the published reproductions place it
+#: (docs/validation_elastic_obstacle_published.md): the beam axis 6 mm further from the column
+FACE = (
+    "structure.members.0.start=[0.298, 0.0]",
+    "structure.members.0.end=[0.298, 0.08]",
+    "probes.0.position=[0.298, 0.08]",
+)
 #: key -> (fluid method, L / l0, end time in s[, extra --set overrides])
 CASES = {
     "dsph20": ("delta-sph", 20, 0.3),
@@ -75,6 +82,8 @@ CASES = {
     "mps20_long": ("mps", 20, 0.6),
     "dsph20_pairs": ("delta-sph", 20, 0.3, PAIRS),
     "dsph40_pairs": ("delta-sph", 40, 0.3, PAIRS),
+    "mps40_face": ("mps", 40, 0.3, FACE),
+    "dsph40_face": ("delta-sph", 40, 0.3, FACE),
 }
 #: 0.1 s blocks after the first peak whose mean tip u_x is reported (the water piled up behind
 #: the plate; docs/validation.md gives MPS's of an earlier fluid)
