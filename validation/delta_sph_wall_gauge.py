@@ -2,7 +2,7 @@
 
 The δ-SPH dam break of validation/delta_sph_dam_break.py (its scenario file, δ-SPHC,
 h = 1.3 l0, RK4) run to t = 0.4 s with the ``right_wall_p`` gauge (far wall, 0.02 m above the
-floor, radius 5.5 mm) sampled every 1 ms, at l0 = L/20 and L/40; per run the statistics of
+floor, radius 5.5 mm) sampled every 1 ms, at l0 = L/20, L/40 and L/80; per run the statistics of
 validation/dam_break_wall_gauge.py (``gauge_statistics``: arrival, impact peak, Savitzky-Golay
 smoothed peak, mean after the impact and the noise level, RMS of raw - smoothed from arrival +
 20 ms), beside that study's MPS rows (docs/figures/dam_break_wall_gauge.csv, Courant 0.2,
@@ -27,7 +27,7 @@ from results_csv import read_csv, write_csv  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 CSV = ROOT / "validation" / "results" / "delta_sph_wall_gauge.csv"
 MPS_CSV = ROOT / "docs" / "figures" / "dam_break_wall_gauge.csv"
-RESOLUTIONS = (20, 40)
+RESOLUTIONS = (20, 40, 80)
 
 
 def case_path(n: int) -> Path:
