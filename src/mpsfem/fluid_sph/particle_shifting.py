@@ -76,11 +76,13 @@ def _make_shift_sums(DIM):  # noqa: N803 (a compile-time constant of the closure
     """:func:`shift_sums` compiled for ``DIM`` = 2 or 3 (the branches on it fold away)."""
 
     @njit(cache=True, parallel=True)
-    def shift_sums_dim(pos, vol, indptr, indices, r2max, n_fluid, h, inv_h, norm, coef, inv_wdx,
-                       r_coef, n_exp, lam, normal, raw):  # fmt: skip
+    def shift_sums_dim(pos, vol, rho, indptr, indices, r2max, n_fluid, h, inv_h, norm, coef,
+                       inv_wdx, r_coef, n_exp, lam, normal, raw, grad_rho):  # fmt: skip
         for i in prange(n_fluid):
             b00 = b01 = b02 = b11 = b12 = b22 = 0.0
             s0 = s1 = s2 = 0.0  # sum_j grad_i W_ij V_j
+            g0 = g1 = g2 = 0.0  # sum_j (rho_j - rho_i) grad_i W_ij V_j
+            rho_i = rho[i]
             t0 = t1 = t2 = 0.0  # sum_j [1 + R (W_ij / W(l0))^n] grad_i W_ij V_j
             x0 = pos[i, 0]
             x1 = pos[i, 1]
@@ -105,6 +107,9 @@ def _make_shift_sums(DIM):  # noqa: N803 (a compile-time constant of the closure
                 b11 -= f * d1 * d1
                 s0 += f * d0
                 s1 += f * d1
+                drho = rho[j] - rho_i
+                g0 += drho * f * d0
+                g1 += drho * f * d1
                 t0 += fac * f * d0
                 t1 += fac * f * d1
                 if DIM == 3:
@@ -112,6 +117,7 @@ def _make_shift_sums(DIM):  # noqa: N803 (a compile-time constant of the closure
                     b12 -= f * d1 * d2
                     b22 -= f * d2 * d2
                     s2 += f * d2
+                    g2 += drho * f * d2
                     t2 += fac * f * d2
             # outward normal -M_i sum grad_i W_ij V_j (Marrone et al. 2010)
             if DIM == 2:
@@ -120,9 +126,13 @@ def _make_shift_sums(DIM):  # noqa: N803 (a compile-time constant of the closure
                 if det > DET_MIN:
                     m0 = (b11 * s0 - b01 * s1) / det
                     m1 = (b00 * s1 - b01 * s0) / det
+                    grad_rho[i, 0] = (b11 * g0 - b01 * g1) / det  # <grad rho> = M sum ...
+                    grad_rho[i, 1] = (b00 * g1 - b01 * g0) / det
                 else:
                     m0 = s0
                     m1 = s1
+                    grad_rho[i, 0] = g0
+                    grad_rho[i, 1] = g1
                 nn = math.sqrt(m0 * m0 + m1 * m1)
                 if nn > 0.0:
                     normal[i, 0] = -m0 / nn
@@ -145,10 +155,16 @@ def _make_shift_sums(DIM):  # noqa: N803 (a compile-time constant of the closure
                     m0 = (c00 * s0 + c01 * s1 + c02 * s2) / det
                     m1 = (c01 * s0 + c11 * s1 + c12 * s2) / det
                     m2 = (c02 * s0 + c12 * s1 + c22 * s2) / det
+                    grad_rho[i, 0] = (c00 * g0 + c01 * g1 + c02 * g2) / det
+                    grad_rho[i, 1] = (c01 * g0 + c11 * g1 + c12 * g2) / det
+                    grad_rho[i, 2] = (c02 * g0 + c12 * g1 + c22 * g2) / det
                 else:
                     m0 = s0
                     m1 = s1
                     m2 = s2
+                    grad_rho[i, 0] = g0
+                    grad_rho[i, 1] = g1
+                    grad_rho[i, 2] = g2
                 nn = math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
                 if nn > 0.0:
                     normal[i, 0] = -m0 / nn
@@ -168,16 +184,19 @@ def _make_shift_sums(DIM):  # noqa: N803 (a compile-time constant of the closure
 _SHIFT_SUMS = {2: _make_shift_sums(2), 3: _make_shift_sums(3)}
 
 
-def shift_sums(pos, vol, indptr, indices, r2max, n_fluid, h, inv_h, norm, coef, inv_wdx, r_coef,
-               n_exp, lam, normal, raw):  # fmt: skip
+def shift_sums(pos, vol, rho, indptr, indices, r2max, n_fluid, h, inv_h, norm, coef, inv_wdx,
+               r_coef, n_exp, lam, normal, raw, grad_rho):  # fmt: skip
     """Per fluid particle i: ``lam[i]``, the smallest eigenvalue of B_i = sum_j (r_j - r_i) (x)
     grad_i W_ij V_j (dimensionless); ``normal[i]``, the unit outward normal -M_i sum_j grad_i
     W_ij V_j / |...| (zero where that sum vanishes); ``raw[i]`` = sum_j [1 + R (W_ij /
-    W(l0))^n] grad_i W_ij V_j (1/m), over every neighbour (fluid and wall). ``inv_wdx`` = 1 /
+    W(l0))^n] grad_i W_ij V_j (1/m); ``grad_rho[i]`` = M_i sum_j (rho_j - rho_i) grad_i W_ij
+    V_j (kg/m^4, the CSPM density gradient of delta_sph.correction at these positions), over
+    every neighbour (fluid and wall). ``inv_wdx`` = 1 /
     W(l0) (m^dim), ``r_coef`` = R, ``n_exp`` = n; kernel constants as delta_sph.correction.
     Rows: ascending candidates, the pairs at r^2 >= r2max skipped."""
-    _SHIFT_SUMS[pos.shape[1]](pos, vol, indptr, indices, r2max, n_fluid, h, inv_h, norm, coef,
-                              inv_wdx, r_coef, n_exp, lam, normal, raw)  # fmt: skip
+    _SHIFT_SUMS[pos.shape[1]](pos, vol, rho, indptr, indices, r2max, n_fluid, h, inv_h, norm,
+                              coef, inv_wdx, r_coef, n_exp, lam, normal, raw,
+                              grad_rho)  # fmt: skip
 
 
 @njit(cache=True, parallel=True)
@@ -227,12 +246,17 @@ def shift_vectors(pos, indptr, indices, r2max, n_fluid, lam, normal, raw, scale,
 
 
 @njit(cache=True, parallel=True)
-def apply_shift(pos, shift, n_fluid):
-    """r_i += δr_i for the fluid particles."""
+def apply_shift(pos, shift, n_fluid, rho, grad_rho, taylor):
+    """r_i += δr_i for the fluid particles; with ``taylor``, also rho_i += δr_i . <grad rho>_i
+    (the density field at the new position to first order; Lind et al. 2012)."""
     dim = pos.shape[1]
     for i in prange(n_fluid):
+        dr = 0.0
         for a in range(dim):
             pos[i, a] += shift[i, a]
+            dr += shift[i, a] * grad_rho[i, a]
+        if taylor:
+            rho[i] += dr  # Lind et al. 2012: rho(r + dr) = rho + dr . grad rho
 
 
 class ParticleShifting:
@@ -259,6 +283,8 @@ class ParticleShifting:
         self.normal = np.zeros((nf, dim))
         self.raw = np.zeros((nf, dim))
         self.shift = np.zeros((nf, dim))
+        self.grad_rho = np.zeros((nf, dim))
+        self.taylor = sph.shifting_density == "taylor"
         #: wall time spent shifting, s
         self.seconds = 0.0
 
@@ -277,9 +303,9 @@ class ParticleShifting:
         r2max = solver.radius * solver.radius
         nf = solver.n_fluid
         shift_sums(
-            solver.pos, solver.vol, nb.indptr, nb.indices, r2max, nf, solver.h, solver.inv_h,
-            solver.norm, solver.grad_coef, self.inv_wdx, self.r_coef, self.n_exp, self.lam,
-            self.normal, self.raw,
+            solver.pos, solver.vol, solver.rho, nb.indptr, nb.indices, r2max, nf, solver.h,
+            solver.inv_h, solver.norm, solver.grad_coef, self.inv_wdx, self.r_coef, self.n_exp,
+            self.lam, self.normal, self.raw, self.grad_rho,
         )  # fmt: skip
         shift_vectors(
             solver.pos, nb.indptr, nb.indices, r2max, nf, self.lam, self.normal, self.raw,
@@ -291,7 +317,7 @@ class ParticleShifting:
         """Shift the solver's fluid particles for a step of ``dt`` (s); velocities untouched."""
         tic = time.perf_counter()
         self.compute(solver, dt)
-        apply_shift(solver.pos, self.shift, solver.n_fluid)
+        apply_shift(solver.pos, self.shift, solver.n_fluid, solver.rho, self.grad_rho, self.taylor)
         self.seconds += time.perf_counter() - tic
 
 

@@ -17,7 +17,7 @@ from mpsfem.scenario.base import InvalidValue, Point, Section
 #: the keys that tune fluid.sph.shifting (read only with shifting != "none")
 SHIFTING_KEYS = (
     "shifting_coefficient", "shifting_r", "shifting_n", "shifting_surface", "shifting_layer",
-    "shifting_max",
+    "shifting_max", "shifting_density",
 )  # fmt: skip
 
 
@@ -177,6 +177,13 @@ class DeltaSPHSection(Section):
         gt=0.0,
         le=0.5,
         description="longest shift of one step, in particle spacings (a longer one is scaled back)",
+    )
+
+    shifting_density: Literal["keep", "taylor"] = Field(
+        "keep",
+        description="the density of a shifted particle: 'keep' (Sun et al. 2017: positions "
+        "only); 'taylor', rho += dr . <grad rho> (the CSPM gradient; Lind et al. 2012), the "
+        "density field at the new position to first order (mass and momentum unchanged)",
     )
 
     @model_validator(mode="after")
