@@ -273,7 +273,7 @@ class ParticleShifting:
         self.speed = float(speed)
         self.coefficient = sph.shifting_coefficient
         self.r_coef = sph.shifting_r
-        self.n_exp = float(sph.shifting_n)
+        self.n_exp = int(sph.shifting_n)  # an integer power: repeated products, not pow()
         self.lam_surface = sph.shifting_surface
         self.lam_layer = sph.shifting_layer
         self.max_shift = sph.shifting_max * solver.l0  # m
