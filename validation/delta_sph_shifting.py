@@ -13,9 +13,12 @@ numba thread per run (``--threads``), resumable ``mpsfem run`` subprocesses:
   wall-gauge study's own files (same scenario and overrides). Where a run of a pair failed (at
   L/80 a splash over the tank's 0.4 m wall left the domain at 0.378 s), both runs of the pair
   are analysed up to that time (``analysed_to_s``);
-- ``variant``: two diagnostic variants of the L/40 gauge run with the shift on: the shifted
-  particle's density corrected to first order (``shifting_density = "taylor"``) and a quarter
-  of the paper's strength (``shifting_coefficient = 0.25``);
+- ``variant``: diagnostic variants with the shift on: at L/40 the shifted particle's density
+  corrected to first order (``shifting_density = "taylor"``) and a quarter of the paper's
+  strength (``shifting_coefficient = 0.25``); and a "perturbed" twin of the "none" runs (C =
+  1e-6: shifts of about 1e-8 l0 that change only the last bits) of the gauge at L/20 and L/40
+  and of the obstacle at L/20, whose distance from "none" measures how far two equally valid
+  runs of these impact metrics lie apart;
 - ``obstacle``: the coupled elastic obstacle of validation/delta_sph_obstacle.py (its δ-SPH
   scenario text, copied here to validation/results/delta_sph_shifting_obstacle_{off,on}.toml,
   the "on" copy with ``shifting = "delta_plus"``) at L/20 and L/40 to 0.3 s: the tip's peak,
@@ -131,25 +134,30 @@ def gauge_rows(args, refs) -> list[dict]:
 
 #: diagnostic variants of the L/40 gauge run: label -> extra overrides (not tuning: they test
 #: whether the positions-only density or the shift's strength raises the noise)
+#: "perturbed": C = 1e-6, shifts of about 1e-8 l0, a perturbation of the last bits only: its
+#: distance from the "none" run is the spread of a metric between two equally valid runs
 VARIANTS = {
-    "delta_plus taylor": ['fluid.sph.shifting_density="taylor"'],
-    "delta_plus C=0.25": ["fluid.sph.shifting_coefficient=0.25"],
+    (40, "delta_plus taylor"): ['fluid.sph.shifting_density="taylor"'],
+    (40, "delta_plus C=0.25"): ["fluid.sph.shifting_coefficient=0.25"],
+    (20, "perturbed C=1e-6"): ["fluid.sph.shifting_coefficient=1e-6"],
+    (40, "perturbed C=1e-6"): ["fluid.sph.shifting_coefficient=1e-6"],
 }
-VARIANT_RESOLUTION = 40
+#: obstacle runs of the "on" scenario with extra overrides (the perturbed twin of "none")
+OBSTACLE_VARIANTS = {(20, "perturbed C=1e-6"): ["fluid.sph.shifting_coefficient=1e-6"]}
 
 
-def variant_path(label: str) -> Path:
-    tag = label.split()[1].replace("=", "").replace(".", "")
-    return RESULTS / f"delta_sph_shifting_gauge_L{VARIANT_RESOLUTION}_{tag}.h5"
+def variant_path(n: int, label: str, study: str = "gauge") -> Path:
+    tag = label.split()[1].replace("=", "").replace(".", "").replace("-", "m")
+    return RESULTS / f"delta_sph_shifting_{study}_L{n}_{tag}.h5"
 
 
 def variant_rows(args, refs) -> list[dict]:
     dsph.SCENARIO.parent.mkdir(parents=True, exist_ok=True)
     if not args.analyse_only:
         dsph.SCENARIO.write_text(dsph.SCENARIO_TEXT)
-    n = VARIANT_RESOLUTION
+        write_obstacle_scenarios()
     rows = []
-    for label, extra in VARIANTS.items():
+    for (n, label), extra in VARIANTS.items():
         over = [
             f"fluid.spacing={dsph.dam_break.L / n!r}",
             f"output.probe_interval={gauge.SAMPLE}",
@@ -157,7 +165,7 @@ def variant_rows(args, refs) -> list[dict]:
             SHIFT,
             *extra,
         ]
-        out = variant_path(label)
+        out = variant_path(n, label)
         status = case_runner.case_status(
             dsph.SCENARIO, out, over, args.threads, args.analyse_only, args.retry_failed,
             f"shifting variant {label}",
@@ -192,17 +200,32 @@ def obstacle_rows(args) -> list[dict]:
             row = {"study": "obstacle", "L_over_l0": n, "shifting": "delta_plus" if on else "none",
                    "status": status or "missing"}  # fmt: skip
             if status == "finished":
-                a = obst.analyse(out)
-                keep = ("wall_time_s", "steps", "tip_peak_mm", "tip_peak_time_s",
-                        "first_contact_s", "force_peak_mean", "ringing_mean",
-                        "force_peak_last_step", "ringing_last_step", "iterations_mean",
-                        "not_converged", "member_impulse_x", "residual_external_rel_x",
-                        "residual_external_rel_y")  # fmt: skip
-                row.update({k: a[k] for k in keep if k in a})
-                row["ringing_within_10pct"] = a["ringing_mean"] <= RINGING_TARGET
-                row["wall_per_step_ms"] = 1e3 * a["wall_time_s"] / a["steps"]
+                row.update(obstacle_metrics(out))
             rows.append(row)
+    for (n, label), extra in OBSTACLE_VARIANTS.items():
+        out = variant_path(n, label, "obstacle")
+        status = case_runner.case_status(
+            OBSTACLE_ON, out, obst.overrides(n, OBSTACLE_END) + extra, args.threads,
+            args.analyse_only, args.retry_failed, f"shifting obstacle {label}",
+        )  # fmt: skip
+        row = {"study": "obstacle", "L_over_l0": n, "shifting": label,
+               "status": status or "missing"}  # fmt: skip
+        if status == "finished":
+            row.update(obstacle_metrics(out))
+        rows.append(row)
     return rows
+
+
+def obstacle_metrics(out: Path) -> dict:
+    a = obst.analyse(out)
+    keep = ("wall_time_s", "steps", "tip_peak_mm", "tip_peak_time_s", "first_contact_s",
+            "force_peak_mean", "ringing_mean", "force_peak_last_step", "ringing_last_step",
+            "iterations_mean", "not_converged", "member_impulse_x", "residual_external_rel_x",
+            "residual_external_rel_y")  # fmt: skip
+    row = {k: a[k] for k in keep if k in a}
+    row["ringing_within_10pct"] = a["ringing_mean"] <= RINGING_TARGET
+    row["wall_per_step_ms"] = 1e3 * a["wall_time_s"] / a["steps"]
+    return row
 
 
 def hydro_rows() -> list[dict]:
