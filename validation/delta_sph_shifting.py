@@ -171,16 +171,19 @@ def variant_rows(args, refs) -> list[dict]:
             f"shifting variant {label}",
         )  # fmt: skip
         row = {"study": "variant", "L_over_l0": n, "shifting": label, "status": status or "missing"}
-        if status == "finished":
+        failed = status is not None and status.startswith("failed") and out.is_file()
+        if status == "finished" or failed:  # a failed run: analysed up to its failure
             t, p = gauge.read_gauge(out)
             st = gauge.gauge_statistics(t, p)
             row.update(asdict(st))
             row["analysed_to_s"] = float(t[-1])
             row["noise_within_15pct"] = st.noise_relative <= NOISE_TARGET
             front = dsph.analyse(out, refs)
-            row.update({k: front[k] for k in ("wall_time_s", "steps", "rms_error_raw_ko",
-                        "offset_ms_ko", "rms_error_shifted_ko", "within_7pct_ko")})  # fmt: skip
-            row["wall_per_step_ms"] = 1e3 * row["wall_time_s"] / row["steps"]
+            row.update({k: front[k] for k in ("rms_error_raw_ko", "offset_ms_ko",
+                        "rms_error_shifted_ko", "within_7pct_ko")})  # fmt: skip
+            if status == "finished":
+                row.update({k: front[k] for k in ("wall_time_s", "steps")})
+                row["wall_per_step_ms"] = 1e3 * row["wall_time_s"] / row["steps"]
         rows.append(row)
     return rows
 
