@@ -17,7 +17,7 @@ numba thread per run (``--threads``), resumable ``mpsfem run`` subprocesses:
   corrected to first order (``shifting_density = "taylor"``) and a quarter of the paper's
   strength (``shifting_coefficient = 0.25``); and a "perturbed" twin of the "none" runs (C =
   1e-6: shifts of about 1e-8 l0 that change only the last bits) of the gauge at L/20 and L/40
-  and of the obstacle at L/20, whose distance from "none" measures how far two equally valid
+  and (run with ``obstacle``) of the obstacle at L/20, whose distance from "none" measures how far two equally valid
   runs of these impact metrics lie apart;
 - ``obstacle``: the coupled elastic obstacle of validation/delta_sph_obstacle.py (its δ-SPH
   scenario text, copied here to validation/results/delta_sph_shifting_obstacle_{off,on}.toml,
@@ -173,7 +173,6 @@ def variant_rows(args, refs) -> list[dict]:
     dsph.SCENARIO.parent.mkdir(parents=True, exist_ok=True)
     if not args.analyse_only:
         dsph.SCENARIO.write_text(dsph.SCENARIO_TEXT)
-        write_obstacle_scenarios()
     rows = []
     for (n, label), extra in VARIANTS.items():
         over = [
