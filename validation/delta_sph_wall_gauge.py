@@ -2,10 +2,11 @@
 
 The δ-SPH dam break of validation/delta_sph_dam_break.py (its scenario file, δ-SPHC,
 h = 1.3 l0, RK4) run to t = 0.4 s with the ``right_wall_p`` gauge (far wall, 0.02 m above the
-floor, radius 5.5 mm) sampled every 1 ms, at l0 = L/20 and L/40; per run the statistics of
+floor, radius 5.5 mm) sampled every 1 ms, at l0 = L/20, L/40 and L/80; per run the statistics of
 validation/dam_break_wall_gauge.py (``gauge_statistics``: arrival, impact peak, Savitzky-Golay
 smoothed peak, mean after the impact and the noise level, RMS of raw - smoothed from arrival +
-20 ms), beside that study's MPS rows (docs/figures/dam_break_wall_gauge.csv, Courant 0.2,
+20 ms; a run that failed is analysed up to its failure, ``analysed_to_s``), beside that
+study's MPS rows (docs/figures/dam_break_wall_gauge.csv, Courant 0.2,
 incompressible). Writes validation/results/delta_sph_wall_gauge.csv.
 
     python validation/delta_sph_wall_gauge.py [--threads 1] [--analyse-only] [--retry-failed]
@@ -27,7 +28,7 @@ from results_csv import read_csv, write_csv  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 CSV = ROOT / "validation" / "results" / "delta_sph_wall_gauge.csv"
 MPS_CSV = ROOT / "docs" / "figures" / "dam_break_wall_gauge.csv"
-RESOLUTIONS = (20, 40)
+RESOLUTIONS = (20, 40, 80)
 
 
 def case_path(n: int) -> Path:
@@ -52,9 +53,11 @@ def main() -> int:
             args.retry_failed, "δ-SPH gauge",
         )  # fmt: skip
         row = {"method": "delta-sph", "L_over_l0": n, "status": status or "missing"}
-        if status == "finished":
+        partial = status is not None and status.startswith("failed") and case_path(n).is_file()
+        if status == "finished" or partial:  # a failed run: the statistics up to its failure
             t, p = gauge.read_gauge(case_path(n))
             row.update(asdict(gauge.gauge_statistics(t, p)))
+            row["analysed_to_s"] = float(t[-1])
         rows.append(row)
     for r in read_csv(MPS_CSV) if MPS_CSV.is_file() else []:
         if float(r["courant"]) == 0.2 and float(r["compressibility_per_pa"]) == 0.0:
@@ -69,7 +72,13 @@ def main() -> int:
     write_csv(
         rows,
         CSV,
-        ["method", "L_over_l0", "status", *gauge.GaugeStatistics.__dataclass_fields__],
+        [
+            "method",
+            "L_over_l0",
+            "status",
+            "analysed_to_s",
+            *gauge.GaugeStatistics.__dataclass_fields__,
+        ],  # fmt: skip
         comment="dam-break far-wall gauge, δ-SPHC beside MPS (validation/delta_sph_wall_gauge.py)",
     )
     for r in rows:

@@ -27,7 +27,7 @@ from mpsfem.fluid_mps.neighbours import NeighbourSearch, build_neighbours
 from mpsfem.fluid_mps.sponge import SpongeLayer
 from mpsfem.fluid_mps.time_integration import first_bad_particle, split_window, step_towards
 from mpsfem.fluid_mps.wall_motion import MotionLaw, place_moving_walls
-from mpsfem.fluid_sph import delta_sph, time_stepping
+from mpsfem.fluid_sph import delta_sph, particle_shifting, time_stepping
 from mpsfem.fluid_sph.candidate_pairs import CandidatePairs
 from mpsfem.fluid_sph.momentum_budget import SPHMomentumBudget
 from mpsfem.fluid_sph.wendland import gradient_coefficient, wendland_norm
@@ -259,6 +259,8 @@ class DeltaSPHSolver:
         else:
             self.search = CandidatePairs(dim, self.radius, skin, domain=domain, escape="clip")
         self._last_neighbours = None
+        #: fluid.sph.shifting: the δ+-SPH shift at each step's end (None: off)
+        self.shifting = particle_shifting.build(self)
         self.force_marks: dict[str, list[float]] = {}
         #: attached pressure probes' running impulses (:meth:`attach_pressure_ledger`; state)
         self.pressure_ledger: probes.AttachedPressureLedger | None = None
@@ -500,6 +502,8 @@ class DeltaSPHSolver:
             self.move_walls(self.t + dt)
             if ext:
                 self._place_external(1.0)
+            if self.shifting is not None:  # the step's end positions, before its rhs
+                self.shifting.apply(self, dt)
             self.times.integrate += time.perf_counter() - tic
             self.rhs()
             tic = time.perf_counter()
@@ -513,6 +517,8 @@ class DeltaSPHSolver:
         else:
             self._rk4(dt)
             tic = time.perf_counter()
+            if self.shifting is not None:  # the step's end positions (the next rhs reads them)
+                self.shifting.apply(self, dt)
         delta_sph.equation_of_state(self.rho, self.p, nf, self.rho0, self.c0)
         if self.sponge.active:  # thesis eq. 3-9, u <- u (1 - dt alpha_s r) at the step's end
             if self.budget.full:

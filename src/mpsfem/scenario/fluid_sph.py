@@ -10,9 +10,15 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
-from mpsfem.scenario.base import Point, Section
+from mpsfem.scenario.base import InvalidValue, Point, Section
+
+#: the keys that tune fluid.sph.shifting (read only with shifting != "none")
+SHIFTING_KEYS = (
+    "shifting_coefficient", "shifting_r", "shifting_n", "shifting_surface", "shifting_layer",
+    "shifting_max", "shifting_density",
+)  # fmt: skip
 
 
 class DeltaSPHSection(Section):
@@ -129,3 +135,76 @@ class DeltaSPHSection(Section):
         "'Coupled to a structure'); 'exchange', the whole pair exchange on both sides (the "
         "behaviour before this key)",
     )
+
+    # ---- particle shifting (δ+-SPH; fluid_sph/particle_shifting.py, docs/fluid_sph.md)
+    shifting: Literal["none", "delta_plus"] = Field(
+        "none",
+        description="particle shifting once per step, positions only: 'none' (the behaviour "
+        "before this key); 'delta_plus', the δ+-SPH shift dr = -C CFL Ma (2h)^2 sum [1 + R "
+        "(W_ij / W(l0))^n] grad W_ij V_j (Sun et al. 2017), none on the free surface, along "
+        "the surface in the layer below it, wall and structure particles never shifted",
+    )
+    shifting_coefficient: float = Field(
+        1.0,
+        gt=0.0,
+        le=10.0,
+        description="C of the δ+-SPH shift (1 in Sun et al. 2017); CFL Ma (2h)^2 = 4 h U dt "
+        "with U = reference_speed (default 2 sqrt(g H))",
+    )
+    shifting_r: float = Field(
+        0.2,
+        ge=0.0,
+        le=1.0,
+        description="R of the anti-clumping factor 1 + R (W_ij / W(l0))^n (Sun et al. 2017: 0.2)",
+    )
+    shifting_n: int = Field(
+        4, ge=1, le=8, description="n of the anti-clumping factor (Sun et al. 2017: 4)"
+    )
+    shifting_surface: float = Field(
+        0.6,
+        ge=0.0,
+        le=1.0,
+        description="a fluid particle whose smallest eigenvalue lambda of the moment matrix B = "
+        "sum (r_j - r_i) (x) grad W_ij V_j is below this is on the free surface and not "
+        "shifted (lambda about 1 inside the fluid; on a lattice: 0.49 on a flat surface, 0.56 "
+        "where it meets a wall, 0.90 / 0.70 one row below at h = 1.3 / 2.0 l0)",
+    )
+    shifting_layer: float = Field(
+        0.75,
+        ge=0.0,
+        le=1.0,
+        description="a fluid particle with lambda below this, or with a free-surface particle "
+        "within its support, is shifted along the surface only, (I - n n) dr (0.75: Marrone "
+        "et al. 2010's bound of the interior); above shifting_surface",
+    )
+    shifting_max: float = Field(
+        0.1,
+        gt=0.0,
+        le=0.5,
+        description="longest shift of one step, in particle spacings (a longer one is scaled back)",
+    )
+
+    shifting_density: Literal["keep", "taylor"] = Field(
+        "keep",
+        description="the density of a shifted particle: 'keep' (Sun et al. 2017: positions "
+        "only); 'taylor', rho += dr . <grad rho> (the CSPM gradient; Lind et al. 2012), the "
+        "density field at the new position to first order (mass and momentum unchanged)",
+    )
+
+    @model_validator(mode="after")
+    def _check_shifting(self) -> DeltaSPHSection:
+        if self.shifting == "none":
+            given = [k for k in SHIFTING_KEYS if k in self.model_fields_set]
+            if given:
+                raise InvalidValue(
+                    given[0],
+                    "is read only with shifting = 'delta_plus'; shifting is 'none'",
+                    getattr(self, given[0]),
+                )
+        elif self.shifting_layer <= self.shifting_surface:
+            raise InvalidValue(
+                "shifting_layer",
+                f"must exceed shifting_surface = {self.shifting_surface}",
+                self.shifting_layer,
+            )
+        return self
