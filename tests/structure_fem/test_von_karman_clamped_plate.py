@@ -12,6 +12,7 @@ import importlib.util
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 _PATH = Path(__file__).resolve().parents[2] / "validation" / "vk_clamped_plate.py"
@@ -82,3 +83,34 @@ def test_immovable_edges_are_stiffer_than_levy_edges():
 def test_inplane_support_name_is_checked():
     with pytest.raises(ValueError, match="inplane"):
         vk.clamped_plate(2, inplane="sliding")
+
+
+def test_scenario_clamped_plate_is_the_immovable_case():
+    """A scenario's clamped von Karman plate (StructureParticipant, static start) is the built-in
+    immovable edge of the builder above: same centre deflection at Levy's largest load."""
+    from mpsfem.scenario.structure import StructureSection
+    from mpsfem.structure_fem.participant import StructureParticipant
+
+    Q, n = vk.LEVY_Q[-1], 4
+    section = StructureSection.model_validate(
+        {
+            "members": [
+                {
+                    "name": "plate", "type": "plate", "element": "bfs", "origin": [0, 0, 0],
+                    "size": [vk.A, vk.A], "divisions": [n, n], "bc": "clamped",
+                    "material": {"youngs_modulus": vk.E, "poisson_ratio": vk.LEVY_NU,
+                                 "density": 1.0},
+                    "thickness": vk.H, "kinematics": "von_karman",
+                }
+            ],
+            "time": {"dt": 1e-3},
+            "loads": [{"kind": "pressure", "member": "plate", "value": Q * vk.E * vk.H**4}],
+            "initial_state": "static",
+        }
+    )  # fmt: skip
+    part = StructureParticipant(section, prescribed_loads=True)
+    nodes = part.system.models[0].nodes
+    k = int(np.argmin(np.hypot(nodes[:, 0] - vk.A / 2, nodes[:, 1] - vk.A / 2)))
+    w_scenario = float(part.read("displacement")[k, 2]) / vk.H
+    w_builder = vk.load_path(*vk.clamped_plate(n, inplane="immovable"), [Q])[0][1]
+    assert w_scenario == pytest.approx(w_builder, rel=1e-6)  # both Newton to 1e-10 or better
