@@ -16,6 +16,8 @@ floor so that a structure at rest (displacement zero) converges too. The scale s
   the interface by about a percent of its displacement in the slamming cases, so the same rtol
   is then about a hundred times stricter, and the residual's work, the interface work error
   (docs/coupler.md), is bounded relative to the work of the window itself.
+
+With a fictitious mass on the structure, :class:`ForceErrorCriterion` must hold as well.
 """
 
 from __future__ import annotations
@@ -86,6 +88,37 @@ class ResidualCriterion:
     def converged(self, residual: float, iterations: int) -> bool:
         """True if ``residual`` (relative) meets the tolerance after ``iterations`` iterations."""
         return iterations >= self.min_iterations and residual <= self.relative_tolerance
+
+
+@dataclass(frozen=True)
+class ForceErrorCriterion:
+    """The fictitious force error of a structure with a fictitious mass (issue 21;
+    structure_fem.fictitious_mass): in iteration k the structure solves (M + M_f) a^k + C v + K u
+    = F^k + M_f a^{k-1}, so its true equation M a + C v + K u = F^k is off by the force e =
+    M_f (a^{k-1} - a^k). The displacement residual does not bound e (with a large M_f the
+    structure moves little while e is large), so a window is converged only when, in every
+    sub-step, rms(e) <= tolerance * S, S the largest rms interface load on the same dofs in the
+    window: the member then answers a load within that fraction of the one the fluid exerts,
+    and its response (linear in the load) within about that fraction of the response to it.
+    ``tolerance`` None: off. The structure reports (max rms(e), S) through its optional
+    ``fictitious_force_error()`` hook; None from it (no fictitious mass acting) passes."""
+
+    tolerance: float | None = 1e-2
+
+    @classmethod
+    def from_section(cls, sec) -> ForceErrorCriterion:
+        tol = getattr(sec, "fictitious_force_tolerance", "off")
+        return cls(None if tol == "off" else float(tol))
+
+    @staticmethod
+    def measure(error: float, scale: float) -> float:
+        """error / scale (0 for no error, inf for an error against no load)."""
+        if error == 0.0:
+            return 0.0
+        return error / scale if scale > 0.0 else math.inf
+
+    def converged(self, ratio: float) -> bool:
+        return self.tolerance is None or ratio <= self.tolerance
 
 
 def check_finite(where: str, **arrays: np.ndarray) -> None:
