@@ -141,6 +141,16 @@ def sweeps() -> list[tuple[str, str, str, float, list[str], float | None]]:
     return out
 
 
+def _ratio(run) -> float:
+    """The mass ratio (rho_s h) / (rho_w H) a run of :func:`sweeps` sets (its density override;
+    nan without one)."""
+    toml, H, h, *_ = SCENES[run[1]]
+    for item in run[4]:
+        if item.startswith("structure.members.0.material.density="):
+            return float(item.split("=", 1)[1]) * h / (RHO_W * H)
+    return math.nan
+
+
 def run_one(
     scene: str,
     sets: list[str],
@@ -186,19 +196,30 @@ def run_one(
     with h5py.File(path, "r") as h5:
         it = h5["coupling/iterations"][:] if "coupling" in h5 else np.zeros(0)
         conv = h5["coupling/converged"][:] if "coupling" in h5 else np.zeros(0)
+        fe = (
+            h5["coupling/fictitious_force_error"][:]
+            if "coupling/fictitious_force_error" in h5
+            else np.zeros(0)
+        )
         w = h5[f"probes/{probe}/value"][:, comp] if f"probes/{probe}" in h5 else np.zeros(0)
         tw = h5[f"probes/{probe}/time"][:] if f"probes/{probe}" in h5 else np.zeros(0)
     if not np.isfinite(w).all():
         verdict = f"NOT FINITE displacement ({verdict})"
     elif verdict.startswith("converged") and (conv == 0).any():
         verdict = f"ran to the end, {int((conv == 0).sum())} windows not converged"
+    peak_t = math.nan
     if w.size and scene == "plate":
         disp = float(w[tw >= 0.5 * tw[-1]].mean())
     elif w.size:
         disp = float(w[np.argmax(np.abs(w))])
+        peak_t = float(tw[np.argmax(np.abs(w))])
     else:
         disp = math.nan
+    fe = fe[np.isfinite(fe)]
     return {
+        "peak_time_s": peak_t,
+        "wet_windows": int(fe.size),
+        "force_error_max": float(fe.max()) if fe.size else "",
         "mass_ratio": round(ratio, 6),
         "verdict": verdict,
         "end_time_s": end,
@@ -299,6 +320,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default=None, help="comma-separated sweeps (default: the first four)")
     ap.add_argument("--values", default=None, help="comma-separated factor values to keep")
+    ap.add_argument("--ratios", default=None, help="comma-separated mass ratios to keep")
     ap.add_argument("--acceleration", default="iqn-imvj")
     ap.add_argument(
         "--relaxation", type=float, default=None, help='omega of --acceleration "constant"'
@@ -329,11 +351,22 @@ def main(argv=None) -> int:
     if args.values:
         vals = [float(v) for v in args.values.split(",")]
         runs = [r for r in runs if any(abs(r[3] - v) <= 1e-12 * abs(v) for v in vals)]
+    if args.ratios:
+        keep_r = [float(v) for v in args.ratios.split(",")]
+        runs = [r for r in runs if any(abs(_ratio(r) - v) <= 1e-9 * v for v in keep_r)]
     fields = ["sweep", "scene", "acceleration", "factor", "value", "mass_ratio", "verdict",
               "end_time_s", "windows", "iterations_mean", "iterations_max",
               "windows_not_converged", "displacement_m", "wall_s"]  # fmt: skip
+    fictitious_only = all(r[0].endswith("_fictitious") for r in runs)
+    if fictitious_only:  # the fictitious-mass runs' extra columns (issue 21)
+        fields += ["peak_time_s", "wet_windows", "force_error_max", "settings"]
     args.out.parent.mkdir(parents=True, exist_ok=True)
     new = not (args.append and args.out.exists())
+    if not new:
+        with args.out.open() as fh:
+            have = fh.readline().strip().split(",")
+        if have != fields:
+            ap.error(f"--append {args.out}: its columns {have} are not these runs' {fields}")
     with args.out.open("w" if new else "a", newline="") as fh, tempfile.TemporaryDirectory() as tmp:
         wr = csv.DictWriter(fh, fieldnames=fields)
         if new:
@@ -346,7 +379,10 @@ def main(argv=None) -> int:
                    "factor": factor, "value": value}  # fmt: skip
             path = Path(tmp) / f"r{k}.h5"
             sets = sets + args.set
-            row.update(run_one(scene, sets, end, args.acceleration, path, args.relaxation))
+            got = run_one(scene, sets, end, args.acceleration, path, args.relaxation)
+            if fictitious_only:
+                got["settings"] = " ".join(args.set)
+            row.update({k: v for k, v in got.items() if k in fields})
             wr.writerow(row)
             fh.flush()
             print(row, flush=True)

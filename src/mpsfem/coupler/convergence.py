@@ -97,25 +97,41 @@ class ForceErrorCriterion:
     = F^k + M_f a^{k-1}, so its true equation M a + C v + K u = F^k is off by the force e =
     M_f (a^{k-1} - a^k). The displacement residual does not bound e (with a large M_f the
     structure moves little while e is large), so a window is converged only when, in every
-    sub-step, rms(e) <= tolerance * S, S the largest rms interface load on the same dofs in the
-    window: the member then answers a load within that fraction of the one the fluid exerts,
-    and its response (linear in the load) within about that fraction of the response to it.
-    ``tolerance`` None: off. The structure reports (max rms(e), S) through its optional
-    ``fictitious_force_error()`` hook; None from it (no fictitious mass acting) passes."""
+    sub-step,
+
+        rms(e) <= max(tolerance * max(S, S_peak), floor * A)
+
+    S the largest rms interface load on the dofs M_f acts on in the window, S_peak the largest
+    S of the run's accepted windows so far (the scheme's ``force_scale_peak``), A the rms
+    tributary length or area of those dofs' nodes (m; m^2), ``floor`` a pressure (Pa). The
+    member then answers a load within that fraction of the one the fluid exerts, and its
+    response (linear in the load) is within about that fraction of its response to the largest
+    load so far. S_peak keeps a window with little load (water leaving the member) from being
+    held to a fraction of its own noise, as the displacement criterion's scale is the whole
+    displacement, not the window's; the floor does the same before the first real load (an MPS
+    member near the free surface feels loads of order 1e-4 Pa that change from iterate to
+    iterate, and 1 % of them cannot be converged). ``tolerance`` None: off. The structure
+    reports (max rms(e), S, A) through its optional ``fictitious_force_error()`` hook; None
+    from it (no fictitious mass acting) passes."""
 
     tolerance: float | None = 1e-2
+    floor: float = 0.01  # Pa
 
     @classmethod
     def from_section(cls, sec) -> ForceErrorCriterion:
         tol = getattr(sec, "fictitious_force_tolerance", "off")
-        return cls(None if tol == "off" else float(tol))
+        floor = float(getattr(sec, "fictitious_force_floor", 0.0))
+        return cls(None if tol == "off" else float(tol), floor)
 
-    @staticmethod
-    def measure(error: float, scale: float) -> float:
-        """error / scale (0 for no error, inf for an error against no load)."""
+    def measure(self, error: float, scale: float, area: float, peak: float = 0.0) -> float:
+        """rms(e) / max(S, S_peak, floor A / tolerance): the force error relative to the load
+        scale (0 for no error, inf for an error against no load); converged when <= tolerance."""
         if error == 0.0:
             return 0.0
-        return error / scale if scale > 0.0 else math.inf
+        ref = max(scale, peak)
+        if self.tolerance is not None:
+            ref = max(ref, self.floor * area / self.tolerance)
+        return error / ref if ref > 0.0 else math.inf
 
     def converged(self, ratio: float) -> bool:
         return self.tolerance is None or ratio <= self.tolerance

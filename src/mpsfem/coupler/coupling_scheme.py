@@ -193,6 +193,8 @@ class CouplingScheme:
         self.acceleration = acceleration
         self.criterion = ResidualCriterion.from_section(self.config.convergence)
         self.force_criterion = ForceErrorCriterion.from_section(self.config.convergence)
+        # the largest load scale S of an accepted window so far (ForceErrorCriterion)
+        self.force_scale_peak = 0.0
         self.log = log
         self.history = CouplingHistory()
         self.retreats = 0  # rejected iterates retried, over the run
@@ -303,6 +305,7 @@ class CouplingScheme:
             getattr(self.structure, "fictitious_force_error", None) if self.implicit else None
         )
         f_ratio = float("nan")
+        f_scale = 0.0
         for k in range(1, max_it + 1):
             if k > 1:
                 self.fluid.restore()
@@ -365,7 +368,12 @@ class CouplingScheme:
                 converged = True
                 break
             got = force_error() if force_error is not None else None
-            f_ratio = float("nan") if got is None else self.force_criterion.measure(*got)
+            f_scale = 0.0 if got is None else got[1]
+            f_ratio = (
+                float("nan")
+                if got is None
+                else self.force_criterion.measure(*got, peak=self.force_scale_peak)
+            )
             f_ok = got is None or self.force_criterion.converged(f_ratio)
             if (
                 f_ok
@@ -447,6 +455,7 @@ class CouplingScheme:
         else:
             work_f = 0.5 * float(np.vdot(F_f_prev + F_f1, d_f1 - d_f_start))
         self.d, self.v = x_t, s_t
+        self.force_scale_peak = max(self.force_scale_peak, f_scale)
         self.d_f = d_f1
         self.F_s, self.F_f = F_s1, F_f1
         self.t = t1
@@ -561,6 +570,7 @@ class CouplingScheme:
             "F_s": self.F_s.copy(),
             "F_f": self.F_f.copy(),
             "d_f": self.d_f.copy(),
+            "force_scale_peak": self.force_scale_peak,
             **{f"acceleration/{k}": v for k, v in acc.items()},
         }
 
@@ -576,6 +586,8 @@ class CouplingScheme:
         self.d_f = (
             np.array(state["d_f"]) if "d_f" in state else self.mapping.displacement_to_fluid(self.d)
         )
+        # checkpoints written before the force-error criterion: no peak yet
+        self.force_scale_peak = float(state.get("force_scale_peak", 0.0))
         acc = {k[13:]: v for k, v in state.items() if k.startswith("acceleration/")}
         if self.acceleration is not None:
             self.acceleration.load_state_dict(acc)

@@ -75,7 +75,12 @@ import scipy.sparse.linalg as sla
 from mpsfem.scenario.motion import RigidTranslation
 
 from .alpha_method import NonlinearNewmark
-from .fictitious_mass import IterationHistory, fictitious_mass_matrix, wet_nodes
+from .fictitious_mass import (
+    IterationHistory,
+    fictitious_mass_matrix,
+    tributary_measure,
+    wet_nodes,
+)
 from .linsolve import factorize
 from .newmark import Newmark, NewmarkState
 from .newton import NewtonFailure
@@ -187,6 +192,9 @@ class StructureParticipant:
                 which = self._fm_always if cfg.fictitious_mass_nodes == "all" else self._fm_if_wet
                 which[sysm.node_slices[m.name]] = True
         self._fm_cells = [m.connectivity + sysm.node_slices[m.name].start for m in sysm.models]
+        self._fm_measure = np.concatenate(
+            [tributary_measure(m.nodes, m.connectivity) for m in sysm.models]
+        )
         self._fm_nodes = self._fm_always.copy()
         self._fm_pending = False  # decide the wet set at the next step (a window started)
         self._fm_load_start = np.zeros((sysm.n_points, self.dim))  # load at the checkpoint
@@ -270,6 +278,7 @@ class StructureParticipant:
         self._fm_nodes = nodes.copy()
         self._fm_B = None
         self._fm_rows = np.zeros(0, dtype=np.int64)
+        self._fm_area = 0.0
         if self.fictitious is None:
             return None
         sysm = self.system
@@ -278,6 +287,10 @@ class StructureParticipant:
         Mf = None if B is None else (sysm.TT @ B @ sysm.T).tocsr()
         if Mf is not None:
             self._fm_rows = np.flatnonzero(np.asarray(abs(Mf).sum(axis=1)).ravel())
+            # the node of each of those dofs (T^T's column of it), its tributary measure
+            TT = sysm.TT.tocsr()[self._fm_rows]
+            node = TT.indices[TT.indptr[:-1]] // self.dim
+            self._fm_area = _rms(self._fm_measure[node])
         if B is not None:
             self.fictitious.set_mass(B)
         if build:
@@ -301,16 +314,17 @@ class StructureParticipant:
         """Interface points (bool, (n_points,)) carrying the fictitious mass in this window."""
         return self._fm_nodes.copy()
 
-    def fictitious_force_error(self) -> tuple[float, float] | None:
-        """Optional coupler hook (``ForceErrorCriterion``): (e, S) of the last iteration, e the
-        largest over its sub-steps of rms(M_f (a^k - a^{k-1})) (with the iterate's shift) over
-        the dofs M_f acts on, the force (N; N/m in 2D) by which the member's true equation M a
-        + C v + K u = F is off, and S the largest rms interface load on those dofs at the
-        sub-steps' ends. None when no fictitious mass acted (none, or no wet node)."""
+    def fictitious_force_error(self) -> tuple[float, float, float] | None:
+        """Optional coupler hook (``ForceErrorCriterion``): (e, S, A) of the last iteration, e
+        the largest over its sub-steps of rms(M_f (a^k - a^{k-1})) (with the iterate's shift)
+        over the dofs M_f acts on, the force (N; N/m in 2D) by which the member's true equation
+        M a + C v + K u = F is off, S the largest rms interface load on those dofs at the
+        sub-steps' ends, A the rms tributary area (m^2; length in m in 2D) of their nodes.
+        None when no fictitious mass acted (none, or no wet node)."""
         fm = self.fictitious
         if fm is None or not fm.active or self._fm_B is None or not fm.errors:
             return None
-        return max(fm.errors), fm.load_scale
+        return max(fm.errors), fm.load_scale, self._fm_area
 
     def _start(self, f_interface: np.ndarray) -> None:
         """Initial state at t = 0 under the prescribed loads plus the interface load
