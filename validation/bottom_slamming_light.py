@@ -422,6 +422,12 @@ def main(argv: list[str] | None = None) -> int:
         "continue every tolerance from a copy of its checkpoint there (the convergence keys "
         "may change on a restart; needs a checkpoint at that time: output.checkpoint_interval)",
     )
+    ap.add_argument(
+        "--base-force-tolerance",
+        default=None,
+        help="the force tolerance of the --branch-at base run (default: the first "
+        "--force-tolerance); its dry part takes one iteration per window whatever it is",
+    )
     ap.add_argument("--added-mass", action="store_true", help="print the estimate and stop")
     case_runner.add_run_options(ap)
     args = ap.parse_args(argv)
@@ -463,12 +469,13 @@ def main(argv: list[str] | None = None) -> int:
                         )
                         tag = f"[light {case.label()} mf {f:g} rtol {rtol:g} ft {ft}]"
                         if args.branch_at is not None and not out.exists():
+                            ft0 = args.base_force_tolerance or fts[0]
                             base = run_path(
-                                args.l0, case, f, rtols[0], rel, its, fts[0], args.branch_at
+                                args.l0, case, f, rtols[0], rel, its, ft0, args.branch_at
                             )
                             base_overrides = case_overrides(
                                 "elastic", case, spacing
-                            ) + light_overrides(f, rtols[0], rel, its, fts[0], args.branch_at)
+                            ) + light_overrides(f, rtols[0], rel, its, ft0, args.branch_at)
                             base_overrides.append(f"output.checkpoint_interval={args.branch_at!r}")
                             branch(base, base_overrides, out, overrides, args, tag)
                             continue
