@@ -31,6 +31,15 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
   benchmarks/results/coupling_stress_fictitious_window_motion.csv: ``--only
   plate_fictitious --values 0.3,1.0`` and ``--only obstacle_fictitious --values 0.0,1.0,3.0``,
   both ``--acceleration aitken``).
+* ``--ratios 0.01,...`` keeps the runs of those mass ratios. When every run is a fictitious one
+  the CSV gains the columns peak_time_s (the obstacle tip's largest dx), wet_windows (windows in
+  which M_f acted), force_error_max (the largest ``/coupling/fictitious_force_error`` of an
+  accepted window) and settings (the ``--set`` overrides): the rows with the force-error
+  criterion and wetted-node M_f (task H1) are in
+  benchmarks/results/coupling_stress_fictitious_force.csv (``--only obstacle_fictitious
+  --ratios 0.01 --acceleration aitken --out ...``; ``--only plate_fictitious --ratios 0.0001
+  ... --append``, with ``--set coupling.convergence.fictitious_force_tolerance=0.05`` for the
+  5e-2 rows). ``--append`` refuses a CSV with other columns.
 * ``mock_fictitious`` (``--only mock_fictitious``, its own CSV
   benchmarks/results/coupling_stress_mock_fictitious.csv; see :func:`mock_sweep`): the FEM beam
   against the added-mass mock at added / structure mass 1e4, with and without fictitious mass.
