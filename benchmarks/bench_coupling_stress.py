@@ -31,6 +31,15 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
   benchmarks/results/coupling_stress_fictitious_window_motion.csv: ``--only
   plate_fictitious --values 0.3,1.0`` and ``--only obstacle_fictitious --values 0.0,1.0,3.0``,
   both ``--acceleration aitken``).
+* ``--ratios 0.01,...`` keeps the runs of those mass ratios. When every run is a fictitious one
+  the CSV gains the columns peak_time_s (the obstacle tip's largest dx), wet_windows (windows in
+  which M_f acted), force_error_max (the largest ``/coupling/fictitious_force_error`` of an
+  accepted window) and settings (the ``--set`` overrides): the rows with the force-error
+  criterion and wetted-node M_f (task H1) are in
+  benchmarks/results/coupling_stress_fictitious_force.csv (``--only obstacle_fictitious
+  --ratios 0.01 --acceleration aitken --out ...``; ``--only plate_fictitious --ratios 0.0001
+  ... --append``, with ``--set coupling.convergence.fictitious_force_tolerance=0.05`` for the
+  5e-2 rows). ``--append`` refuses a CSV with other columns.
 * ``mock_fictitious`` (``--only mock_fictitious``, its own CSV
   benchmarks/results/coupling_stress_mock_fictitious.csv; see :func:`mock_sweep`): the FEM beam
   against the added-mass mock at added / structure mass 1e4, with and without fictitious mass.
@@ -54,6 +63,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import itertools
 import math
 import sys
 import tempfile
@@ -141,6 +151,16 @@ def sweeps() -> list[tuple[str, str, str, float, list[str], float | None]]:
     return out
 
 
+def _ratio(run) -> float:
+    """The mass ratio (rho_s h) / (rho_w H) a run of :func:`sweeps` sets (its density override;
+    nan without one)."""
+    toml, H, h, *_ = SCENES[run[1]]
+    for item in run[4]:
+        if item.startswith("structure.members.0.material.density="):
+            return float(item.split("=", 1)[1]) * h / (RHO_W * H)
+    return math.nan
+
+
 def run_one(
     scene: str,
     sets: list[str],
@@ -186,19 +206,30 @@ def run_one(
     with h5py.File(path, "r") as h5:
         it = h5["coupling/iterations"][:] if "coupling" in h5 else np.zeros(0)
         conv = h5["coupling/converged"][:] if "coupling" in h5 else np.zeros(0)
+        fe = (
+            h5["coupling/fictitious_force_error"][:]
+            if "coupling/fictitious_force_error" in h5
+            else np.zeros(0)
+        )
         w = h5[f"probes/{probe}/value"][:, comp] if f"probes/{probe}" in h5 else np.zeros(0)
         tw = h5[f"probes/{probe}/time"][:] if f"probes/{probe}" in h5 else np.zeros(0)
     if not np.isfinite(w).all():
         verdict = f"NOT FINITE displacement ({verdict})"
     elif verdict.startswith("converged") and (conv == 0).any():
         verdict = f"ran to the end, {int((conv == 0).sum())} windows not converged"
+    peak_t = math.nan
     if w.size and scene == "plate":
         disp = float(w[tw >= 0.5 * tw[-1]].mean())
     elif w.size:
         disp = float(w[np.argmax(np.abs(w))])
+        peak_t = float(tw[np.argmax(np.abs(w))])
     else:
         disp = math.nan
+    fe = fe[np.isfinite(fe)]
     return {
+        "peak_time_s": peak_t,
+        "wet_windows": int(fe.size),
+        "force_error_max": float(fe.max()) if fe.size else "",
         "mass_ratio": round(ratio, 6),
         "verdict": verdict,
         "end_time_s": end,
@@ -211,7 +242,7 @@ def run_one(
     }
 
 
-MOCK_FIELDS = ["sweep", "acceleration", "a_prev", "relative_to", "fictitious_x_added",
+MOCK_FIELDS = ["sweep", "acceleration", "a_prev", "relative_to", "force_tolerance", "fictitious_x_added",
                "added_over_structure", "verdict", "windows", "iterations_mean", "iterations_max",
                "error_vs_reference", "wall_s"]  # fmt: skip
 
@@ -222,8 +253,10 @@ def mock_sweep(out: Path) -> None:
     0, 0.3, 1, 3 x the mock's mean added mass per m^2; unrelaxed (constant, omega 1), aitken,
     iqn-imvj; a^{k-1} shifted to the fluid's iterate (the coupler's set_iterate hook) or the
     structure's own (hook hidden); rtol 1e-3 relative to the displacement and to the window's
-    motion, absolute tolerance 1e-22 m. Error: max |d - d_ref| / max |d_ref| at the end, d_ref
-    from iqn-imvj without fictitious mass at rtol 1e-12 of the window's motion."""
+    motion, absolute tolerance 1e-22 m; coupling.convergence.fictitious_force_tolerance "off"
+    (the rows before the criterion, reproduced), 1e-2 and 1e-3. Error: max |d - d_ref| / max
+    |d_ref| at the end, d_ref from iqn-imvj without fictitious mass at rtol 1e-12 of the
+    window's motion."""
     import copy
     import warnings
 
@@ -239,7 +272,7 @@ def mock_sweep(out: Path) -> None:
     mu, rho_h = 1e4, 1100.0 * 0.04
     m_a = mu * rho_h
 
-    def run(mf, acc, rel, rtol=1e-3, hook=True, max_it=30):
+    def run(mf, acc, rel, rtol=1e-3, hook=True, max_it=30, ftol="off"):
         beam = copy.deepcopy(structure_cases.BEAM)
         beam.update(axial=False, fictitious_mass=mf)
         st = StructureParticipant(structure_cases.section([beam]))
@@ -249,7 +282,7 @@ def mock_sweep(out: Path) -> None:
             st, mass_ratio=mu, spacing=0.005, pressure=200.0, dt=4e-5, structure_mass=rho_h * 0.25
         )
         conv = {"relative_tolerance": rtol, "absolute_tolerance": 1e-22, "relative_to": rel,
-                "max_iterations": max_it}  # fmt: skip
+                "max_iterations": max_it, "fictitious_force_tolerance": ftol}  # fmt: skip
         cfg = CouplingSection.model_validate(
             {"mapping": {"kind": "shape-function"}, "acceleration": acc, "convergence": conv}
         )
@@ -271,27 +304,32 @@ def mock_sweep(out: Path) -> None:
     with out.open("w", newline="") as fh:
         wr = csv.DictWriter(fh, fieldnames=MOCK_FIELDS)
         wr.writeheader()
-        for rel in ("displacement", "window_motion"):
-            for name, acc in accs.items():
-                for hook in (True, False):
-                    for f in (0.0, 0.3, 1.0, 3.0):
-                        if f == 0.0 and not hook:
-                            continue
-                        verdict, h, d, wall = run(f * m_a, acc, rel, hook=hook)
-                        it = h["iterations"]
-                        done = verdict.startswith("converged") and np.isfinite(d).all()
-                        err = float(np.abs(d - ref).max() / np.abs(ref).max()) if done else ""
-                        row = {"sweep": "mock_fictitious", "acceleration": name,
-                               "a_prev": "iterate" if hook else "own",
-                               "relative_to": rel, "fictitious_x_added": f,
-                               "added_over_structure": mu, "verdict": verdict,
-                               "windows": int(it.size),
-                               "iterations_mean": round(float(it.mean()), 2) if it.size else "",
-                               "iterations_max": int(it.max()) if it.size else "",
-                               "error_vs_reference": err, "wall_s": round(wall, 2)}  # fmt: skip
-                        wr.writerow(row)
-                        fh.flush()
-                        print(row, flush=True)
+        for ftol, rel, name, hook, f in itertools.product(
+            ("off", 1e-2, 1e-3),
+            ("displacement", "window_motion"),
+            accs,
+            (True, False),
+            (0.0, 0.3, 1.0, 3.0),
+        ):
+            if (f == 0.0 and not hook) or (f == 0.0 and ftol != "off"):
+                continue  # no hook without M_f; the criterion acts only with M_f
+            acc = accs[name]
+            verdict, h, d, wall = run(f * m_a, acc, rel, hook=hook, ftol=ftol)
+            it = h["iterations"]
+            done = verdict.startswith("converged") and np.isfinite(d).all()
+            err = float(np.abs(d - ref).max() / np.abs(ref).max()) if done else ""
+            row = {"sweep": "mock_fictitious", "acceleration": name,
+                   "a_prev": "iterate" if hook else "own",
+                   "relative_to": rel, "force_tolerance": ftol,
+                   "fictitious_x_added": f,
+                   "added_over_structure": mu, "verdict": verdict,
+                   "windows": int(it.size),
+                   "iterations_mean": round(float(it.mean()), 2) if it.size else "",
+                   "iterations_max": int(it.max()) if it.size else "",
+                   "error_vs_reference": err, "wall_s": round(wall, 2)}  # fmt: skip
+            wr.writerow(row)
+            fh.flush()
+            print(row, flush=True)
     print(f"wrote {out}")
 
 
@@ -299,6 +337,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default=None, help="comma-separated sweeps (default: the first four)")
     ap.add_argument("--values", default=None, help="comma-separated factor values to keep")
+    ap.add_argument("--ratios", default=None, help="comma-separated mass ratios to keep")
     ap.add_argument("--acceleration", default="iqn-imvj")
     ap.add_argument(
         "--relaxation", type=float, default=None, help='omega of --acceleration "constant"'
@@ -329,11 +368,22 @@ def main(argv=None) -> int:
     if args.values:
         vals = [float(v) for v in args.values.split(",")]
         runs = [r for r in runs if any(abs(r[3] - v) <= 1e-12 * abs(v) for v in vals)]
+    if args.ratios:
+        keep_r = [float(v) for v in args.ratios.split(",")]
+        runs = [r for r in runs if any(abs(_ratio(r) - v) <= 1e-9 * v for v in keep_r)]
     fields = ["sweep", "scene", "acceleration", "factor", "value", "mass_ratio", "verdict",
               "end_time_s", "windows", "iterations_mean", "iterations_max",
               "windows_not_converged", "displacement_m", "wall_s"]  # fmt: skip
+    fictitious_only = all(r[0].endswith("_fictitious") for r in runs)
+    if fictitious_only:  # the fictitious-mass runs' extra columns (issue 21)
+        fields += ["peak_time_s", "wet_windows", "force_error_max", "settings"]
     args.out.parent.mkdir(parents=True, exist_ok=True)
     new = not (args.append and args.out.exists())
+    if not new:
+        with args.out.open() as fh:
+            have = fh.readline().strip().split(",")
+        if have != fields:
+            ap.error(f"--append {args.out}: its columns {have} are not these runs' {fields}")
     with args.out.open("w" if new else "a", newline="") as fh, tempfile.TemporaryDirectory() as tmp:
         wr = csv.DictWriter(fh, fieldnames=fields)
         if new:
@@ -346,7 +396,10 @@ def main(argv=None) -> int:
                    "factor": factor, "value": value}  # fmt: skip
             path = Path(tmp) / f"r{k}.h5"
             sets = sets + args.set
-            row.update(run_one(scene, sets, end, args.acceleration, path, args.relaxation))
+            got = run_one(scene, sets, end, args.acceleration, path, args.relaxation)
+            if fictitious_only:
+                got["settings"] = " ".join(args.set)
+            row.update({k: v for k, v in got.items() if k in fields})
             wr.writerow(row)
             fh.flush()
             print(row, flush=True)

@@ -51,6 +51,8 @@ from results_csv import read_csv, write_csv  # noqa: E402
 
 CSV = RESULTS_DIR / "bottom_slamming_light.csv"
 FIGURE = Path(__file__).resolve().parents[1] / "docs" / "figures" / "bottom_slamming_light.png"
+#: the runs with the force-error criterion and the wetted-node M_f (task H1)
+FIGURE_FORCE = FIGURE.with_name("bottom_slamming_light_force.png")
 AREA = 2.5e-5  # m^2, thesis Tables 5-3, 5-7
 SECOND_MOMENT = 1e-9  # m^4, thesis Tables 5-3, 5-7 read as 1e-9 (docs/validation.md item 3)
 MEMBER_DENSITY = 1040.0  # kg/m^3, thesis Tables 5-3, 5-7
@@ -106,11 +108,24 @@ def added_mass_estimate(h: float = 0.002, wetted: float = 1.0, mode: str = "sin"
 
 
 def light_overrides(
-    mf_factor: float, rtol: float, relative_to: str = "displacement", max_iterations: int = 30
+    mf_factor: float,
+    rtol: float,
+    relative_to: str = "displacement",
+    max_iterations: int = 30,
+    force_tolerance: str | None = None,
+    end_time: float | None = None,
 ) -> list[str]:
     """The light section, the fictitious mass (``mf_factor`` x the estimate), Aitken and the
-    convergence measure (rtol relative to the whole displacement or to the window's motion)."""
-    return [
+    convergence measure (rtol relative to the whole displacement or to the window's motion);
+    ``force_tolerance`` (a number or "off"), coupling.convergence.fictitious_force_tolerance
+    (None: the schema's default); ``end_time`` (s), run.end_time (None: the case's)."""
+    extra = []
+    if force_tolerance is not None:
+        ft = force_tolerance if force_tolerance == "off" else float(force_tolerance)
+        extra.append(f"coupling.convergence.fictitious_force_tolerance={ft!r}".replace("'", '"'))
+    if end_time is not None:
+        extra.append(f"run.end_time={float(end_time)!r}")
+    return extra + [
         f"structure.members.0.area={AREA!r}",
         f"structure.members.0.second_moment={SECOND_MOMENT!r}",
         f"structure.members.0.fictitious_mass={mf_factor * ADDED_MASS_ESTIMATE!r}",
@@ -128,17 +143,26 @@ def run_path(
     rtol: float,
     relative_to: str = "displacement",
     max_iterations: int = 30,
+    force_tolerance: str | None = None,
+    end_time: float | None = None,
 ) -> Path:
+    """The results file of a run. Names without ``_ft``: runs of the code before the
+    force-error criterion and the wetted-node M_f (issue 21, task H1)."""
     wm = "wm" if relative_to == "window_motion" else ""
     if max_iterations != 30:  # the scenario's
         wm += f"it{max_iterations}"
+    if force_tolerance is not None:
+        wm += f"_ft{force_tolerance if force_tolerance == 'off' else f'{float(force_tolerance):g}'}"
+    if end_time is not None:
+        wm += f"_end{end_time:g}"
     return RESULTS_DIR / (
         f"bottom_slamming_light_{l0_label}_mf{mf_factor:g}_rtol{rtol:g}{wm}_{case.label()}.h5"
     )
 
 
 NAME = re.compile(
-    r"bottom_slamming_light_(?P<l0>[0-9.e-]+)_mf(?P<mf>[0-9.e-]+)_rtol(?P<rtol>[0-9.e-]+)(?P<wm>(wm)?)(?:it(?P<maxit>[0-9]+))?_"
+    r"bottom_slamming_light_(?P<l0>[0-9.e-]+)_mf(?P<mf>[0-9.e-]+)_rtol(?P<rtol>[0-9.e-]+)(?P<wm>(wm)?)(?:it(?P<maxit>[0-9]+))?"
+    r"(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?_"
     r"AH(?P<a>[0-9.]+)_DH(?P<d>[0-9.]+)\.h5$"
 )
 
@@ -156,6 +180,9 @@ class LightResult:
     rtol: float
     relative_to: str  # the convergence measure: "displacement" or "window_motion"
     max_iterations: int  # per window (the scenario: 30)
+    # coupling.convergence.fictitious_force_tolerance; "none": code before the criterion and
+    # the wetted-node M_f (M_f on every node)
+    force_tolerance: str
     status: str
     t_end_s: float
     windows: int
@@ -181,6 +208,7 @@ class LightResult:
     interface_work_error_pct: float
     steps: int
     wall_time_s: float
+    results_file: str = ""  # its name (the row's key when the CSV is merged)
 
 
 #: the rigid runs MF divides by: bottom_slamming_<RIGID_L0>.csv (there are none at H/20; the
@@ -228,6 +256,7 @@ def analyse_light(path: Path) -> LightResult:
         rtol=float(m["rtol"]),
         relative_to="window_motion" if m["wm"] else "displacement",
         max_iterations=int(m["maxit"] or 30),
+        force_tolerance=m["ft"] or "none",
         status=base.status,
         t_end_s=base.t_end_s,
         windows=int(its.size),
@@ -253,6 +282,7 @@ def analyse_light(path: Path) -> LightResult:
         interface_work_error_pct=base.interface_work_error_pct,
         steps=base.steps,
         wall_time_s=base.wall_time_s,
+        results_file=path.name,
     )
 
 
@@ -271,6 +301,7 @@ def plot(paths: list[Path], out: Path) -> None:
         label = f"l0 {r['l0']}, M_f {float(r['mf']):g}x, rtol {float(r['rtol']):g}{r['wm']}"
         if r["maxit"]:
             label += f", {r['maxit']} it."
+        label += f", force tol. {r['ft']}" if r["ft"] else ", old code"
         with h5py.File(path, "r") as h5:
             t, f = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:, 1]
             td, u = h5["probes"]["plate_mid"]["time"][:], h5["probes"]["plate_mid"]["value"][:, 1]
@@ -311,14 +342,27 @@ def report() -> int:
     if not rows:
         print("nothing to analyse")
         return 1
-    rows.sort(key=lambda r: (-r.l0, r.a_over_h, r.d_over_h, r.rtol, r.mf_factor))
+    # the CSV's rows whose results files are not here stay as they are (merged by file name)
+    found = {r.results_file for r in rows}
+    kept = [r for r in (read_csv(CSV) if CSV.is_file() else []) if _row_file(r) not in found]
+    for r in kept:
+        r.setdefault("force_tolerance", "none")
+        r["results_file"] = _row_file(r)
+    merged = [asdict(r) for r in rows] + kept
+    merged.sort(key=lambda r: (-float(r["l0"]), float(r["a_over_h"]), float(r["d_over_h"]),
+                               float(r["rtol"]), float(r["mf_factor"]), r["results_file"]))  # fmt: skip
     write_csv(
-        rows,
+        merged,
         CSV,
+        columns=list(LightResult.__dataclass_fields__),
         comment="validation/bottom_slamming_light.py: the light plate with the fictitious mass",
     )
-    plot(paths, FIGURE)
-    keys = ("l0", "d_over_h", "mf_factor", "rtol", "relative_to", "max_iterations", "status", "t_end_s", "it_per_window_mean",
+    old = [p for p in paths if not NAME.search(p.name)["ft"]]
+    new = [p for p in paths if NAME.search(p.name)["ft"]]
+    for group, fig in ((old, FIGURE), (new, FIGURE_FORCE)):
+        if group:
+            plot(group, fig)
+    keys = ("l0", "d_over_h", "mf_factor", "rtol", "relative_to", "max_iterations", "force_tolerance", "status", "t_end_s", "it_per_window_mean",
             "it_per_window_max", "unconverged_windows", "peak_uplift", "peak_uplift_smooth",
             "mf_raw", "mf_smooth", "mid_disp_max_mm", "wall_time_s")  # fmt: skip
     for r in rows:
@@ -326,8 +370,24 @@ def report() -> int:
         print(
             "  ".join(f"{k}={d[k]:.4g}" if isinstance(d[k], float) else f"{k}={d[k]}" for k in keys)
         )
-    print(f"wrote {CSV.relative_to(RESULTS_DIR.parents[1])}, docs/figures/{FIGURE.name}")
+    print(f"wrote {CSV.relative_to(RESULTS_DIR.parents[1])} and the figures of the runs found")
     return 0
+
+
+def _row_file(row: dict[str, str]) -> str:
+    """The results file name of a CSV row (rows written before the column: from its fields)."""
+    if row.get("results_file"):
+        return row["results_file"]
+    ft = row.get("force_tolerance", "none")
+    return run_path(
+        row["l0_label"],
+        Case(float(row["a_over_h"]), float(row["d_over_h"])),
+        float(row["mf_factor"]),
+        float(row["rtol"]),
+        row["relative_to"],
+        int(row["max_iterations"]),
+        None if ft == "none" else ft,
+    ).name
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -344,6 +404,29 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument(
         "--max-iterations", type=int, default=30, help="per window (default 30, as the scenario)"
+    )
+    ap.add_argument(
+        "--force-tolerance",
+        default=None,
+        help="coupling.convergence.fictitious_force_tolerance value(s), comma-separated, or "
+        '"off" (default: none given, the schema\'s default; the file name then has no _ft)',
+    )
+    ap.add_argument(
+        "--end-time", type=float, default=None, help="run.end_time, s (default: the case's)"
+    )
+    ap.add_argument(
+        "--branch-at",
+        type=float,
+        default=None,
+        help="run each M_f once to this time (the first --rtol and --force-tolerance), then "
+        "continue every tolerance from a copy of its checkpoint there (the convergence keys "
+        "may change on a restart; needs a checkpoint at that time: output.checkpoint_interval)",
+    )
+    ap.add_argument(
+        "--base-force-tolerance",
+        default=None,
+        help="the force tolerance of the --branch-at base run (default: the first "
+        "--force-tolerance); its dry part takes one iteration per window whatever it is",
     )
     ap.add_argument("--added-mass", action="store_true", help="print the estimate and stop")
     case_runner.add_run_options(ap)
@@ -362,6 +445,10 @@ def main(argv: list[str] | None = None) -> int:
         l0 = float(args.l0)
         factors = [float(x) for x in args.mf.split(",")]
         rtols = [float(x) for x in args.rtol.split(",")]
+        fts = [None] if args.force_tolerance is None else args.force_tolerance.split(",")
+        for ft in fts:
+            if ft is not None and ft != "off" and not 0.0 < float(ft) < 1.0:
+                raise ValueError(f"--force-tolerance {ft}: a number in (0, 1) or off")
         cases = parse_cases(args.cases)
     except ValueError as exc:
         ap.error(str(exc))
@@ -371,18 +458,68 @@ def main(argv: list[str] | None = None) -> int:
     spacing = spacing_for(l0, DEPTH)
     print(f"l0 = {l0:g} m -> {spacing:.7g} m; M_f estimate {ADDED_MASS_ESTIMATE} kg/m^2")
     if not args.analyse_only:
+        rel, its = args.relative_to, args.max_iterations
         for case in cases:
             for rtol in rtols:
-                for f in factors:
-                    out = run_path(args.l0, case, f, rtol, args.relative_to, args.max_iterations)
-                    overrides = case_overrides("elastic", case, spacing) + light_overrides(
-                        f, rtol, args.relative_to, args.max_iterations
-                    )
-                    tag = f"[light {case.label()} mf {f:g} rtol {rtol:g}]"
-                    case_runner.ensure_case(
-                        SCENARIOS["elastic"], out, overrides, args.threads, args.retry_failed, tag
-                    )
+                for ft in fts:
+                    for f in factors:
+                        out = run_path(args.l0, case, f, rtol, rel, its, ft, args.end_time)
+                        overrides = case_overrides("elastic", case, spacing) + light_overrides(
+                            f, rtol, rel, its, ft, args.end_time
+                        )
+                        tag = f"[light {case.label()} mf {f:g} rtol {rtol:g} ft {ft}]"
+                        if args.branch_at is not None and not out.exists():
+                            ft0 = args.base_force_tolerance or fts[0]
+                            base = run_path(
+                                args.l0, case, f, rtols[0], rel, its, ft0, args.branch_at
+                            )
+                            base_overrides = case_overrides(
+                                "elastic", case, spacing
+                            ) + light_overrides(f, rtols[0], rel, its, ft0, args.branch_at)
+                            base_overrides.append(f"output.checkpoint_interval={args.branch_at!r}")
+                            branch(base, base_overrides, out, overrides, args, tag)
+                            continue
+                        case_runner.ensure_case(
+                            SCENARIOS["elastic"],
+                            out,
+                            overrides,
+                            args.threads,
+                            args.retry_failed,
+                            tag,
+                        )
     return report()
+
+
+def branch(
+    base: Path, base_overrides: list[str], out: Path, overrides: list[str], args, tag: str
+) -> None:
+    """Run ``base`` (to ``args.branch_at``) unless finished, copy it and its checkpoint to
+    ``out`` and continue ``out`` from there with ``overrides`` (``mpsfem run --restart``; only
+    run.* and coupling.convergence.* may differ). Says why when the base did not finish or
+    has no checkpoint at that time; a branch interrupted later resumes as any run."""
+    import shutil
+
+    from mpsfem.results.checkpoint import default_checkpoint_path, read_checkpoint
+
+    at = args.branch_at
+    status = case_runner.ensure_case(
+        SCENARIOS["elastic"], base, base_overrides, args.threads, args.retry_failed, tag + " base"
+    )
+    ckpt = default_checkpoint_path(base)
+    if status != "finished" or not ckpt.is_file():
+        print(f"{tag}: base {base.name} is {status}; no branch")
+        return
+    _, meta, _ = read_checkpoint(ckpt)
+    t = float(meta["scheme"]["t"])
+    if abs(t - at) > 1e-9:
+        print(f"{tag}: the checkpoint of {base.name} is at t = {t:g} s, not {at:g}; no branch")
+        return
+    if base != out:
+        shutil.copyfile(base, out)
+        shutil.copyfile(ckpt, default_checkpoint_path(out))
+    case_runner.run_scenario(
+        SCENARIOS["elastic"], out, overrides, args.threads, default_checkpoint_path(out), tag
+    )
 
 
 if __name__ == "__main__":

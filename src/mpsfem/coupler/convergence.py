@@ -16,6 +16,8 @@ floor so that a structure at rest (displacement zero) converges too. The scale s
   the interface by about a percent of its displacement in the slamming cases, so the same rtol
   is then about a hundred times stricter, and the residual's work, the interface work error
   (docs/coupler.md), is bounded relative to the work of the window itself.
+
+With a fictitious mass on the structure, :class:`ForceErrorCriterion` must hold as well.
 """
 
 from __future__ import annotations
@@ -86,6 +88,53 @@ class ResidualCriterion:
     def converged(self, residual: float, iterations: int) -> bool:
         """True if ``residual`` (relative) meets the tolerance after ``iterations`` iterations."""
         return iterations >= self.min_iterations and residual <= self.relative_tolerance
+
+
+@dataclass(frozen=True)
+class ForceErrorCriterion:
+    """The fictitious force error of a structure with a fictitious mass (issue 21;
+    structure_fem.fictitious_mass): in iteration k the structure solves (M + M_f) a^k + C v + K u
+    = F^k + M_f a^{k-1}, so its true equation M a + C v + K u = F^k is off by the force e =
+    M_f (a^{k-1} - a^k). The displacement residual does not bound e (with a large M_f the
+    structure moves little while e is large), so a window is converged only when, in every
+    sub-step,
+
+        rms(e) <= max(tolerance * max(S, S_peak), floor * A)
+
+    S the largest rms interface load on the dofs M_f acts on in the window, S_peak the largest
+    S of the run's accepted windows so far (the scheme's ``force_scale_peak``), A the rms
+    tributary length or area of those dofs' nodes (m; m^2), ``floor`` a pressure (Pa). The
+    member then answers a load within that fraction of the one the fluid exerts, and its
+    response (linear in the load) is within about that fraction of its response to the largest
+    load so far. S_peak keeps a window with little load (water leaving the member) from being
+    held to a fraction of its own noise, as the displacement criterion's scale is the whole
+    displacement, not the window's; the floor does the same before the first real load (an MPS
+    member near the free surface feels loads of order 1e-4 Pa that change from iterate to
+    iterate, and 1 % of them cannot be converged). ``tolerance`` None: off. The structure
+    reports (max rms(e), S, A) through its optional ``fictitious_force_error()`` hook; None
+    from it (no fictitious mass acting) passes."""
+
+    tolerance: float | None = 1e-2
+    floor: float = 0.01  # Pa
+
+    @classmethod
+    def from_section(cls, sec) -> ForceErrorCriterion:
+        tol = getattr(sec, "fictitious_force_tolerance", "off")
+        floor = float(getattr(sec, "fictitious_force_floor", 0.0))
+        return cls(None if tol == "off" else float(tol), floor)
+
+    def measure(self, error: float, scale: float, area: float, peak: float = 0.0) -> float:
+        """rms(e) / max(S, S_peak, floor A / tolerance): the force error relative to the load
+        scale (0 for no error, inf for an error against no load); converged when <= tolerance."""
+        if error == 0.0:
+            return 0.0
+        ref = max(scale, peak)
+        if self.tolerance is not None:
+            ref = max(ref, self.floor * area / self.tolerance)
+        return error / ref if ref > 0.0 else math.inf
+
+    def converged(self, ratio: float) -> bool:
+        return self.tolerance is None or ratio <= self.tolerance
 
 
 def check_finite(where: str, **arrays: np.ndarray) -> None:

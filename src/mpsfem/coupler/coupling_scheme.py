@@ -53,7 +53,12 @@ import numpy as np
 
 from mpsfem.coupler import SCHEMES
 from mpsfem.coupler.acceleration import Acceleration, create_acceleration
-from mpsfem.coupler.convergence import InstabilityDetector, ResidualCriterion, check_finite
+from mpsfem.coupler.convergence import (
+    ForceErrorCriterion,
+    InstabilityDetector,
+    ResidualCriterion,
+    check_finite,
+)
 from mpsfem.coupler.errors import (
     CouplingDivergedError,
     CouplingNotConvergedError,
@@ -106,10 +111,15 @@ class WindowRecord:
     structure_energy: float  # NaN if the structure reports none
     warning: str = ""
     timings: dict[str, float] = field(default_factory=dict)  # s, summed over iterations
+    # fictitious force error / load of the accepted iterate (ForceErrorCriterion); NaN: no
+    # fictitious mass acting
+    force_error: float = float("nan")
 
     def results_row(self) -> dict[str, float]:
-        """Scalars for ``ResultsFile.append_coupling(time, iterations, residual, **extra)``."""
-        return {
+        """Scalars for ``ResultsFile.append_coupling(time, iterations, residual, **extra)``
+        (``fictitious_force_error`` only from a window with a fictitious mass acting)."""
+        extra = {} if np.isnan(self.force_error) else {"fictitious_force_error": self.force_error}
+        return extra | {
             "residual_abs": self.residual_abs,
             "converged": float(self.converged),
             "window": self.window,
@@ -182,6 +192,9 @@ class CouplingScheme:
             acceleration = create_acceleration(self.config.acceleration)
         self.acceleration = acceleration
         self.criterion = ResidualCriterion.from_section(self.config.convergence)
+        self.force_criterion = ForceErrorCriterion.from_section(self.config.convergence)
+        # the largest load scale S of an accepted window so far (ForceErrorCriterion)
+        self.force_scale_peak = 0.0
         self.log = log
         self.history = CouplingHistory()
         self.retreats = 0  # rejected iterates retried, over the run
@@ -287,6 +300,12 @@ class CouplingScheme:
         # optional structure hook: the interface iterate its forces answer to (the fictitious
         # mass of structure_fem needs it under acceleration; docs/coupler.md)
         set_iterate = getattr(self.structure, "set_iterate", None) if self.implicit else None
+        # optional structure hook: the force its fictitious mass leaves (ForceErrorCriterion)
+        force_error = (
+            getattr(self.structure, "fictitious_force_error", None) if self.implicit else None
+        )
+        f_ratio = float("nan")
+        f_scale = 0.0
         for k in range(1, max_it + 1):
             if k > 1:
                 self.fluid.restore()
@@ -348,17 +367,35 @@ class CouplingScheme:
             if not self.implicit:
                 converged = True
                 break
-            if self.criterion.converged(residual, k) and not (
-                k < max_it and self._redecide_flags()
+            got = force_error() if force_error is not None else None
+            f_scale = 0.0 if got is None else got[1]
+            f_ratio = (
+                float("nan")
+                if got is None
+                else self.force_criterion.measure(*got, peak=self.force_scale_peak)
+            )
+            f_ok = got is None or self.force_criterion.converged(f_ratio)
+            if (
+                f_ok
+                and self.criterion.converged(residual, k)
+                and not (k < max_it and self._redecide_flags())
             ):
                 converged = True
                 break
             if k == max_it:
                 converged = False
+                why = (
+                    f"residual {residual:.3g} (tolerance {cv.relative_tolerance:g}; rms "
+                    f"|x_tilde - x| = {r_abs:.3g} m)"
+                )
+                if not f_ok:
+                    why += (
+                        f", fictitious force error {f_ratio:.3g} of the load (tolerance "
+                        f"{self.force_criterion.tolerance:g})"
+                    )
                 msg = (
-                    f"{where}: not converged after max_iterations = {max_it}: residual "
-                    f"{residual:.3g} > relative_tolerance {cv.relative_tolerance:g} "
-                    f"(rms |x_tilde - x| = {r_abs:.3g} m). Raise coupling.convergence."
+                    f"{where}: not converged after max_iterations = {max_it}: {why}. "
+                    "Raise coupling.convergence."
                     "max_iterations, use a stronger acceleration (iqn-ils) or a shorter window, "
                     'or set coupling.convergence.on_divergence = "continue"'
                 )
@@ -418,6 +455,7 @@ class CouplingScheme:
         else:
             work_f = 0.5 * float(np.vdot(F_f_prev + F_f1, d_f1 - d_f_start))
         self.d, self.v = x_t, s_t
+        self.force_scale_peak = max(self.force_scale_peak, f_scale)
         self.d_f = d_f1
         self.F_s, self.F_f = F_s1, F_f1
         self.t = t1
@@ -437,6 +475,7 @@ class CouplingScheme:
             structure_energy=energy,
             warning=warning,
             timings=timings,
+            force_error=f_ratio,
         )
         self.history.append(rec)
         self.index += 1
@@ -531,6 +570,7 @@ class CouplingScheme:
             "F_s": self.F_s.copy(),
             "F_f": self.F_f.copy(),
             "d_f": self.d_f.copy(),
+            "force_scale_peak": self.force_scale_peak,
             **{f"acceleration/{k}": v for k, v in acc.items()},
         }
 
@@ -546,6 +586,8 @@ class CouplingScheme:
         self.d_f = (
             np.array(state["d_f"]) if "d_f" in state else self.mapping.displacement_to_fluid(self.d)
         )
+        # checkpoints written before the force-error criterion: no peak yet
+        self.force_scale_peak = float(state.get("force_scale_peak", 0.0))
         acc = {k[13:]: v for k, v in state.items() if k.startswith("acceleration/")}
         if self.acceleration is not None:
             self.acceleration.load_state_dict(acc)

@@ -95,6 +95,29 @@ class ConvergenceSection(Section):
             "interface work error (docs/coupler.md)."
         ),
     )
+    fictitious_force_tolerance: float | Literal["off"] = Field(
+        1e-2,
+        description=(
+            "With a member's fictitious_mass > 0: a window is converged only when, in every "
+            "structure sub-step, the force the fictitious mass leaves in the member's equation, "
+            "rms(M_f (a^k - a^{k-1})) over the nodes it acts on, is at most this times the "
+            "larger of the largest rms interface load on those nodes in the window and in any "
+            "earlier window (or within fictitious_force_floor); a number in (0, 1), "
+            'docs/coupler.md, "Fictitious mass". "off": the displacement residual alone '
+            "decides (the behaviour before this key). Ignored without a fictitious mass."
+        ),
+    )
+    fictitious_force_floor: float = Field(
+        0.01,
+        ge=0,
+        description=(
+            "Absolute floor in Pa (>= 0) of fictitious_force_tolerance's test: a fictitious "
+            "force error whose rms per unit of interface (N/m^2; in 2D N/m per m) is at most "
+            "this passes, whatever the load (a member touched only by near-surface noise, "
+            "about 1e-4 Pa in MPS, cannot converge a fraction of it). 0.01 Pa is 1 micron of "
+            "water head."
+        ),
+    )
     min_iterations: int = Field(1, ge=1, description="Fewest iterations per window (>= 1).")
     max_iterations: int = Field(
         50, ge=1, description="Most iterations per window (>= min_iterations)."
@@ -115,6 +138,13 @@ class ConvergenceSection(Section):
             "diverged."
         ),
     )
+
+    @field_validator("fictitious_force_tolerance")
+    @classmethod
+    def _force_tolerance(cls, v: float | str) -> float | str:
+        if v != "off" and not 0.0 < v < 1.0:
+            raise ValueError('must be a number in (0, 1) or "off"')
+        return v
 
     @model_validator(mode="after")
     def _iterations(self) -> ConvergenceSection:

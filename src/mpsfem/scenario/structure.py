@@ -221,6 +221,15 @@ class _MemberCommon(Section):
             '"implicit" and coupling.transport.kind = "inproc".'
         ),
     )
+    fictitious_mass_nodes: Literal["wet", "all"] = Field(
+        "wet",
+        description=(
+            'Nodes that carry the fictitious mass: "wet", those with interface load at the '
+            "window's start or in its first iterate plus the nodes of every element touching "
+            "one, decided once per coupling window (a dry node steps exactly as without it); "
+            '"all": every node of the member (the behaviour before this key).'
+        ),
+    )
     motion: MemberMotion = Field(
         default_factory=MemberMotion,
         description=(

@@ -27,7 +27,8 @@ With a fictitious mass M_f (:mod:`.fictitious_mass`) a step given the previous c
 iterate's acceleration ``a_prev`` adds M_f (a1 - a_prev) to the residual (inertia, not weighted
 by 1 + alpha) and c0 M_f to the Jacobian. The kept Jacobian always includes c0 M_f for such a
 system (modified Newton: a step without ``a_prev`` still converges to its own residual, in more
-iterations).
+iterations). :meth:`NonlinearNewmark.set_fictitious_mass` replaces M_f (a new wetted set): the
+kept Jacobian is then re-formed, at the point it was formed at, when next needed.
 
 Every vector is over the free dofs of the :class:`~.system.StructureSystem`.
 """
@@ -125,6 +126,15 @@ class NonlinearNewmark:
         self.state = AlphaState(np.zeros(self.n), np.zeros(self.n), np.zeros(self.n))
         self._mass_factor = None
         self.static_increments = 0  # load increments the last solve_static took
+
+    def set_fictitious_mass(self, fictitious_mass: sp.spmatrix | None) -> None:
+        """Replace M_f (None or all zeros: none); the kept Jacobian, which holds c0 M_f, is
+        re-formed at the same point and step size when next needed."""
+        Mf = None if fictitious_mass is None else sp.csr_matrix(fictitious_mass)
+        self.Mf = Mf if Mf is not None and Mf.nnz else None
+        point, key = self.tangent.state()
+        self.tangent.factor = None  # so that restore() does not keep it
+        self.tangent.restore(point, key)
 
     @property
     def factorizations(self) -> int:

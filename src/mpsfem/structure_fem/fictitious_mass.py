@@ -13,8 +13,21 @@ multiplied by about (m_f - m_a) / (m_s + m_f) per iteration (the fluid's force l
 so m_f near m_a contracts at any mass ratio m_s / m_a, and any m_f > (m_a - m_s) / 2 contracts
 (derivation: docs/coupler.md, "Fictitious mass").
 
-An accepted window whose displacement residual is within the coupling tolerance differs from
-the exact fixed point by M_f (a^k - a^{k-1}), of the order of that tolerance.
+An accepted window's structure satisfies its true equation M a + C v + K u = F up to the
+force M_f (a^{k-1} - a^k) the scheme leaves (the fictitious force error). The displacement
+residual does not bound it (a sluggish structure with a large M_f moves little while that force
+is large), so the participant reports it for every sub-step (:class:`IterationHistory`,
+:meth:`~.participant.StructureParticipant.fictitious_force_error`) and the coupler accepts a
+window only when it is within ``coupling.convergence.fictitious_force_tolerance`` of the
+interface load (:class:`mpsfem.coupler.convergence.ForceErrorCriterion`).
+
+Wetted nodes only (``fictitious_mass_nodes = "wet"``, the default): the added mass M_f stands
+in for is zero where no fluid touches the member, and M_f there only holds a dry node near its
+previous acceleration. The set is decided once per coupling window, at the window's first
+structure step (:func:`wet_nodes`: nodes whose interface load at the window's start, the
+previous window's accepted load, or in the window's first iterate is nonzero, plus the nodes of
+every element touching one), and kept for the window's iterations, so the fixed-point map does
+not change between iterations. A node outside it steps exactly as without M_f.
 
 ``M_f`` here is lumped on the translational dofs of the interface nodes, along the member's
 normal: node i carries m_f A_i n_i n_i^T, m_f the member's ``fictitious_mass`` (kg/m^2: per
@@ -29,7 +42,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["IterationHistory", "fictitious_mass_matrix", "tributary_measure"]
+__all__ = ["IterationHistory", "fictitious_mass_matrix", "tributary_measure", "wet_nodes"]
 
 
 def tributary_measure(nodes: np.ndarray, cells: np.ndarray) -> np.ndarray:
@@ -49,12 +62,35 @@ def tributary_measure(nodes: np.ndarray, cells: np.ndarray) -> np.ndarray:
     return out
 
 
-def fictitious_mass_matrix(system, masses: list[float]) -> sp.csr_matrix | None:
+def wet_nodes(
+    loads: list[np.ndarray], cells: list[np.ndarray], n_points: int, margin: int = 1
+) -> np.ndarray:
+    """Nodes (bool, (n_points,)) on which any of the nodal loads (each (n_points, dim), N) is
+    nonzero, widened `margin` times by the nodes of every cell (rows of global node indices)
+    holding one of them."""
+    wet = np.zeros(n_points, dtype=bool)
+    for f in loads:
+        wet |= np.any(np.asarray(f) != 0.0, axis=1)
+    for _ in range(int(margin)):
+        grown = wet.copy()
+        for c in cells:
+            hit = wet[c].any(axis=1)
+            grown[c[hit].reshape(-1)] = True
+        wet = grown
+    return wet
+
+
+def fictitious_mass_matrix(
+    system, masses: list[float], nodes: np.ndarray | None = None
+) -> sp.csr_matrix | None:
     """B, the nodal fictitious masses (kg; kg/m in 2D) as an (n_points dim)^2 matrix of
     m_f A_i n_i n_i^T blocks, with ``masses[k]`` (kg/m^2) on member k of `system` (a
-    :class:`~.system.StructureSystem`); M_f = T^T B T over the free dofs. None when every
-    entry is 0 (the method off)."""
+    :class:`~.system.StructureSystem`); M_f = T^T B T over the free dofs. ``nodes`` (bool,
+    (n_points,)): only these nodes carry it (default: all). None when no node carries any
+    (the method off)."""
     if not any(m > 0 for m in masses):
+        return None
+    if nodes is not None and not np.asarray(nodes).any():
         return None
     dim = system.dim
     rows, cols, vals = [], [], []
@@ -66,12 +102,17 @@ def fictitious_mass_matrix(system, masses: list[float]) -> sp.csr_matrix | None:
         nrm = np.asarray(model.normals, dtype=float)
         nrm = nrm / np.linalg.norm(nrm, axis=1)[:, None]
         idx = off + np.arange(model.n_nodes)
+        if nodes is not None:
+            keep = np.asarray(nodes, dtype=bool)[idx]
+            idx, weight, nrm = idx[keep], weight[keep], nrm[keep]
         for a in range(dim):
             for b in range(dim):
                 rows.append(idx * dim + a)
                 cols.append(idx * dim + b)
                 vals.append(weight * nrm[:, a] * nrm[:, b])
     nd = system.n_points * dim
+    if not rows:
+        return None
     B = sp.csr_matrix(
         (np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(nd, nd)
     )
@@ -118,6 +159,20 @@ class IterationHistory:
         self._iterate: tuple[np.ndarray, float] | None = None  # (x^k nodal, window length)
         self._force: np.ndarray | None = None  # T^T B delta of this iteration
         self._use_prev = False
+        # fictitious force error of this iteration: per sub-step rms over the dofs M_f acts
+        # on of M_f (a^k - a^{k-1}) - M_f delta, and the largest rms load there (N)
+        self.errors: list[float] = []
+        self.load_scale = 0.0
+
+    def set_mass(self, B: sp.csr_matrix) -> None:
+        """Replace the nodal fictitious masses B (a new wet set; between windows only)."""
+        self.B = B
+
+    def record_error(self, error: float, load: float) -> None:
+        """The fictitious force error (N, rms) of the sub-step just taken and the rms interface
+        load (N) over the same dofs at its ends."""
+        self.errors.append(float(error))
+        self.load_scale = max(self.load_scale, float(load))
 
     @property
     def active(self) -> bool:
@@ -132,6 +187,7 @@ class IterationHistory:
         self._cur, self._cur_end = [], None
         self._iterate = None
         self._force = None
+        self.errors, self.load_scale = [], 0.0
 
     def new_iteration(self) -> None:
         """The window restarts (restore): the iteration just made becomes k - 1."""
@@ -140,6 +196,7 @@ class IterationHistory:
         self._cur, self._cur_end = [], None
         self._iterate = None
         self._force = None
+        self.errors, self.load_scale = [], 0.0
 
     def set_iterate(self, x: np.ndarray, window: float) -> None:
         """x^k: elastic nodal interface displacement (n_points * dim,) at the window end."""

@@ -24,6 +24,8 @@ With a fictitious mass M_f (:mod:`.fictitious_mass`) a step given the previous c
 iterate's acceleration ``a_prev`` solves (M + M_f) a1 + C v1 + K u1 = F1 + M_f a_prev: M is
 replaced by M + M_f in K_eff (factorised once per step size, kept beside the plain one) and the
 right-hand side gains M_f (c0 u + c2 v + c3 a + a_prev). With a_prev = a1 it is the plain step.
+:meth:`Newmark.set_fictitious_mass` replaces M_f (a new wetted set) and drops only the
+fictitious factorisations; ``fictitious_factorizations`` counts those made.
 
 Every vector here is over the free (unconstrained) degrees of freedom.
 """
@@ -88,7 +90,15 @@ class Newmark:
         self.Mf = Mf if Mf is not None and Mf.nnz else None
         self._factors_f: OrderedDict[float, tuple[Factor, tuple[float, ...]]] = OrderedDict()
         self.factorizations = 0
+        self.fictitious_factorizations = 0  # of K + c0 (M + M_f) + c1 C, among the above
         self.state = NewmarkState(np.zeros(self.n), np.zeros(self.n), np.zeros(self.n))
+
+    def set_fictitious_mass(self, fictitious_mass: sp.spmatrix | None) -> None:
+        """Replace M_f (None or all zeros: none); the plain factorisations are kept, those with
+        the old M_f dropped (refactorised at the next fictitious step)."""
+        Mf = None if fictitious_mass is None else sp.csr_matrix(fictitious_mass)
+        self.Mf = Mf if Mf is not None and Mf.nnz else None
+        self._factors_f.clear()
 
     # ------------------------------------------------------------------ set-up
     def initialize(
@@ -141,6 +151,7 @@ class Newmark:
             Keff = Keff + c[1] * self.C
         fac = factorize(Keff.tocsc(), dense_limit=self.dense_limit)
         self.factorizations += 1
+        self.fictitious_factorizations += int(fictitious)
         cache[key] = (fac, c)
         while len(cache) > 2:
             cache.popitem(last=False)

@@ -52,6 +52,13 @@ K u^k = F^k + M_f a^{k-1}, a^{k-1} the acceleration the same sub-step (counted f
 checkpoint) ended with in the previous iteration; :meth:`restore` keeps these accelerations
 (they are not part of the state), the next checkpoint clears them. Before any checkpoint
 (standalone runs) the steps are plain. With every ``fictitious_mass`` 0 nothing changes.
+Members with ``fictitious_mass_nodes = "wet"`` carry M_f only on the window's wetted nodes,
+decided at the window's first step (:func:`.fictitious_mass.wet_nodes`) from the interface load
+at the checkpoint and the first forces written after it, and kept for the window's iterations;
+the fictitious factorisation is redone only when that set changes
+(``fictitious_set_changes``). A window with no node in it steps plainly.
+:meth:`fictitious_force_error` reports the force the fictitious mass left in the member's
+equation in the last iteration (the coupler's ``ForceErrorCriterion``).
 """
 
 from __future__ import annotations
@@ -68,7 +75,12 @@ import scipy.sparse.linalg as sla
 from mpsfem.scenario.motion import RigidTranslation
 
 from .alpha_method import NonlinearNewmark
-from .fictitious_mass import IterationHistory, fictitious_mass_matrix
+from .fictitious_mass import (
+    IterationHistory,
+    fictitious_mass_matrix,
+    tributary_measure,
+    wet_nodes,
+)
 from .linsolve import factorize
 from .newmark import Newmark, NewmarkState
 from .newton import NewtonFailure
@@ -81,6 +93,11 @@ WRITABLE = ("forces",)
 
 #: rotation (rad) beyond which a linear beam warns that it has left small-rotation theory
 LINEAR_ROTATION_LIMIT = 0.1
+
+
+def _rms(a: np.ndarray) -> float:
+    """Root mean square of the entries (0 for none)."""
+    return math.sqrt(float(a @ a) / a.size) if a.size else 0.0
 
 
 class LargeRotationWarning(UserWarning):
@@ -161,11 +178,28 @@ class StructureParticipant:
         self.nonlinear = sysm.nonlinear or t.scheme == "hht"
         # fictitious added mass (members' `fictitious_mass`; None: off) and the accelerations
         # of the previous coupling iteration, per sub-step of the window (:mod:`.fictitious_mass`)
-        B = fictitious_mass_matrix(sysm, [cfg.fictitious_mass for cfg in section.members])
-        Mf = None if B is None else (sysm.TT @ B @ sysm.T).tocsr()
+        self._fm_masses = [cfg.fictitious_mass for cfg in section.members]
+        B = fictitious_mass_matrix(sysm, self._fm_masses)
         self.fictitious = (
             None if B is None else IterationHistory(B, sysm.T, beta=t.beta, gamma=t.gamma)
         )
+        # nodes that always carry M_f (members with fictitious_mass_nodes = "all") and those
+        # that carry it only while wet ("wet"); the set in use; the cells that give the margin
+        self._fm_always = np.zeros(sysm.n_points, dtype=bool)
+        self._fm_if_wet = np.zeros(sysm.n_points, dtype=bool)
+        for cfg, m in zip(section.members, sysm.models, strict=True):
+            if cfg.fictitious_mass > 0:
+                which = self._fm_always if cfg.fictitious_mass_nodes == "all" else self._fm_if_wet
+                which[sysm.node_slices[m.name]] = True
+        self._fm_cells = [m.connectivity + sysm.node_slices[m.name].start for m in sysm.models]
+        self._fm_measure = np.concatenate(
+            [tributary_measure(m.nodes, m.connectivity) for m in sysm.models]
+        )
+        self._fm_nodes = self._fm_always.copy()
+        self._fm_pending = False  # decide the wet set at the next step (a window started)
+        self._fm_load_start = np.zeros((sysm.n_points, self.dim))  # load at the checkpoint
+        self.fictitious_set_changes = 0
+        Mf = self._install_fictitious_nodes(self._fm_nodes, build=False)
         if self.nonlinear:
             nw = section.newton
             self.integrator = NonlinearNewmark(
@@ -237,6 +271,60 @@ class StructureParticipant:
         self._initial_data_pending = True  # the first forces written are the load at t = 0
         self._checkpoint: dict | None = None
         self._interface = self._build_interface()
+
+    def _install_fictitious_nodes(self, nodes: np.ndarray, build: bool = True):
+        """Put M_f on `nodes` (bool, (n_points,)): the IterationHistory's B, the dofs it acts on
+        and (``build``) the integrator's M_f. Returns M_f over the free dofs (None: none)."""
+        self._fm_nodes = nodes.copy()
+        self._fm_B = None
+        self._fm_rows = np.zeros(0, dtype=np.int64)
+        self._fm_area = 0.0
+        if self.fictitious is None:
+            return None
+        sysm = self.system
+        B = fictitious_mass_matrix(sysm, self._fm_masses, nodes)
+        self._fm_B = B
+        Mf = None if B is None else (sysm.TT @ B @ sysm.T).tocsr()
+        if Mf is not None:
+            self._fm_rows = np.flatnonzero(np.asarray(abs(Mf).sum(axis=1)).ravel())
+            # the node of each of those dofs (T^T's column of it), its tributary measure
+            TT = sysm.TT.tocsr()[self._fm_rows]
+            node = TT.indices[TT.indptr[:-1]] // self.dim
+            self._fm_area = _rms(self._fm_measure[node])
+        if B is not None:
+            self.fictitious.set_mass(B)
+        if build:
+            self.integrator.set_fictitious_mass(Mf)
+        return Mf
+
+    def _decide_fictitious_nodes(self) -> None:
+        """The window's wet set (members with fictitious_mass_nodes = "wet"): nodes with load at
+        the checkpoint or in the forces now written, plus one element around them."""
+        self._fm_pending = False
+        if not self._fm_if_wet.any():
+            return
+        wet = wet_nodes([self._fm_load_start, self._forces], self._fm_cells, self.system.n_points)
+        nodes = self._fm_always | (wet & self._fm_if_wet)
+        if not np.array_equal(nodes, self._fm_nodes):
+            self._install_fictitious_nodes(nodes)
+            self.fictitious_set_changes += 1
+
+    @property
+    def fictitious_nodes(self) -> np.ndarray:
+        """Interface points (bool, (n_points,)) carrying the fictitious mass in this window."""
+        return self._fm_nodes.copy()
+
+    def fictitious_force_error(self) -> tuple[float, float, float] | None:
+        """Optional coupler hook (``ForceErrorCriterion``): (e, S, A) of the last iteration, e
+        the largest over its sub-steps of rms(M_f (a^k - a^{k-1})) (with the iterate's shift)
+        over the dofs M_f acts on, the force (N; N/m in 2D) by which the member's true equation
+        M a + C v + K u = F is off, S the largest rms interface load on those dofs at the
+        sub-steps' ends, A the rms tributary area (m^2; length in m in 2D) of their nodes.
+        None when no fictitious mass acted (none, or no wet node)."""
+        fm = self.fictitious
+        if fm is None or not fm.active or self._fm_B is None or not fm.errors:
+            return None
+        return max(fm.errors), fm.load_scale, self._fm_area
 
     def _start(self, f_interface: np.ndarray) -> None:
         """Initial state at t = 0 under the prescribed loads plus the interface load
@@ -353,6 +441,11 @@ class StructureParticipant:
         t0 = self.integrator.state.t
         f0, f1 = self._f_start, self._f_new
         fm = self.fictitious if self.fictitious is not None and self.fictitious.active else None
+        if fm is not None and self._fm_pending:
+            self._decide_fictitious_nodes()
+        if fm is not None and self._fm_B is None:  # no node carries M_f in this window
+            fm = None
+        f_before = f0
         for j in range(1, n_sub + 1):
             frac = j / n_sub
             f_if = f1 if j == n_sub else f0 + frac * (f1 - f0)
@@ -366,6 +459,14 @@ class StructureParticipant:
             a_prev, f_shift = fm.previous(self.integrator.state.steps, h)
             new = self.integrator.step(h, self.external_load(t, h) + f_if, a_prev, f_shift)
             fm.store(h, new.u, new.a)
+            # the force the scheme leaves: (M + M_f) a + ... = F + M_f a_prev + shift, so
+            # M a + C v + K u - F = M_f (a_prev - a) + shift
+            err = self.integrator.Mf @ (new.a - a_prev)
+            if f_shift is not None:
+                err -= f_shift
+            rows = self._fm_rows
+            fm.record_error(_rms(err[rows]), max(_rms(f_if[rows]), _rms(f_before[rows])))
+            f_before = f_if
         self.integrator.state.t = t0 + dt
         self._last_h = h
         self._f_start = f1
@@ -428,6 +529,8 @@ class StructureParticipant:
             state.update(self.integrator.checkpoint_extra())
         if self.fictitious is not None:  # a new coupling window: no previous iteration yet
             self.fictitious.reset(s.steps, s.u, s.v, s.a)
+            self._fm_pending = True  # its wet set: at its first step
+            self._fm_load_start = self._forces.copy()
         self._checkpoint = state
         return {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in state.items()}
 
