@@ -402,6 +402,30 @@ def pair_terms(pos, vel, rho, p, row_start, row_end, pair_j, fv_pair, n_fluid, h
                               ext_keep)  # fmt: skip
 
 
+@njit(cache=True, inline="always")
+def pressure_pair_reaction(pos, vol, p, i, j, vi, inv_h, coef, corrected, M, dim):
+    """Reaction R_ij = V_i (p_i + p_j) M_i grad_i W_ij V_j of wall particle j to the pressure
+    pair term fluid particle i receives in :func:`pair_terms` (δ-SPHC, seed eq. 12 with
+    M_j = M_i at a wall; plain δ-SPH without M, eq. 6), N (N/m in 2D). Returns (nonzero, R_x,
+    R_y, R_z); nonzero is False beyond the kernel's support (R = 0)."""
+    d0 = pos[i, 0] - pos[j, 0]
+    d1 = pos[i, 1] - pos[j, 1]
+    d2 = pos[i, 2] - pos[j, 2] if dim == 3 else 0.0
+    f = gradient_factor_fast(np.sqrt(d0 * d0 + d1 * d1 + d2 * d2), inv_h, coef)
+    if f == 0.0:
+        return False, 0.0, 0.0, 0.0
+    fv = f * vol[j] * (p[i] + p[j]) * vi  # V_i (p_i + p_j) F V_j
+    g0 = fv * d0
+    g1 = fv * d1
+    g2 = fv * d2
+    if not corrected:  # seed eq. 6
+        return True, g0, g1, g2
+    r0 = M[i, 0, 0] * g0 + M[i, 0, 1] * g1 + (M[i, 0, 2] * g2 if dim == 3 else 0.0)
+    r1 = M[i, 1, 0] * g0 + M[i, 1, 1] * g1 + (M[i, 1, 2] * g2 if dim == 3 else 0.0)
+    r2 = M[i, 2, 0] * g0 + M[i, 2, 1] * g1 + M[i, 2, 2] * g2 if dim == 3 else 0.0
+    return True, r0, r1, r2
+
+
 @njit(cache=True)
 def wall_reaction(pos, rho, vol, p, indptr, indices, n_fluid, inv_h, coef, corrected, M, slot,
                   out):  # fmt: skip
@@ -423,30 +447,14 @@ def wall_reaction(pos, rho, vol, p, indptr, indices, n_fluid, inv_h, coef, corre
             s = slot[j]
             if s < 0:
                 continue
-            d0 = pos[i, 0] - pos[j, 0]
-            d1 = pos[i, 1] - pos[j, 1]
-            d2 = pos[i, 2] - pos[j, 2] if dim == 3 else 0.0
-            f = gradient_factor_fast(np.sqrt(d0 * d0 + d1 * d1 + d2 * d2), inv_h, coef)
-            if f == 0.0:
+            hit, r0, r1, r2 = pressure_pair_reaction(pos, vol, p, i, j, vi, inv_h, coef,
+                                                     corrected, M, dim)  # fmt: skip
+            if not hit:
                 continue
-            fv = f * vol[j] * (p[i] + p[j]) * vi  # V_i (p_i + p_j) F V_j
-            g0 = fv * d0
-            g1 = fv * d1
-            g2 = fv * d2
-            if corrected:
-                out[s, 0] += (
-                    M[i, 0, 0] * g0 + M[i, 0, 1] * g1 + (M[i, 0, 2] * g2 if dim == 3 else 0.0)
-                )
-                out[s, 1] += (
-                    M[i, 1, 0] * g0 + M[i, 1, 1] * g1 + (M[i, 1, 2] * g2 if dim == 3 else 0.0)
-                )
-                if dim == 3:
-                    out[s, 2] += M[i, 2, 0] * g0 + M[i, 2, 1] * g1 + M[i, 2, 2] * g2
-            else:
-                out[s, 0] += g0
-                out[s, 1] += g1
-                if dim == 3:
-                    out[s, 2] += g2
+            out[s, 0] += r0
+            out[s, 1] += r1
+            if dim == 3:
+                out[s, 2] += r2
 
 
 @njit(cache=True)
@@ -479,26 +487,10 @@ def wall_reaction_projected(pos, vol, p, indptr, indices, n_fluid, inv_h, coef, 
             s = slot[j]
             if s < 0:
                 continue
-            d0 = pos[i, 0] - pos[j, 0]
-            d1 = pos[i, 1] - pos[j, 1]
-            d2 = pos[i, 2] - pos[j, 2] if dim == 3 else 0.0
-            f = gradient_factor_fast(np.sqrt(d0 * d0 + d1 * d1 + d2 * d2), inv_h, coef)
-            if f == 0.0:
+            hit, r0, r1, r2 = pressure_pair_reaction(pos, vol, p, i, j, vi, inv_h, coef,
+                                                     corrected, M, dim)  # fmt: skip
+            if not hit:
                 continue
-            fv = f * vol[j] * (p[i] + p[j]) * vi  # V_i (p_i + p_j) F V_j
-            g0 = fv * d0
-            g1 = fv * d1
-            g2 = fv * d2
-            if corrected:  # seed eq. 12 with M_j = M_i at a wall
-                r0 = M[i, 0, 0] * g0 + M[i, 0, 1] * g1
-                r1 = M[i, 1, 0] * g0 + M[i, 1, 1] * g1
-                r2 = 0.0
-                if dim == 3:
-                    r0 += M[i, 0, 2] * g2
-                    r1 += M[i, 1, 2] * g2
-                    r2 = M[i, 2, 0] * g0 + M[i, 2, 1] * g1 + M[i, 2, 2] * g2
-            else:  # seed eq. 6
-                r0, r1, r2 = g0, g1, g2
             grp = wall_group[j - n_fluid]
             if grp < 0:
                 out[s, 0] += r0
@@ -545,27 +537,11 @@ def patch_exchange(pos, vol, p, indptr, indices, n_fluid, inv_h, coef, corrected
             b = wall_patch[j - n_fluid]
             if b < 0:
                 continue
-            d0 = pos[i, 0] - pos[j, 0]
-            d1 = pos[i, 1] - pos[j, 1]
-            d2 = pos[i, 2] - pos[j, 2] if dim == 3 else 0.0
-            f = gradient_factor_fast(np.sqrt(d0 * d0 + d1 * d1 + d2 * d2), inv_h, coef)
-            if f == 0.0:
+            hit, r0, r1, r2 = pressure_pair_reaction(pos, vol, p, i, j, vi, inv_h, coef,
+                                                     corrected, M, dim)  # fmt: skip
+            if not hit:
                 continue
-            fv = f * vol[j] * (p[i] + p[j]) * vi  # V_i (p_i + p_j) F V_j
-            g0 = fv * d0
-            g1 = fv * d1
-            g2 = fv * d2
-            if corrected:
-                out[b, 0] += (
-                    M[i, 0, 0] * g0 + M[i, 0, 1] * g1 + (M[i, 0, 2] * g2 if dim == 3 else 0.0)
-                )
-                out[b, 1] += (
-                    M[i, 1, 0] * g0 + M[i, 1, 1] * g1 + (M[i, 1, 2] * g2 if dim == 3 else 0.0)
-                )
-                if dim == 3:
-                    out[b, 2] += M[i, 2, 0] * g0 + M[i, 2, 1] * g1 + M[i, 2, 2] * g2
-            else:
-                out[b, 0] += g0
-                out[b, 1] += g1
-                if dim == 3:
-                    out[b, 2] += g2
+            out[b, 0] += r0
+            out[b, 1] += r1
+            if dim == 3:
+                out[b, 2] += r2
