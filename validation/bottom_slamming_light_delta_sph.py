@@ -1,0 +1,381 @@
+"""The thesis's light bottom-slamming plate under the δ-SPH fluid (issue 21, task H7).
+
+validation/bottom_slamming_light.py runs the light plate (0.026 kg/m^2, Aitken, the fictitious
+mass M_f on wetted nodes, the force-error criterion) with the MPS fluid; after first contact
+most of its wet windows stay unconverged. This script asks whether they converge under the
+quieter δ-SPH fluid (docs/fluid_sph.md), and whether the answer depends on M_f.
+
+The δ-SPH scenarios are scenarios/bottom_slamming_2d.toml (rigid) and
+scenarios/bottom_slamming_elastic_2d.toml (elastic) with fluid.method = "delta-sph", MPS's
+numerical tables dropped ([fluid.pressure], fluid.time_step.courant), the default [fluid.sph]
+except fluid.sph.damping = "sponge" (the scenarios' sponge, MPS's velocity damping with the
+same coefficient, instead of the seed's viscosity ramp, which would limit dt to 0.15 h /
+(0.6 c0) over the whole tank): written to validation/results/bottom_slamming_dsph_<kind>.toml.
+Every case override is validation/bottom_slamming.py's :func:`case_overrides`, the light
+section, M_f and Aitken validation/bottom_slamming_light.py's :func:`light_overrides`, and
+every measurement that script's :func:`analyse_light` (bottom_slamming.py's :func:`analyse`),
+with MF against the δ-SPH rigid plate of the same spacing and the iteration counts split at
+first contact. Runs (``--runs``): ``rigid`` (force probe: the first layer's pressure
+integral), ``rigid_x`` (its pair exchange, fluid.boundary_force = "momentum_exchange": the
+measure the member's load is; MF divides by it); ``mf0.3``, ``mf1`` (the light plate); ``heavy``
+(the scenario's own section, 15.6 kg/m^2, Aitken, no M_f). Writes
+validation/results/bottom_slamming_light_delta_sph.csv.
+
+    NUMBA_NUM_THREADS=1 python validation/bottom_slamming_light_delta_sph.py --runs rigid
+    NUMBA_NUM_THREADS=1 python validation/bottom_slamming_light_delta_sph.py --runs mf0.3
+    python validation/bottom_slamming_light_delta_sph.py --analyse-only
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import case_runner  # noqa: E402
+from bottom_slamming import (  # noqa: E402
+    DEPTH,
+    RESULTS_DIR,
+    SCENARIOS,
+    Case,
+    analyse,
+    case_overrides,
+    spacing_for,
+)
+from bottom_slamming_light import (  # noqa: E402
+    ADDED_MASS_ESTIMATE,
+    analyse_light,
+    light_overrides,
+)
+from results_csv import write_csv  # noqa: E402
+
+CSV = RESULTS_DIR / "bottom_slamming_light_delta_sph.csv"
+CASE = Case(0.3, 0.06)
+L0 = "0.0057"  # H / 20
+RUNS = ("rigid", "rigid_x", "mf0.3", "mf1", "heavy")
+#: the rigid plate's force as its pair exchange (fluid.boundary_force = "momentum_exchange"),
+#: the measure the coupled member's load is (docs/fluid_sph.md, "Coupled to a structure"); the
+#: default, the first layer's pressure integral, also reads the pull of the negative wall
+#: pressures across the gap (see the page)
+EXCHANGE = 'fluid.boundary_force="momentum_exchange"'
+
+
+def write_scenario(kind: str) -> Path:
+    """The δ-SPH version of the kind's scenario (text edits of the MPS file, so its comments
+    stay): fluid.method = "delta-sph", [fluid.pressure] and fluid.time_step.courant dropped,
+    [fluid.sph] damping = "sponge"."""
+    out = RESULTS_DIR / f"bottom_slamming_dsph_{kind}.toml"
+    lines, skip = [], False
+    for line in SCENARIOS[kind].read_text().splitlines():
+        head = line.strip()
+        if head.startswith("["):
+            skip = head.split("#")[0].strip() == "[fluid.pressure]"
+        if skip or head.startswith("courant"):
+            continue
+        if head.split("#")[0].strip() == "[fluid.time_step]":
+            lines += ["[fluid.sph]", 'damping = "sponge"   # the sponge as in MPS (see header)', ""]
+        lines.append(line)
+        if head == "[fluid]":
+            lines.append('method = "delta-sph"')
+    header = (
+        f"# written by validation/bottom_slamming_light_delta_sph.py: {SCENARIOS[kind].name} with\n"
+        '# fluid.method = "delta-sph", [fluid.pressure] and fluid.time_step.courant dropped,\n'
+        '# fluid.sph.damping = "sponge"\n'
+    )
+    RESULTS_DIR.mkdir(parents=True, exist_ok=True)
+    out.write_text(header + "\n".join(lines) + "\n")
+    return out
+
+
+def run_path(run: str, end_time: float, ft: str = "0.01") -> Path:
+    """Results file; the light runs' names parse with bottom_slamming_light.NAME (``ft``: the
+    force tolerance, "off" for a branch's base)."""
+    if run in ("rigid", "rigid_x"):
+        return RESULTS_DIR / f"dsph_bottom_slamming_{run}_{L0}_end{end_time:g}_{CASE.label()}.h5"
+    if run == "heavy":
+        return RESULTS_DIR / f"dsph_bottom_slamming_heavy_{L0}_end{end_time:g}_{CASE.label()}.h5"
+    f = float(run.removeprefix("mf"))
+    return RESULTS_DIR / (
+        f"dsph_bottom_slamming_light_{L0}_mf{f:g}_rtol0.001_ft{ft}_end{end_time:g}_"
+        f"{CASE.label()}.h5"
+    )
+
+
+def overrides(run: str, spacing: float, end_time: float, ft: str = "0.01") -> list[str]:
+    if run in ("rigid", "rigid_x"):
+        extra = [EXCHANGE] if run == "rigid_x" else []
+        return case_overrides("rigid", CASE, spacing) + [f"run.end_time={end_time!r}", *extra]
+    if run == "heavy":  # the scenario's section, Aitken as the light runs, no M_f
+        return case_overrides("elastic", CASE, spacing) + [
+            f"run.end_time={end_time!r}",
+            'coupling.acceleration.kind="aitken"',
+        ]
+    f = float(run.removeprefix("mf"))
+    return case_overrides("elastic", CASE, spacing) + light_overrides(
+        f, 1e-3, force_tolerance=ft, end_time=end_time
+    )
+
+
+#: s: the wave's arrival at the plate as the MPS runs measure it (first contact 1.62-1.63 s,
+#: docs/validation_bottom_slamming_light.md). Under δ-SPH the plate's load has no sharp contact:
+#: it rises from about 1.45 s (the rigid plate's pair exchange), as the kernel (2h = 14.8 mm)
+#: reaches across the closing gap, so the iteration counts are given from this time
+WET_FROM = 1.62
+
+
+def coupling_split(path: Path, contact: float, prefix: str = "wet") -> dict[str, float]:
+    """Iterations per window and unconverged windows before / from ``contact`` (s; window k
+    ends at (k + 1) dt_window); the accepted windows' force errors from ``contact`` on."""
+    with h5py.File(path, "r") as h5:
+        if "coupling" not in h5:
+            return {}
+        c = h5["coupling"]
+        its = c["iterations"][:]
+        conv = c["converged"][:]
+        ferr = c["fictitious_force_error"][:] if "fictitious_force_error" in c else None
+        dt = float(h5["structure"].attrs.get("dt", 1e-3)) if "structure" in h5 else 1e-3
+    t_end = (np.arange(its.size) + 1) * dt
+    wet = t_end >= contact if math.isfinite(contact) else np.zeros(its.size, bool)
+    out = {
+        f"{prefix}_windows": int(wet.sum()),
+        f"{prefix}_it_mean": float(its[wet].mean()) if wet.any() else math.nan,
+        f"{prefix}_it_max": int(its[wet].max()) if wet.any() else 0,
+        f"{prefix}_unconverged": int(np.count_nonzero(conv[wet] == 0)),
+    }
+    if ferr is not None and wet.any():
+        e = ferr[wet]
+        e = e[np.isfinite(e)]
+        if e.size:
+            out[f"{prefix}_force_error_median"] = float(np.median(e))
+            out[f"{prefix}_force_error_p90"] = float(np.percentile(e, 90))
+    return out
+
+
+def branch_time(path: Path) -> float:
+    """s: where a light run's force tolerance 1e-2 starts: the end time of its base run (the
+    ``_ftoff`` file of the same M_f, see :func:`branch`), 0 if there is none (run from t = 0)."""
+    stem = path.name.replace("_ft0.01_end", "_ftoff_end").split("_end")[0]
+    for base in sorted(RESULTS_DIR.glob(stem + "_end*.h5")):
+        if not base.name.endswith(".ckpt.h5"):
+            return float(base.name.split("_end")[1].split("_")[0])
+    return 0.0
+
+
+def report() -> int:
+    rows = []
+    refs: dict[str, tuple[float, float]] = {}  # run -> (raw, 11 ms mean) rigid peak
+    for run in ("rigid", "rigid_x"):
+        for path in sorted(RESULTS_DIR.glob(f"dsph_bottom_slamming_{run}_{L0}_end*.h5")):
+            if path.name.endswith(".ckpt.h5"):
+                continue
+            status = case_runner.read_status(path)
+            if status is None or status == "locked" or status.startswith("unreadable"):
+                print(f"{path.name}: {status}, skipped")
+                continue
+            r = analyse(path)
+            refs[run] = (r.peak_uplift, r.peak_uplift_smooth)
+            with h5py.File(path, "r") as h5:
+                t, fy = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:, 1]
+            dry = (t > 0.5) & (t < 1.0)  # still water under the plate (wave at x = 1.2 m later)
+            rows.append(
+                {
+                    "run": run,
+                    "results_file": path.name,
+                    "status": r.status,
+                    "t_end_s": r.t_end_s,
+                    "dry_uplift_mean": float(fy[dry].mean()) if dry.any() else math.nan,
+                    "contact_time_s": r.contact_time_s,
+                    "peak_uplift": r.peak_uplift,
+                    "peak_time_s": r.peak_time_s,
+                    "peak_uplift_smooth": r.peak_uplift_smooth,
+                    "peak_smooth_time_s": r.peak_smooth_time_s,
+                    "steps": r.steps,
+                    "wall_time_s": r.wall_time_s,
+                }
+            )
+    # MF against the rigid plate's pair exchange, the measure the member's load is
+    rigid, rigid_s = refs.get("rigid_x", (math.nan, math.nan))
+    rigid_p, rigid_ps = refs.get("rigid", (math.nan, math.nan))
+    for run in RUNS[2:]:
+        pattern = run_path(run, 0).name.replace("end0", "end*")
+        for path in sorted(RESULTS_DIR.glob(pattern)):
+            status = case_runner.read_status(path)
+            if status is None or status == "locked" or status.startswith("unreadable"):
+                print(f"{path.name}: {status}, skipped")
+                continue
+            with h5py.File(path, "r") as h5:
+                t, fy = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:, 1]
+            dry = (t > 0.5) & (t < 1.0)
+            dry_uplift = float(fy[dry].mean()) if dry.any() else math.nan
+            if run == "heavy":
+                b = analyse(path)
+                row = {
+                    "run": run,
+                    "status": b.status,
+                    "t_end_s": b.t_end_s,
+                    "windows": b.windows,
+                    "unconverged_windows": b.unconverged_windows,
+                    "contact_time_s": b.contact_time_s,
+                    "peak_uplift": b.peak_uplift,
+                    "peak_time_s": b.peak_time_s,
+                    "peak_uplift_smooth": b.peak_uplift_smooth,
+                    "peak_smooth_time_s": b.peak_smooth_time_s,
+                    "mid_disp_max_mm": b.mid_disp_max_mm,
+                    "mid_disp_max_time_s": b.mid_disp_max_time_s,
+                    "interface_work_error_pct": b.interface_work_error_pct,
+                    "steps": b.steps,
+                    "wall_time_s": b.wall_time_s,
+                }
+            else:
+                r = analyse_light(path)
+                row = {
+                    "run": run,
+                    "fictitious_mass": r.fictitious_mass,
+                    "status": r.status,
+                    "t_end_s": r.t_end_s,
+                    "windows": r.windows,
+                    "it_per_window_mean": r.it_per_window_mean,
+                    "unconverged_windows": r.unconverged_windows,
+                    "contact_time_s": r.contact_time_s,
+                    "peak_uplift": r.peak_uplift,
+                    "peak_time_s": r.peak_time_s,
+                    "peak_uplift_smooth": r.peak_uplift_smooth,
+                    "peak_smooth_time_s": r.peak_smooth_time_s,
+                    "mid_disp_max_mm": r.mid_disp_max_mm,
+                    "mid_disp_max_time_s": r.mid_disp_max_time_s,
+                    "mid_disp_at_crest_mm": r.mid_disp_at_crest_mm,
+                    "interface_work_error_pct": r.interface_work_error_pct,
+                    "steps": r.steps,
+                    "wall_time_s": r.wall_time_s,
+                }
+            row["results_file"] = path.name
+            row["branch_at_s"] = branch_time(path) if run != "heavy" else math.nan
+            row["dry_uplift_mean"] = dry_uplift
+            row["mf_raw"] = row["peak_uplift"] / rigid
+            row["mf_smooth"] = row["peak_uplift_smooth"] / rigid_s
+            row["mf_raw_vs_pressure_integral"] = row["peak_uplift"] / rigid_p
+            if run != "heavy":  # the windows at the force tolerance 1e-2 (after a branch)
+                row.update(coupling_split(path, branch_time(path), "ft"))
+            row.update(coupling_split(path, WET_FROM))
+            rows.append(row)
+    if not rows:
+        print("nothing to analyse")
+        return 1
+    columns = [
+        "run", "fictitious_mass", "status", "t_end_s", "windows", "it_per_window_mean",
+        "unconverged_windows", "branch_at_s", "ft_windows", "ft_it_mean", "ft_unconverged",
+        "ft_force_error_median", "ft_force_error_p90", "wet_windows", "wet_it_mean", "wet_it_max",
+        "wet_unconverged", "wet_force_error_median", "wet_force_error_p90", "dry_uplift_mean",
+        "contact_time_s", "peak_uplift", "peak_time_s", "peak_uplift_smooth",
+        "peak_smooth_time_s", "mf_raw", "mf_smooth", "mf_raw_vs_pressure_integral", "mid_disp_at_crest_mm", "mid_disp_max_mm", "mid_disp_max_time_s",
+        "interface_work_error_pct", "steps", "wall_time_s", "results_file",
+    ]  # fmt: skip
+    full = [{k: row.get(k, math.nan) for k in columns} for row in rows]
+    write_csv(
+        full,
+        CSV,
+        columns=columns,
+        comment="validation/bottom_slamming_light_delta_sph.py: the light plate under δ-SPH, "
+        "A/H = 0.3, D/H = 0.06, l0 = H/20; MF against the δ-SPH rigid plate's pair exchange "
+        "(rigid_x); dry_uplift_mean: 0.5-1.0 s, still water under the plate",
+    )
+    for row in full:
+        print(
+            "  ".join(
+                f"{k}={row[k]:.4g}" if isinstance(row[k], float) else f"{k}={row[k]}"
+                for k in columns[:-1]
+            )
+        )
+    print(f"wrote {CSV.relative_to(RESULTS_DIR.parents[1])}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--runs", default="rigid", help=f"comma-separated of {', '.join(RUNS)}")
+    ap.add_argument("--end-time", type=float, default=2.1, help="run.end_time, s (default 2.1)")
+    ap.add_argument(
+        "--branch-at",
+        type=float,
+        default=None,
+        help="elastic runs: run to this time with --base-force-tolerance, then continue from "
+        "its checkpoint there with the force tolerance 1e-2 (only run.* and "
+        "coupling.convergence.* differ on a restart)",
+    )
+    ap.add_argument(
+        "--base-force-tolerance",
+        default="off",
+        help='the base run\'s coupling.convergence.fictitious_force_tolerance (default "off")',
+    )
+    case_runner.add_run_options(ap)
+    args = ap.parse_args(argv)
+    runs = args.runs.split(",")
+    bad = [r for r in runs if r not in RUNS]
+    if bad:
+        ap.error(f"--runs {args.runs}: {bad} not among {RUNS}")
+    if not args.end_time > 0.0:
+        ap.error(f"--end-time {args.end_time}: must be > 0")
+    spacing = spacing_for(float(L0), DEPTH)
+    print(f"l0 = {L0} m -> {spacing:.7g} m; M_f estimate {ADDED_MASS_ESTIMATE} kg/m^2")
+    if not args.analyse_only:
+        for run in runs:
+            kind = "rigid" if run.startswith("rigid") else "elastic"
+            out = run_path(run, args.end_time)
+            if args.branch_at is not None and run.startswith("mf") and not out.exists():
+                branch(run, spacing, out, args)
+                continue
+            case_runner.ensure_case(
+                write_scenario(kind),
+                out,
+                overrides(run, spacing, args.end_time),
+                args.threads,
+                args.retry_failed,
+                f"[dsph {run}]",
+            )
+    return report()
+
+
+def branch(run: str, spacing: float, out: Path, args: argparse.Namespace) -> None:
+    """Run the base of ``run`` to ``args.branch_at`` with the force tolerance
+    ``args.base_force_tolerance`` (unless finished), copy it and its checkpoint to ``out`` and
+    continue ``out`` with the force tolerance 1e-2 to ``args.end_time`` (``mpsfem run
+    --restart``). Says why when the base did not finish or has no checkpoint there."""
+    import shutil
+
+    from mpsfem.results.checkpoint import default_checkpoint_path, read_checkpoint
+
+    scenario = write_scenario("elastic")
+    ft0, at, tag = args.base_force_tolerance, args.branch_at, f"[dsph {run}]"
+    base = run_path(run, at, ft0)
+    base_overrides = overrides(run, spacing, at, ft0) + [f"output.checkpoint_interval={at!r}"]
+    status = case_runner.ensure_case(
+        scenario, base, base_overrides, args.threads, args.retry_failed, tag + " base"
+    )
+    ckpt = default_checkpoint_path(base)
+    if status != "finished" or not ckpt.is_file():
+        print(f"{tag}: base {base.name} is {status}; no branch")
+        return
+    _, meta, _ = read_checkpoint(ckpt)
+    t = float(meta["scheme"]["t"])
+    if abs(t - at) > 1e-9:
+        print(f"{tag}: the checkpoint of {base.name} is at t = {t:g} s, not {at:g}; no branch")
+        return
+    shutil.copyfile(base, out)
+    shutil.copyfile(ckpt, default_checkpoint_path(out))
+    case_runner.run_scenario(
+        scenario,
+        out,
+        overrides(run, spacing, args.end_time),
+        args.threads,
+        default_checkpoint_path(out),
+        tag,
+    )
+
+
+if __name__ == "__main__":
+    sys.exit(main())
