@@ -191,20 +191,25 @@ class SPHParticipant(InterfaceMotionInputs):
         )
         return face, cap
 
-    def _set_directions(self) -> None:
-        """structure_load = "normal_pairs": the solver's projection vectors of every interface point
-        for the next step, from the current normals (end of the step, as the placed particles):
-        a face point its normal, an end-cap point its cap normal (pushing only), a corner its
-        face and cap normals (the cap's pushing only)."""
-        s = self.solver
-        e = s.ext_dir
-        e[...] = 0.0
-        cur = s.normal[self._if_rows]
+    def _axes(self) -> np.ndarray:
+        """Per interface point (n_interface, 2, 2) the unit vectors its force is projected on,
+        from the current normals: a face point its normal and zero, an end-cap point zero and its
+        cap normal, a corner its face and cap normals; zero for a point not projected. The
+        second one's component may only push (structure_load "normal" and "normal_pairs")."""
+        e = np.zeros((self.surface.n_interface, 2, 2))
+        cur = self.solver.normal[self._if_rows]
         face_only = self._project & ~self._cap_only
         e[face_only, 0] = cur[face_only]
         e[self._cap_only, 1] = cur[self._cap_only]
         if self._corner.any():
             e[self._corner, 0], e[self._corner, 1] = self._corner_axes()
+        return e
+
+    def _set_directions(self) -> None:
+        """structure_load = "normal_pairs": the solver's projection vectors of every interface
+        point for the next step (:meth:`_axes`, at the end of the step, as the placed
+        particles)."""
+        self.solver.ext_dir[...] = self._axes()
 
     def _forces(self) -> np.ndarray:
         """Per interface point, the step-mean reaction of its own particle and its dummies."""
@@ -215,19 +220,12 @@ class SPHParticipant(InterfaceMotionInputs):
         )
         if self._in_kernel:  # "normal_pairs": the reactions are projected and gated already
             return f
-        if self._project.any():  # "normal": free slip, f = (f . n) n
-            k = self._project
-            nrm = self.solver.normal[self._if_rows[k]]
-            fn = np.einsum("ka,ka->k", f[k], nrm)
-            cap = self._cap_only[k]
-            fn[cap] = np.minimum(fn[cap], 0.0)  # an end cap is pushed, never pulled
-            f[k] = fn[:, None] * nrm
-        if self._corner.any():  # face part along the face normal, cap part pushing only
-            k = self._corner
-            face, cap = self._corner_axes()
-            a = np.einsum("ka,ka->k", f[k], face)
-            b = np.minimum(np.einsum("ka,ka->k", f[k], cap), 0.0)
-            f[k] = a[:, None] * face + b[:, None] * cap
+        k = self._project | self._corner
+        if k.any():  # "normal": free slip, f = sum_e (f . e) e over the point's axes
+            e = self._axes()[k]
+            c = np.einsum("kea,ka->ke", e, f[k])
+            c[:, 1] = np.minimum(c[:, 1], 0.0)  # an end cap is pushed, never pulled
+            f[k] = np.einsum("ke,kea->ka", c, e)
         return f
 
     def advance(self, dt: float) -> float:

@@ -491,10 +491,8 @@ class DeltaSPHSolver:
             self._begin_external(dt)
         if self.integrator == "symplectic":
             tic = time.perf_counter()
-            if ext:  # leapfrog: the fluid's momentum changes by dt (F_start + F_end) / 2
-                np.multiply(self.reaction, 0.5, out=self.reaction_step)
-            if self.exchange_walls:
-                np.multiply(self.wall_exchange, 0.5, out=self.wall_exchange_step)
+            # leapfrog: the fluid's momentum changes by dt (F_start + F_end) / 2
+            self._weigh_step_forces(0.5, first=True)
             if self.budget.full:  # the first kick's right-hand side, the last step's end
                 self.budget.book(0.5 * dt)
             time_stepping.kick(self.vel, self.rho, self.acc, self.drho, nf, 0.5 * dt)
@@ -507,10 +505,7 @@ class DeltaSPHSolver:
             self.times.integrate += time.perf_counter() - tic
             self.rhs()
             tic = time.perf_counter()
-            if ext:
-                self.reaction_step += 0.5 * self.reaction
-            if self.exchange_walls:
-                self.wall_exchange_step += 0.5 * self.wall_exchange
+            self._weigh_step_forces(0.5, first=False)
             if self.budget.full:
                 self.budget.book(0.5 * dt)
             time_stepping.kick(self.vel, self.rho, self.acc, self.drho, nf, 0.5 * dt)
@@ -569,16 +564,8 @@ class DeltaSPHSolver:
                 if ext:
                     self._place_external(frac)
             self.rhs()
-            if ext:  # RK4: the fluid's momentum changes by dt (F1 + 2 F2 + 2 F3 + F4) / 6
-                if stage == 0:
-                    np.multiply(self.reaction, w / 6.0, out=self.reaction_step)
-                else:
-                    self.reaction_step += (w / 6.0) * self.reaction
-            if self.exchange_walls:  # the walls' exchange, weighted alike
-                if stage == 0:
-                    np.multiply(self.wall_exchange, w / 6.0, out=self.wall_exchange_step)
-                else:
-                    self.wall_exchange_step += (w / 6.0) * self.wall_exchange
+            # RK4: the fluid's momentum changes by dt (F1 + 2 F2 + 2 F3 + F4) / 6
+            self._weigh_step_forces(w / 6.0, first=stage == 0)
             if self.budget.full:  # the stage's weight in the velocity update
                 self.budget.book(w / 6.0 * dt)
             tic = time.perf_counter()
@@ -612,6 +599,22 @@ class DeltaSPHSolver:
                 f"fluid.sph.max_mach = {self.sph.max_mach} times c0 = {self.c0:.3g} m/s: weak "
                 "compressibility is lost; raise fluid.sph.sound_speed"
             )
+
+    def _weigh_step_forces(self, weight: float, first: bool) -> None:
+        """Add `weight` x the last right-hand side's forces on the external particles
+        (:attr:`reaction`) and, under ``boundary_force = "momentum_exchange"``, on the wall
+        patches (:attr:`wall_exchange`) to their step means (``*_step``; `first`: start them):
+        the integrator's weights of its right-hand sides in the velocity update."""
+        pairs = []
+        if self.ext_rows.size:
+            pairs.append((self.reaction, self.reaction_step))
+        if self.exchange_walls:
+            pairs.append((self.wall_exchange, self.wall_exchange_step))
+        for now, step in pairs:
+            if first:
+                np.multiply(now, weight, out=step)
+            else:
+                step += weight * now
 
     def dt_towards(self, t_end: float) -> float:
         """The next step (s) on the way to ``t_end``; the last one or two split the rest."""

@@ -69,6 +69,13 @@ def _check_pivots(pivots: np.ndarray, diag: np.ndarray) -> None:
         )
 
 
+def _symmetric_splu(A: sp.csc_matrix):
+    """SuperLU of a symmetric matrix: symmetric minimum-degree ordering, no pivoting."""
+    return sla.splu(
+        A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}
+    )
+
+
 class Factor:
     """A factorised SPD matrix; :meth:`solve` returns ``A^-1 b`` for a vector ``b``."""
 
@@ -88,12 +95,7 @@ class Factor:
             self._dpotrs = lapack.dpotrs
             _check_pivots(np.diag(c) ** 2, diag)
         else:
-            self._lu = sla.splu(
-                sp.csc_matrix(A),
-                permc_spec="MMD_AT_PLUS_A",
-                diag_pivot_thresh=0.0,
-                options={"SymmetricMode": True},
-            )
+            self._lu = _symmetric_splu(sp.csc_matrix(A))
             # Pr A Pc = L U with perm_r = perm_c (no pivoting): row k of U is row perm^-1(k) of A
             diag = np.empty(n)
             diag[self._lu.perm_c] = A.diagonal()
@@ -175,12 +177,7 @@ class SinglePrecisionFactor:
         self.n = A.shape[0]
         self.dense = False
         try:
-            self._lu = sla.splu(
-                A.astype(np.float32),
-                permc_spec="MMD_AT_PLUS_A",
-                diag_pivot_thresh=0.0,
-                options={"SymmetricMode": True},
-            )
+            self._lu = _symmetric_splu(A.astype(np.float32))
         except RuntimeError as exc:  # "Factor is exactly singular"
             raise np.linalg.LinAlgError(f"single-precision factor: {exc}") from exc
         # positive definite only (no pivoting is stable there); the others take the pivoted LU
