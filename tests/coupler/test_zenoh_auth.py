@@ -271,8 +271,8 @@ def test_one_command_run_whose_structure_cannot_start_stops_within_seconds(env, 
 
 
 def test_two_fluids_starting_together_one_is_coupled_the_other_stops(env):
-    """Both fluids see the structure's hello; its answers are addressed to the session it
-    accepted, so the other fluid learns at once that the structure is taken."""
+    """The structure answers the first hello it gets, addressed to that session, and so are all
+    its frames after it; the other fluid sees them addressed to someone else and stops."""
     ep = f"tcp/127.0.0.1:{free_port()}"
     s = launch(env, "structure", ep, "--wait", "12")
     try:
@@ -288,3 +288,51 @@ def test_two_fluids_starting_together_one_is_coupled_the_other_stops(env):
     assert json.loads(winner[1])["bit_exact"]
     assert "already coupled to another fluid participant" in loser[2], loser[2]
     assert srv[0] == 0, srv[2]
+
+
+def test_the_fluid_the_structure_chose_is_the_one_that_connects():
+    """The race behind a rare double failure of the test above, forced in one process: fluid A
+    is seen by the structure first but says hello last, fluid B appears later and says hello
+    first. The structure chooses B (the first hello it got) and B connects; A is told at once
+    that the structure is taken. Under protocol 1 the structure said hello to anyone on seeing
+    A, before B had subscribed: B, chosen, never got an answer and took the structure's
+    heartbeats for another's, and A took the hello to anyone for its own, so both stopped."""
+    import threading
+
+    from mpsfem.coupler.transport.base import Message
+    from mpsfem.coupler.transport.zenoh import ZenohTransport
+
+    kw = {"endpoint": f"tcp/127.0.0.1:{free_port()}", "token": TOKEN}
+    kw.update(timeout_s=2.0, startup_timeout_s=20.0)
+    s, a, b = (ZenohTransport(role, **kw) for role in ("structure", "fluid", "fluid"))
+    outcome: dict[str, str] = {}
+
+    def connect(name, t):
+        try:
+            t.connect()
+            outcome[name] = "connected"
+        except PeerLostError as exc:
+            outcome[name] = str(exc)
+
+    threads = [threading.Thread(target=connect, args=("s", s), daemon=True)]
+    threads[0].start()
+    try:
+        a._open()  # A subscribes and is seen by the structure ...
+        a._open = lambda: None  # ... and says hello only at the end
+        time.sleep(0.5)  # (protocol 1: the structure's hello to anyone went out here)
+        threads.append(threading.Thread(target=connect, args=("b", b), daemon=True))
+        threads[1].start()
+        for th in threads:
+            th.join(timeout=20.0)
+        t0 = time.monotonic()
+        connect("a", a)
+        wall_a = time.monotonic() - t0
+        assert outcome.get("s") == "connected" and outcome.get("b") == "connected", outcome
+        assert s._peer_nonce == b._sealer.nonce and b._peer_nonce == s._sealer.nonce
+        assert "already coupled to another fluid participant" in outcome["a"], outcome
+        assert wall_a < 5.0  # the structure's answer to B, or its next heartbeat to B
+        b.send(Message("data", {"x": 1.0}))  # the chosen pair is undisturbed
+        assert s.recv().meta == {"x": 1.0}
+    finally:
+        for t in (b, s, a):
+            t.close()

@@ -38,7 +38,8 @@ __all__ = ["ROLES", "Message", "Transport", "TransportParams", "decode", "encode
 
 ROLES = ("fluid", "structure")
 MAGIC = b"MPSFEMC1"
-PROTOCOL = 1
+#: 2: the listening zenoh end answers the first hello (claim) instead of saying hello first
+PROTOCOL = 2
 HEARTBEAT = "__hb__"
 HELLO = "__hello__"
 BYE = "__bye__"
@@ -221,16 +222,35 @@ class Transport(ABC):
         )
         self._hb_thread.start()
 
+    def _chooses_peer(self) -> bool:
+        """Whether this end decides who its peer is: it waits for the first hello, then answers
+        it (addressed to that session, where the transport addresses frames). The other end
+        says hello first and takes the answer as its acknowledgement. False (both say hello at
+        once) where the link joins exactly two ends (MPI ranks, in-process queues)."""
+        return False
+
     def _handshake(self) -> None:
         self._open()
         self._last_seen = time.monotonic()
-        self._send(Message(HELLO, {"role": self.role, "protocol": PROTOCOL}))
-        msg = self._recv(self.startup_timeout_s, expect_hello=True)
-        if msg.meta.get("role") != self.peer or msg.meta.get("protocol") != PROTOCOL:
+        hello = Message(HELLO, {"role": self.role, "protocol": PROTOCOL})
+        if self._chooses_peer():
+            # answer before checking: a peer of the wrong role or protocol then says so too
+            msg = self._recv(self.startup_timeout_s, expect_hello=True)
+            self._send(hello)
+        else:
+            self._send(hello)
+            msg = self._recv(self.startup_timeout_s, expect_hello=True)
+        if msg.meta.get("role") != self.peer:
             raise PeerLostError(
                 f"{self.describe()}: this process is the {self.role} and expected the "
-                f"{self.peer} on the other side, but got {msg.meta.get('role')!r} (protocol "
-                f"{msg.meta.get('protocol')}); give the two processes different --participant"
+                f"{self.peer} on the other side, but got {msg.meta.get('role')!r}; give the two "
+                "processes different --participant"
+            )
+        if msg.meta.get("protocol") != PROTOCOL:
+            raise PeerLostError(
+                f"{self.describe()}: the {self.peer} participant speaks coupling protocol "
+                f"{msg.meta.get('protocol')!r}, this one {PROTOCOL}: run the same mpsfem version "
+                "on both sides"
             )
 
     def send(self, msg: Message) -> None:

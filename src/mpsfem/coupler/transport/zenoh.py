@@ -15,12 +15,20 @@ samples go from Zenoh's callback into a queue; the receiver blocks on it (no spi
 Authentication and run isolation (:mod:`~mpsfem.coupler.transport.auth`, threat model in
 docs/coupler.md): the listener admits only links presenting a password derived from the run's
 coupling token (zenoh user/password), and every message is sealed with an HMAC keyed by the token,
-carrying the sender's random session nonce, its addressee's and a growing sequence number. The
-first authentic hello fixes the peer's session; frames that fail the HMAC, come from another
-session or repeat a sequence number are dropped, and a liveliness token of another session
-(``alive/<role>/<nonce>``) is not taken for the peer's. A participant that meets, before its
-handshake, a peer already coupled to another process (a second run on the same endpoint) stops
-at once with a message instead of waiting.
+carrying the sender's random session nonce, its addressee's and a growing sequence number.
+
+Handshake (claim and acknowledgement): several connecting processes can reach one listener (a
+second run on the same endpoint, or two fluids started together), so the listener alone decides
+who its peer is. The connecting end sends its hello (addressed to anyone) once it sees the
+listener; the listener takes the first authentic hello, fixes that session as its peer and answers
+with a hello addressed to it. The connecting end's handshake ends only with a hello addressed to
+its own session; a frame of the listener addressed to another session (that answer, a heartbeat,
+data) means the listener chose someone else, and it stops at once with a message instead of
+waiting. (Until protocol 1 the listener said hello to anyone before it had chosen: a fluid that
+subscribed after that hello but whose own hello came first was chosen, never learnt it, and the
+other fluid took the hello to anyone for itself, so both stopped.) Frames that fail the HMAC, come
+from another session or repeat a sequence number are dropped, and a liveliness token of another
+session (``alive/<role>/<nonce>``) is not taken for the peer's.
 
 Launch: ``mpsfem run S.toml --transport zenoh --participant structure`` and
 ``... --participant fluid`` in two shells (any order), or ``mpsfem run S.toml --transport zenoh``
@@ -147,6 +155,10 @@ class ZenohTransport(Transport):
             auth["dictionary_file"] = dictionary
         conf.insert_json5("transport/auth/usrpwd", json.dumps(auth))
         return conf
+
+    def _chooses_peer(self) -> bool:
+        """The listener answers the first hello (see the module docstring, handshake)."""
+        return self.listen
 
     def _host(self) -> str:
         m = ENDPOINT_RE.match(self.endpoint)
