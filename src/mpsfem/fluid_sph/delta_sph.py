@@ -90,9 +90,11 @@ def wall_pressure(pos, rho, p, kind, indptr, indices, r2max, n_fluid, gravity, o
 #: "wetted" walls (fluid.sph.wall_pressure): a pressure-layer particle is wholly wet while the
 #: fluid in front of it reaches to within WET_GAP spacings of the wall face and wholly dry from
 #: DRY_GAP on (face-to-surface gaps, in l0: the fluid's first row sits (gap + 1) l0 from the
-#: pressure layer); between the two its weight falls linearly with the fluid's kernel sum
-WET_GAP = 0.5
-DRY_GAP = 1.0
+#: pressure layer); between the two its weight falls linearly with the fluid's kernel sum. A
+#: lattice resolves contact to half a cell: the ramp is centred on an empty half cell between
+#: the face and the surface and spans +- l0 / 4 so the load stays continuous in time
+WET_GAP = 0.25
+DRY_GAP = 0.75
 
 
 def half_space_support(dim: int, ratio: float, distance: float) -> float:
@@ -125,7 +127,7 @@ def dry_walls(pos, rho, p, indptr, indices, r2max, n_fluid, mass, h, norm, rho0,
     Pressure layer (``pressure_layer[i - n_fluid]``): S = sum_f W_wf V_f over its fluid
     neighbours (V_f = m / rho_f); w = 1 for S >= ``s_wet``, 0 for S <= ``s_dry``, linear in S
     between (the thresholds are :func:`half_space_support` at the gaps WET_GAP and DRY_GAP: the
-    free surface within l0 / 2 of the wall face is contact, one spacing or more is an air gap);
+    free surface within l0 / 4 of the wall face is contact, 3 l0 / 4 or more is an air gap);
     that own value is ``wet_own``, and a pressure-layer particle takes the largest own value of
     itself and its same-patch pressure-layer neighbours closer than sqrt(``r2_adjacent``) (m;
     1.5 l0: its neighbours along the face), so a tank's corner, which sees the fluid only
