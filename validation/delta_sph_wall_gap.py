@@ -109,8 +109,8 @@ def report() -> int:
                 )
     if rows:
         write_csv(
-            CSV,
             rows,
+            CSV,
             comment="validation/delta_sph_wall_gap.py: the bottom-slamming plate (A/H = 0.3, "
             "D/H = 0.06, l0 = H/20) over still water under δ-SPH, fluid.sph.wall_pressure adami "
             "vs wetted; load = the uplift force probe (N/m, up +; rigid: pressure integral, "
