@@ -147,3 +147,41 @@ def test_half_space_support_is_half_a_normalised_kernel(dim, ratio):
     sums = [delta_sph.half_space_support(dim, ratio, d) for d in (1.0, 1.5, 2.0, 2.5)]
     assert all(a > b for a, b in zip(sums, sums[1:], strict=False) if a > 0.0)
     assert delta_sph.half_space_support(dim, ratio, 2.0 * ratio) == 0.0
+
+
+@pytest.mark.parametrize("mode", ["adami", "wetted"])
+def test_a_coupled_member_across_an_air_gap_is_dry(mode):
+    """A horizontal structure member (one spacing thick, 0.2 m long) whose lower face is 1.2 l0
+    above still water 0.2 m deep: its virtual particles (kinds STRUCTURE / STRUCTURE_DUMMY)
+    reach the water. Adami's form pulls it down (the fluid's reaction on its particles < -0.2
+    N/m); the wetted form gives every member particle p = 0 and a reaction of exactly zero."""
+    from mpsfem.coupler.participant import InterfaceMesh
+    from mpsfem.fluid_sph.participant import SPHParticipant
+
+    n_el = 10
+    y_mid = DEPTH + 1.2 * L0 + 0.5 * L0
+    pts = np.c_[np.linspace(0.05, 0.25, n_el + 1), np.full(n_el + 1, y_mid)]
+    mesh = InterfaceMesh(
+        pts,
+        np.tile([0.0, 1.0], (n_el + 1, 1)),
+        {"line": np.c_[np.arange(n_el), np.arange(1, n_el + 1)]},
+        L0,
+    )
+    fluid = FluidSection.model_validate(
+        {
+            "method": "delta-sph",
+            "spacing": L0,
+            "blocks": [{"lower": [0.0, 0.0], "upper": [0.3, DEPTH]}],
+            "walls": [{"shape": "tank", "name": "tank", "lower": [0, 0], "upper": [0.3, 0.4]}],
+            "sph": {"wall_pressure": mode},
+        }
+    )
+    s = SPHParticipant(fluid, mesh, member_names=["lid"]).solver
+    rows = s.ext_rows
+    assert rows.size > 0
+    if mode == "adami":
+        assert s.p[rows].min() < -RHO_G * L0
+        assert s.reaction[:, 1].sum() < -0.2
+    else:
+        assert np.all(s.p[rows] == 0.0)
+        assert np.all(s.reaction == 0.0)
