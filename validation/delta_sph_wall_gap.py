@@ -32,7 +32,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import case_runner  # noqa: E402
-from bottom_slamming import DEPTH, RESULTS_DIR, spacing_for  # noqa: E402
+from bottom_slamming import (  # noqa: E402
+    DEPTH,
+    PLATE_FRONT,
+    PLATE_LENGTH,
+    RESULTS_DIR,
+    spacing_for,
+)
 from bottom_slamming_light_delta_sph import CASE, L0, overrides, write_scenario  # noqa: E402
 from results_csv import write_csv  # noqa: E402
 
@@ -41,6 +47,38 @@ RUNS = ("rigid", "rigid_x", "heavy", "mf0.3")
 MODES = ("adami", "wetted")
 #: s: still water under the plate (the wave reaches it at about 1.5 s)
 WINDOW = (0.5, 1.0)
+#: m: a strip of the still water upstream of the plate, as long as the plate (the reference
+#: level of the free surface for the one under the plate)
+UPSTREAM = (PLATE_FRONT - 0.4, PLATE_FRONT - 0.4 + PLATE_LENGTH)
+
+
+def surface_height(pos: np.ndarray, kind: np.ndarray, x0: float, x1: float, l0: float) -> float:
+    """Mean over the lattice columns x0 < x < x1 of each column's highest fluid particle, m."""
+    fl = (kind == 0) & (pos[:, 0] > x0) & (pos[:, 0] < x1)
+    cols = np.round(pos[fl, 0] / l0).astype(np.int64)
+    y = pos[fl, 1]
+    return float(np.mean([y[cols == c].max() for c in np.unique(cols)]))
+
+
+def surfaces(h5: h5py.File, l0: float) -> dict:
+    """The free surface (top fluid row) under the plate and upstream at the snapshots nearest
+    the ends of :data:`WINDOW`, m."""
+    snaps = h5["particles"]
+    times = {k: float(snaps[k].attrs.get("time", math.nan)) for k in snaps}
+    out = {}
+    for t in WINDOW:
+        if not times:
+            break
+        k = min(times, key=lambda k: abs(times[k] - t))
+        if abs(times[k] - t) > 0.05:
+            continue
+        g = snaps[k]
+        pos, kind = g["position" if "position" in g else "pos"][:], g["kind"][:]
+        under = surface_height(pos, kind, PLATE_FRONT, PLATE_FRONT + PLATE_LENGTH, l0)
+        up = surface_height(pos, kind, *UPSTREAM, l0)
+        out[f"surface_under_plate_mm_{t:g}s"] = 1e3 * under
+        out[f"surface_upstream_mm_{t:g}s"] = 1e3 * up
+    return out
 
 
 def run_path(run: str, mode: str, end_time: float) -> Path:
@@ -80,6 +118,24 @@ def analyse(path: Path, run: str, mode: str) -> dict:
                 k = int(np.argmin(u[upto]))
                 row["mid_disp_min_mm"] = float(u[upto][k])
                 row["mid_disp_min_time_s"] = float(td[upto][k])
+        # past the still-water window (runs to the wave's arrival): the peak uplift and, for
+        # the elastic plates, the largest upward mid-span displacement
+        wet = t > WINDOW[1]
+        row["peak_uplift"] = float(fy[wet].max()) if wet.any() else math.nan
+        row["peak_time_s"] = float(t[wet][np.argmax(fy[wet])]) if wet.any() else math.nan
+        row["mid_disp_max_mm"] = row["mid_disp_max_time_s"] = math.nan
+        if "plate_mid" in h5["probes"] and wet.any():
+            td, u = _series(h5, "plate_mid", 1)
+            late = td > WINDOW[1]
+            if late.any():
+                k = int(np.argmax(u[late]))
+                row["mid_disp_max_mm"] = 1e3 * float(u[late][k])
+                row["mid_disp_max_time_s"] = float(td[late][k])
+        if "coupling" in h5:
+            c = h5["coupling"]
+            row["it_per_window"] = float(np.mean(c["iterations"][:]))
+            row["unconverged_windows"] = int(np.count_nonzero(c["converged"][:] == 0))
+        row.update(surfaces(h5, spacing_for(float(L0), DEPTH)))
         row["wall_time_s"] = float(h5.attrs.get("wall_time", math.nan))
         row["steps"] = int(h5.attrs.get("steps", -1))
     return row
@@ -105,17 +161,24 @@ def report() -> int:
                     f"{run:8s} {mode:7s} to {row['t_end_s']:.3f} s: load over 0.5-1.0 s mean "
                     f"{row['uplift_mean']:+.3f} N/m (min {row['uplift_min']:+.3f}, max "
                     f"{row['uplift_max']:+.3f}); mid-span mean {row['mid_disp_mean_mm']:+.3f} mm, "
-                    f"lowest {row['mid_disp_min_mm']:+.3f} mm at {row['mid_disp_min_time_s']:.3f} s"
+                    f"lowest {row['mid_disp_min_mm']:+.3f} mm at {row['mid_disp_min_time_s']:.3f} s; "
+                    f"surface under the plate / upstream at 1 s "
+                    f"{row.get('surface_under_plate_mm_1s', math.nan):.2f} / "
+                    f"{row.get('surface_upstream_mm_1s', math.nan):.2f} mm; after 1 s peak "
+                    f"{row['peak_uplift']:.2f} N/m at {row['peak_time_s']:.3f} s, mid-span max "
+                    f"{row['mid_disp_max_mm']:.2f} mm at {row['mid_disp_max_time_s']:.3f} s"
                 )
     if rows:
         write_csv(
             rows,
             CSV,
+            list(dict.fromkeys(k for r in rows for k in r)),  # the rigid rows lack the coupling's
             comment="validation/delta_sph_wall_gap.py: the bottom-slamming plate (A/H = 0.3, "
             "D/H = 0.06, l0 = H/20) over still water under δ-SPH, fluid.sph.wall_pressure adami "
             "vs wetted; load = the uplift force probe (N/m, up +; rigid: pressure integral, "
             "rigid_x: pair exchange, elastic: the member's load), mid-span displacement mm "
-            "(up +), means over 0.5-1.0 s",
+            "(up +), means over 0.5-1.0 s; surface_*: mean height of the top fluid row under the "
+            "plate and over an upstream strip as long, mm, at the snapshots at 0.5 and 1 s",
         )
         print(f"wrote {CSV}")
     return 0
