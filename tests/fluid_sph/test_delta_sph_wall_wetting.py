@@ -204,3 +204,53 @@ def test_wetted_walls_do_not_depend_on_the_thread_count():
         states.append({k: v.copy() for k, v in s.state().items()} | {"wet": s.wall_wet.copy()})
     for k, v in states[0].items():
         assert np.array_equal(v, states[1][k]), k
+
+
+@pytest.mark.parametrize("load", ["normal_pairs", "exchange"])
+def test_a_partly_wet_member_receives_what_the_fluid_loses(load):
+    """The horizontal member with its lower face 0.5 l0 above still water (partly wet: some
+    member particles 0 < w < 1), wetted walls, one right-hand side 10 steps in: the fluid's rate
+    of momentum is its weight less the tank's and the member's weighted reactions, to round-off
+    (1e-10 of the member's force), with the projected pairs and with the whole exchange."""
+    from mpsfem.coupler.participant import InterfaceMesh
+    from mpsfem.fluid_sph.participant import SPHParticipant
+
+    n_el = 10
+    y_mid = DEPTH + 0.5 * L0 + 0.5 * L0
+    pts = np.c_[np.linspace(0.05, 0.25, n_el + 1), np.full(n_el + 1, y_mid)]
+    mesh = InterfaceMesh(
+        pts,
+        np.tile([0.0, 1.0], (n_el + 1, 1)),
+        {"line": np.c_[np.arange(n_el), np.arange(1, n_el + 1)]},
+        L0,
+    )
+    fluid = FluidSection.model_validate(
+        {
+            "method": "delta-sph",
+            "spacing": L0,
+            "blocks": [{"lower": [0.0, 0.0], "upper": [0.3, DEPTH]}],
+            "walls": [{"shape": "tank", "name": "tank", "lower": [0, 0], "upper": [0.3, 0.4]}],
+            "sph": {"wall_pressure": "wetted", "structure_load": load},
+        }
+    )
+    fl = SPHParticipant(fluid, mesh, member_names=["lid"])
+    for _ in range(10):
+        fl.advance(fl.max_dt())
+    s = fl.solver
+    s.rhs()
+    nf = s.n_fluid
+    w = s.wall_wet[s.ext_rows - nf]
+    assert np.any((w > 0.0) & (w < 1.0))
+    nb = s._last_neighbours
+    slot = np.full(s.n, -1, dtype=np.int64)
+    slot[nf:] = np.arange(s.n - nf)
+    slot[s.ext_rows] = -1
+    tank = np.zeros((s.n - nf, s.dim))
+    delta_sph.wall_reaction(s.pos, s.rho, s.vol, s.p, nb.indptr, nb.indices, nf, s.inv_h,
+                            s.grad_coef, s.corrected, s.M, slot, tank, s.wall_wet)  # fmt: skip
+    rate = s.mass * s.acc[:nf].sum(axis=0)
+    member = s.reaction.sum(axis=0)
+    lost = nf * s.mass * s.gravity - tank.sum(axis=0) - member
+    size = np.abs(member).max()
+    assert size > 1e-3  # N/m: the partly wet member is loaded
+    assert np.abs(rate - lost).max() < 1e-10 * size
