@@ -27,7 +27,7 @@ validation/results/delta_sph_obstacle.csv and prints the table.
 
     python validation/delta_sph_obstacle.py [--threads 1] [--analyse-only] [--retry-failed]
         [--cases dsph20 dsph40 mps20 mps40 dsph80 mps80 dsph20_long mps20_long dsph20_pairs
-        dsph40_pairs dsph20_wetted]
+        dsph40_pairs dsph20_wetted dsph40_wetted]
 
 ``--cases`` picks the cases to run; the CSV lists every case, reading the others' results files.
 """
@@ -87,6 +87,7 @@ CASES = {
     "mps40_face": ("mps", 40, 0.3, FACE),
     "dsph40_face": ("delta-sph", 40, 0.3, FACE),
     "dsph20_wetted": ("delta-sph", 20, 0.3, WETTED),
+    "dsph40_wetted": ("delta-sph", 40, 0.3, WETTED),
 }
 #: 0.1 s blocks after the first peak whose mean tip u_x is reported (the water piled up behind
 #: the plate; docs/validation.md gives MPS's of an earlier fluid)
