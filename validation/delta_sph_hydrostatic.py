@@ -9,9 +9,11 @@ of these over the settled samples, the largest fluid speed at the end (spurious 
 floor force against the water's weight rho g d W (the pressure integral over the walls' first
 layer, which sits half a spacing below the floor in both methods, so it reads rho g (d + l0/2) W
 in exact hydrostatics). Criterion (issue 23): the bottom pressure within 1 % after settling.
-Writes validation/results/delta_sph_hydrostatic.csv.
+Writes validation/results/delta_sph_hydrostatic.csv; with ``--wall-pressure wetted``
+(fluid.sph.wall_pressure, the δ-SPH cases only) validation/results/delta_sph_hydrostatic_wetted.csv.
 
     python validation/delta_sph_hydrostatic.py [--resolution 20] [--end-time 1.0]
+    python validation/delta_sph_hydrostatic.py --wall-pressure wetted
 """
 
 from __future__ import annotations
@@ -31,12 +33,11 @@ CSV = ROOT / "validation" / "results" / "delta_sph_hydrostatic.csv"
 DEPTH, WIDTH, RHO, G = 0.2, 0.4, 1000.0, 9.81
 
 
-def spec(method: str, dx: float, gradient: str | None, ratio: float = 1.3):
+def spec(method: str, dx: float, gradient: str | None, ratio: float = 1.3, wall: str = "adami"):
     from mpsfem.scenario.fluid import FluidSection
 
-    extra = (
-        {"sph": {"gradient": gradient, "smoothing_ratio": ratio}} if method == "delta-sph" else {}
-    )
+    sph = {"gradient": gradient, "smoothing_ratio": ratio, "wall_pressure": wall}
+    extra = {"sph": sph} if method == "delta-sph" else {}
     return FluidSection(
         method=method,
         spacing=dx,
@@ -48,10 +49,13 @@ def spec(method: str, dx: float, gradient: str | None, ratio: float = 1.3):
     )
 
 
-def run(method: str, gradient: str | None, dx: float, t_end: float, ratio: float = 1.3) -> dict:
+def run(
+    method: str, gradient: str | None, dx: float, t_end: float, ratio: float = 1.3,
+    wall_pressure: str = "adami",
+) -> dict:  # fmt: skip
     from mpsfem.fluid_methods import create_fluid_solver
 
-    s = create_fluid_solver(spec(method, dx, gradient, ratio))
+    s = create_fluid_solver(spec(method, dx, gradient, ratio, wall_pressure))
     nf = s.n_fluid
     errors = []
     tic = time.perf_counter()
@@ -78,6 +82,7 @@ def run(method: str, gradient: str | None, dx: float, t_end: float, ratio: float
         "method": method,
         "gradient": gradient or "mps default",
         "smoothing_ratio": ratio if method == "delta-sph" else None,
+        "wall_pressure": wall_pressure if method == "delta-sph" else None,
         "d_over_l0": round(DEPTH / dx),
         "t_end": t_end,
         "steps": s.step_count,
@@ -94,6 +99,12 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--resolution", type=int, default=20, help="d / l0 (default 20)")
     ap.add_argument("--end-time", type=float, default=1.0, help="s (default 1.0)")
+    ap.add_argument(
+        "--wall-pressure",
+        choices=("adami", "wetted"),
+        default="adami",
+        help="fluid.sph.wall_pressure of the δ-SPH cases (wetted: no MPS case, its own CSV)",
+    )
     args = ap.parse_args()
     dx = DEPTH / args.resolution
     rows = []
@@ -104,21 +115,25 @@ def main() -> int:
         ("delta-sph", "corrected", 2.0),
         ("delta-sph", "plain", 2.0),
     )
+    wall = args.wall_pressure
+    if wall != "adami":
+        cases = cases[1:]  # MPS has no fluid.sph
     for method, gradient, ratio in cases:
-        r = run(method, gradient, dx, args.end_time, ratio)
+        r = run(method, gradient, dx, args.end_time, ratio, wall)
         rows.append(r)
         print(
             f"{method:10} {r['gradient']:12} h/l0 {ratio} bottom p error mean {r['bottom_p_rel_error_mean']:+.4f}"
             f" max {r['bottom_p_rel_error_max']:.4f}  |u|max {r['max_speed_end']:.4f} m/s  floor "
             f"F/W {r['floor_force_over_weight']:.4f}  {r['steps']} steps {r['wall_time_s']:.1f} s"
         )
+    out = CSV if wall == "adami" else CSV.with_name(f"{CSV.stem}_{wall}.csv")
     write_csv(
         rows,
-        CSV,
+        out,
         comment="still water 0.2 m deep, bottom-row pressure vs rho g (d - y) after settling "
-        "(validation/delta_sph_hydrostatic.py)",
+        f"(validation/delta_sph_hydrostatic.py, fluid.sph.wall_pressure = {wall})",
     )
-    print(f"wrote {CSV}")
+    print(f"wrote {out}")
     return 0
 
 

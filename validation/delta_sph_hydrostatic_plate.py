@@ -10,7 +10,8 @@ reports the time mean of the mid deflection and of the plate force for t >= --se
 0.05 s) against beam theory, w_mid = (rho_w g H + rho_s g h) L^4 / (384 D) = 6.86e-5 m
 (literature 6.85e-5 m), and rho g H L = 19 620 N/m, with the coupling iterations and the wall
 time. Method "delta-sph-pairs" is δ-SPH with fluid.sph.structure_load = "normal_pairs" (the
-fluid's pairs with the plate projected on its normals too). Writes
+fluid's pairs with the plate projected on its normals too); "delta-sph-wetted" is δ-SPH with
+fluid.sph.wall_pressure = "wetted" (dry walls carry no pressure). Writes
 validation/results/delta_sph_hydrostatic_plate.csv (after each case); rows of (method, spacing)
 pairs not run are kept from it.
 
@@ -42,6 +43,7 @@ METHODS = {
     "delta-sph": ("delta-sph", []),
     "mps": ("mps", []),
     "delta-sph-pairs": ("delta-sph", ['fluid.sph.structure_load="normal_pairs"']),
+    "delta-sph-wetted": ("delta-sph", ['fluid.sph.wall_pressure="wetted"']),
 }
 
 

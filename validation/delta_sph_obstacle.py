@@ -27,7 +27,7 @@ validation/results/delta_sph_obstacle.csv and prints the table.
 
     python validation/delta_sph_obstacle.py [--threads 1] [--analyse-only] [--retry-failed]
         [--cases dsph20 dsph40 mps20 mps40 dsph80 mps80 dsph20_long mps20_long dsph20_pairs
-        dsph40_pairs]
+        dsph40_pairs dsph20_wetted dsph40_wetted]
 
 ``--cases`` picks the cases to run; the CSV lists every case, reading the others' results files.
 """
@@ -63,6 +63,8 @@ IMPACT = (0.12, 0.25)  # s, the impact window of validation/momentum_budget.py
 CONTACT_FORCE = 1.0  # N/m, |F_x| of the first sample counted as contact
 #: fluid.sph.structure_load = "normal_pairs": the fluid's pairs with the member projected too
 PAIRS = ('fluid.sph.structure_load="normal_pairs"',)
+#: fluid.sph.wall_pressure = "wetted": no pressure on walls across an air gap (task H2)
+WETTED = ('fluid.sph.wall_pressure="wetted"',)
 #: the plate's wetted (left) face at x = 0.292 m, as the published reproductions place it
 #: (docs/validation_elastic_obstacle_published.md): the beam axis 6 mm further from the column
 FACE = (
@@ -84,6 +86,8 @@ CASES = {
     "dsph40_pairs": ("delta-sph", 40, 0.3, PAIRS),
     "mps40_face": ("mps", 40, 0.3, FACE),
     "dsph40_face": ("delta-sph", 40, 0.3, FACE),
+    "dsph20_wetted": ("delta-sph", 20, 0.3, WETTED),
+    "dsph40_wetted": ("delta-sph", 40, 0.3, WETTED),
 }
 #: 0.1 s blocks after the first peak whose mean tip u_x is reported (the water piled up behind
 #: the plate; docs/validation.md gives MPS's of an earlier fluid)

@@ -7,9 +7,12 @@ validation/dam_break_wall_gauge.py (``gauge_statistics``: arrival, impact peak, 
 smoothed peak, mean after the impact and the noise level, RMS of raw - smoothed from arrival +
 20 ms; a run that failed is analysed up to its failure, ``analysed_to_s``), beside that
 study's MPS rows (docs/figures/dam_break_wall_gauge.csv, Courant 0.2,
-incompressible). Writes validation/results/delta_sph_wall_gauge.csv.
+incompressible). Writes validation/results/delta_sph_wall_gauge.csv; with ``--wall-pressure
+wetted`` (fluid.sph.wall_pressure) the runs ``delta_sph_wall_gauge_wetted_L<n>.h5`` and
+validation/results/delta_sph_wall_gauge_wetted.csv (``--resolutions`` picks L/l0).
 
     python validation/delta_sph_wall_gauge.py [--threads 1] [--analyse-only] [--retry-failed]
+    python validation/delta_sph_wall_gauge.py --wall-pressure wetted --resolutions 20 40
 """
 
 from __future__ import annotations
@@ -35,32 +38,42 @@ RESOLUTIONS = (20, 40, 80)
 TALL_WALLS = "fluid.walls.0.upper=[0.584, 0.8]"
 
 
-def case_path(n: int) -> Path:
-    return dsph.RESULTS / f"delta_sph_wall_gauge_L{n}.h5"
+def case_path(n: int, wall: str = "adami") -> Path:
+    tag = "" if wall == "adami" else f"{wall}_"
+    return dsph.RESULTS / f"delta_sph_wall_gauge_{tag}L{n}.h5"
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument(
+        "--wall-pressure", choices=("adami", "wetted"), default="adami",
+        help="fluid.sph.wall_pressure (wetted: its own runs and CSV)",
+    )  # fmt: skip
+    ap.add_argument("--resolutions", type=int, nargs="+", default=list(RESOLUTIONS))
     case_runner.add_run_options(ap)
     args = ap.parse_args()
+    wall = args.wall_pressure
     dsph.SCENARIO.parent.mkdir(parents=True, exist_ok=True)
     dsph.SCENARIO.write_text(dsph.SCENARIO_TEXT)
     rows = []
-    for n in RESOLUTIONS:
+    for n in args.resolutions:
         over = [
             f"fluid.spacing={dsph.dam_break.L / n!r}",
             f"output.probe_interval={gauge.SAMPLE}",
             f"run.end_time={gauge.END_TIME}",
             TALL_WALLS,
+            f'fluid.sph.wall_pressure="{wall}"',
         ]
+        path = case_path(n, wall)
         status = case_runner.case_status(
-            dsph.SCENARIO, case_path(n), over, args.threads, args.analyse_only,
+            dsph.SCENARIO, path, over, args.threads, args.analyse_only,
             args.retry_failed, "δ-SPH gauge",
         )  # fmt: skip
-        row = {"method": "delta-sph", "L_over_l0": n, "status": status or "missing"}
-        partial = status is not None and status.startswith("failed") and case_path(n).is_file()
+        method = "delta-sph" if wall == "adami" else f"delta-sph-{wall}"
+        row = {"method": method, "L_over_l0": n, "status": status or "missing"}
+        partial = status is not None and status.startswith("failed") and path.is_file()
         if status == "finished" or partial:  # a failed run: the statistics up to its failure
-            t, p = gauge.read_gauge(case_path(n))
+            t, p = gauge.read_gauge(path)
             row.update(asdict(gauge.gauge_statistics(t, p)))
             row["analysed_to_s"] = float(t[-1])
         rows.append(row)
@@ -74,9 +87,10 @@ def main() -> int:
                     **{k: float(r[k]) for k in gauge.GaugeStatistics.__dataclass_fields__},
                 }
             )
+    out = CSV if wall == "adami" else CSV.with_name(f"{CSV.stem}_{wall}.csv")
     write_csv(
         rows,
-        CSV,
+        out,
         [
             "method",
             "L_over_l0",
@@ -96,7 +110,7 @@ def main() -> int:
             )
         else:
             print(f"{r['method']:10} L/{r['L_over_l0']:<3} {r['status']}")
-    print(f"wrote {CSV}")
+    print(f"wrote {out}")
     return 0
 
 

@@ -87,6 +87,119 @@ def wall_pressure(pos, rho, p, kind, indptr, indices, r2max, n_fluid, gravity, o
         rho[i] = rho0 + p[i] * inv_c2
 
 
+#: "wetted" walls (fluid.sph.wall_pressure): a pressure-layer particle is wholly wet while the
+#: fluid in front of it reaches to within WET_GAP spacings of the wall face and wholly dry from
+#: DRY_GAP on (face-to-surface gaps, in l0: the fluid's first row sits (gap + 1) l0 from the
+#: pressure layer); between the two its weight falls linearly with the fluid's kernel sum. A
+#: lattice resolves contact to half a cell: the ramp is centred on an empty half cell between
+#: the face and the surface and spans +- l0 / 4 so the load stays continuous in time
+WET_GAP = 0.25
+DRY_GAP = 0.75
+
+
+def half_space_support(dim: int, ratio: float, distance: float) -> float:
+    """sum_f W_wf V_f (dimensionless) of a wall particle facing a fluid lattice (spacing l0,
+    V_f = l0^dim) that fills the half-space from ``distance`` l0 in front of it on, rows aligned
+    with the particle; Wendland C2 at h = ``ratio`` l0 (lengths in l0). Used to turn the gaps
+    WET_GAP and DRY_GAP into thresholds on the fluid's kernel sum (:func:`dry_walls`)."""
+    reach = int(np.ceil(2.0 * ratio)) + 1
+    lateral = np.arange(-reach, reach + 1, dtype=np.float64)
+    normal = distance + np.arange(0, reach + 1, dtype=np.float64)
+    if dim == 2:
+        grid = np.meshgrid(lateral, normal, indexing="ij")
+    else:
+        grid = np.meshgrid(lateral, lateral, normal, indexing="ij")
+    r = np.sqrt(sum(g * g for g in grid)).ravel()
+    norm = 7.0 / (4.0 * np.pi * ratio**2) if dim == 2 else 21.0 / (16.0 * np.pi * ratio**3)
+    q = r / ratio
+    t = np.clip(1.0 - 0.5 * q, 0.0, None)
+    return float(np.sum(norm * t**4 * (2.0 * q + 1.0)))  # Wendland C2, V_f = 1 in l0 units
+
+
+@njit(cache=True, parallel=True)
+def dry_walls(pos, rho, p, indptr, indices, r2max, n_fluid, mass, h, norm, rho0, c0,
+              pressure_layer, wall_patch, s_dry, s_wet, r2_adjacent, wet_own, wet):  # fmt: skip
+    """``fluid.sph.wall_pressure = "wetted"``: scales the pressure :func:`wall_pressure` gave
+    each wall particle by its wetness w in [0, 1] (``wet[i - n_fluid]``, written here), Pa;
+    rho_w = rho0 + p_w / c0^2 again. A dry wall particle (w = 0) has p_w = 0 and exchanges
+    only the fluid particles' own pressure p_i in the pair terms, as air at p = 0 would.
+
+    Pressure layer (``pressure_layer[i - n_fluid]``): S = sum_f W_wf V_f over its fluid
+    neighbours (V_f = m / rho_f); w = 1 for S >= ``s_wet``, 0 for S <= ``s_dry``, linear in S
+    between (the thresholds are :func:`half_space_support` at the gaps WET_GAP and DRY_GAP: the
+    free surface within l0 / 4 of the wall face is contact, 3 l0 / 4 or more is an air gap);
+    that own value is ``wet_own``, and a pressure-layer particle takes the largest own value of
+    itself and its same-patch pressure-layer neighbours closer than sqrt(``r2_adjacent``) (m;
+    1.5 l0: its neighbours along the face), so a tank's corner, which sees the fluid only
+    diagonally, is as wet as the faces beside it. Dummy layers: w = the largest w of the pressure-layer particles of the same wall patch
+    (``wall_patch``) within the kernel's support (their column's among them), so a wall's
+    dummies are as wet as its face. Rows as :func:`wall_pressure` (pairs at r^2 >= r2max
+    skipped); they must hold the wall-wall pairs. Deterministic for any thread count."""
+    n = pos.shape[0]
+    dim = pos.shape[1]
+    inv_c2 = 1.0 / (c0 * c0)
+    inv_span = 1.0 / (s_wet - s_dry)
+    for i in prange(n_fluid, n):
+        if not pressure_layer[i - n_fluid]:
+            continue
+        s = 0.0
+        for k in range(indptr[i], indptr[i + 1]):
+            j = indices[k]
+            if j >= n_fluid:
+                break  # ascending rows: the fluid neighbours come first
+            r2 = 0.0
+            for a in range(dim):
+                d = pos[i, a] - pos[j, a]
+                r2 += d * d
+            if r2 >= r2max:
+                continue
+            s += kernel_value(np.sqrt(r2), h, norm) * mass / rho[j]  # Shepard sum W_wf V_f
+        wet_own[i - n_fluid] = min(1.0, max(0.0, (s - s_dry) * inv_span))
+    for i in prange(n_fluid, n):
+        if not pressure_layer[i - n_fluid]:
+            continue
+        w = wet_own[i - n_fluid]
+        own = wall_patch[i - n_fluid]
+        for k in range(indptr[i], indptr[i + 1]):
+            j = indices[k]
+            if j < n_fluid or w == 1.0:
+                continue
+            if not pressure_layer[j - n_fluid] or wall_patch[j - n_fluid] != own:
+                continue
+            r2 = 0.0
+            for a in range(dim):
+                d = pos[i, a] - pos[j, a]
+                r2 += d * d
+            if r2 < r2_adjacent:
+                w = max(w, wet_own[j - n_fluid])
+        wet[i - n_fluid] = w
+        if w < 1.0:
+            p[i] *= w
+            rho[i] = rho0 + p[i] * inv_c2
+    for i in prange(n_fluid, n):
+        if pressure_layer[i - n_fluid]:
+            continue
+        w = 0.0
+        own = wall_patch[i - n_fluid]
+        for k in range(indptr[i], indptr[i + 1]):
+            j = indices[k]
+            if j < n_fluid:
+                continue
+            if not pressure_layer[j - n_fluid] or wall_patch[j - n_fluid] != own:
+                continue
+            r2 = 0.0
+            for a in range(dim):
+                d = pos[i, a] - pos[j, a]
+                r2 += d * d
+            if r2 >= r2max:
+                continue
+            w = max(w, wet[j - n_fluid])
+        wet[i - n_fluid] = w
+        if w < 1.0:
+            p[i] *= w
+            rho[i] = rho0 + p[i] * inv_c2
+
+
 def _make_correction(DIM):  # noqa: N803 (a compile-time constant of the closure)
     """:func:`correction` compiled for ``DIM`` = 2 or 3 (the branches on it fold away)."""
 
@@ -221,7 +334,7 @@ def _make_pair_terms(DIM):  # noqa: N803 (a compile-time constant of the closure
     @njit(cache=True, parallel=True)
     def pair_terms_dim(pos, vel, rho, p, row_start, row_end, pair_j, fv_pair, n_fluid, h, rho0,
                        c0, delta, corrected, M, pM, grad_rho, alpha, gravity, omega2, center, acc,
-                       drho, project, wall_group, ext_dir, ext_keep):  # fmt: skip
+                       drho, project, wall_group, ext_dir, ext_keep, wetted, wall_wet):  # fmt: skip
         eta2 = ETA2 * h * h
         nvis = 2.0 * (DIM + 2)
         for i in prange(n_fluid):
@@ -275,7 +388,7 @@ def _make_pair_terms(DIM):  # noqa: N803 (a compile-time constant of the closure
                     # a projected wall particle (structure_load = "normal_pairs"): the pressure pair
                     # term c = (p_i + p_j) M_i grad_i W_ij V_j (seed eqs. 6, 12) keeps only
                     # sum_k keep_k (c . e_k) e_k, the components wall_reaction_projected hands on
-                    s = p_i + p[j]
+                    s = (p_i * wall_wet[j - n_fluid] if wetted else p_i) + p[j]
                     if corrected:
                         c0_ = s * (m00 * g0 + m01 * g1)
                         c1_ = s * (m10 * g0 + m11 * g1)
@@ -313,7 +426,8 @@ def _make_pair_terms(DIM):  # noqa: N803 (a compile-time constant of the closure
                             a21 = q21 + pM[j, 2, 1]
                             a22 = q22 + pM[j, 2, 2]
                     else:
-                        s = p_i + p[j]
+                        # a wetted wall of wetness w: w p_i + p_j (p_j = w p_Adami; dry_walls)
+                        s = (p_i * wall_wet[j - n_fluid] if wetted else p_i) + p[j]
                         a00, a01, a10, a11 = s * m00, s * m01, s * m10, s * m11
                         if DIM == 3:
                             a02, a12, a20, a21, a22 = s * m02, s * m12, s * m20, s * m21, s * m22
@@ -326,6 +440,8 @@ def _make_pair_terms(DIM):  # noqa: N803 (a compile-time constant of the closure
                         gp2 += a20 * g0 + a21 * g1 + a22 * g2
                 else:
                     s = p_i + p[j]  # seed eq. 6
+                    if wetted and not fluid_j:  # w p_i + p_j at a wetted wall (dry_walls)
+                        s = p_i * wall_wet[j - n_fluid] + p[j]
                     gp0 += s * g0
                     gp1 += s * g1
                     if DIM == 3:
@@ -368,11 +484,13 @@ _PAIR_TERMS = {2: _make_pair_terms(2), 3: _make_pair_terms(3)}
 _NO_GROUP = np.zeros(0, np.int64)
 _NO_DIR = np.zeros((0, 2, 2))
 _NO_KEEP = np.zeros((0, 2))
+#: no wetted walls (fluid.sph.wall_pressure = "adami")
+_NO_WET = np.zeros(0)
 
 
 def pair_terms(pos, vel, rho, p, row_start, row_end, pair_j, fv_pair, n_fluid, h, rho0, c0, delta,
                corrected, M, pM, grad_rho, alpha, gravity, omega2, center, acc, drho,
-               wall_group=None, ext_dir=None, ext_keep=None):  # fmt: skip
+               wall_group=None, ext_dir=None, ext_keep=None, wall_wet=None):  # fmt: skip
     """Right-hand side of the fluid particles (seed eq. 13):
 
     drho_i/dt = -rho_i sum_j (u_j - u_i) . grad_i W_ij V_j + delta h c0 D_i      (eqs. 1, 2)
@@ -392,29 +510,38 @@ def pair_terms(pos, vel, rho, p, row_start, row_end, pair_j, fv_pair, n_fluid, h
     sum_k keep[g, k] (c . e_k) e_k of its pressure pair term c, with the unit vectors
     ``ext_dir[g, k]`` (or zero) and gates ``ext_keep[g, k]`` (0 or 1) that
     :func:`wall_reaction_projected` computed at this right-hand side: the fluid loses exactly the
-    force the structure receives. Without ``wall_group`` every pair is whole."""
+    force the structure receives. Without ``wall_group`` every pair is whole.
+
+    Wetted walls (``fluid.sph.wall_pressure = "wetted"``): ``wall_wet[j - n_fluid]`` = w_j, the
+    wetness :func:`dry_walls` gave wall particle j, weighs the fluid particle's own pressure in
+    the pair: (w_j p_i + p_j) with p_j = w_j p_Adami, so a dry wall (w = 0) exchanges no force
+    and a wet one (w = 1) the whole pair, bit for bit. Without ``wall_wet`` w = 1."""
     project = wall_group is not None
     if not project:
         wall_group, ext_dir, ext_keep = _NO_GROUP, _NO_DIR, _NO_KEEP
+    wetted = wall_wet is not None
+    if not wetted:
+        wall_wet = _NO_WET
     _PAIR_TERMS[pos.shape[1]](pos, vel, rho, p, row_start, row_end, pair_j, fv_pair, n_fluid, h,
                               rho0, c0, delta, corrected, M, pM, grad_rho, alpha, gravity, omega2,
-                              center, acc, drho, project, wall_group, ext_dir,
-                              ext_keep)  # fmt: skip
+                              center, acc, drho, project, wall_group, ext_dir, ext_keep, wetted,
+                              wall_wet)  # fmt: skip
 
 
 @njit(cache=True, inline="always")
-def pressure_pair_reaction(pos, vol, p, i, j, vi, inv_h, coef, corrected, M, dim):
-    """Reaction R_ij = V_i (p_i + p_j) M_i grad_i W_ij V_j of wall particle j to the pressure
+def pressure_pair_reaction(pos, vol, p, i, j, vi, inv_h, coef, corrected, M, dim, wj):
+    """Reaction R_ij = V_i (w_j p_i + p_j) M_i grad_i W_ij V_j of wall particle j to the pressure
     pair term fluid particle i receives in :func:`pair_terms` (δ-SPHC, seed eq. 12 with
-    M_j = M_i at a wall; plain δ-SPH without M, eq. 6), N (N/m in 2D). Returns (nonzero, R_x,
-    R_y, R_z); nonzero is False beyond the kernel's support (R = 0)."""
+    M_j = M_i at a wall; plain δ-SPH without M, eq. 6), N (N/m in 2D); w_j = ``wj``, the wall's
+    wetness (:func:`dry_walls`; 1 for Adami's walls). Returns (nonzero, R_x, R_y, R_z); nonzero
+    is False beyond the kernel's support (R = 0)."""
     d0 = pos[i, 0] - pos[j, 0]
     d1 = pos[i, 1] - pos[j, 1]
     d2 = pos[i, 2] - pos[j, 2] if dim == 3 else 0.0
     f = gradient_factor_fast(np.sqrt(d0 * d0 + d1 * d1 + d2 * d2), inv_h, coef)
     if f == 0.0:
         return False, 0.0, 0.0, 0.0
-    fv = f * vol[j] * (p[i] + p[j]) * vi  # V_i (p_i + p_j) F V_j
+    fv = f * vol[j] * (p[i] * wj + p[j]) * vi  # V_i (w_j p_i + p_j) F V_j
     g0 = fv * d0
     g1 = fv * d1
     g2 = fv * d2
@@ -428,14 +555,16 @@ def pressure_pair_reaction(pos, vol, p, i, j, vi, inv_h, coef, corrected, M, dim
 
 @njit(cache=True)
 def wall_reaction(pos, rho, vol, p, indptr, indices, n_fluid, inv_h, coef, corrected, M, slot,
-                  out):  # fmt: skip
+                  out, wall_wet=None):  # fmt: skip
     """Force of the fluid on each externally driven wall particle (``slot[j] >= 0``), N (N/m in
     2D): the reaction to the pressure pair term the fluid particle i received from j in
     :func:`pair_terms`, F_j = sum_i V_i (p_i + p_j) M_i grad_i W_ij V_j (δ-SPHC, seed eq. 12
     with M_j = M_i at a wall; without M for δ-SPH, eq. 6): m_i du_i/dt loses exactly -F_j, so
     the fluid's and the wall's momentum balance pair by pair (Newton's third law). Wall pairs
     carry no viscous force (free slip). Serial over the fluid rows (a scatter), in the
-    neighbour list's order: deterministic."""
+    neighbour list's order: deterministic. ``wall_wet``: the walls' wetness (:func:`dry_walls`,
+    ``fluid.sph.wall_pressure = "wetted"``; None: 1), weighing p_i in each pair as
+    :func:`pair_terms` does."""
     dim = pos.shape[1]
     out[:] = 0.0
     for i in range(n_fluid):
@@ -447,8 +576,9 @@ def wall_reaction(pos, rho, vol, p, indptr, indices, n_fluid, inv_h, coef, corre
             s = slot[j]
             if s < 0:
                 continue
+            wj = 1.0 if wall_wet is None else wall_wet[j - n_fluid]
             hit, r0, r1, r2 = pressure_pair_reaction(pos, vol, p, i, j, vi, inv_h, coef,
-                                                     corrected, M, dim)  # fmt: skip
+                                                     corrected, M, dim, wj)  # fmt: skip
             if not hit:
                 continue
             out[s, 0] += r0
@@ -460,7 +590,7 @@ def wall_reaction(pos, rho, vol, p, indptr, indices, n_fluid, inv_h, coef, corre
 @njit(cache=True)
 def wall_reaction_projected(pos, vol, p, indptr, indices, n_fluid, inv_h, coef, corrected, M,
                             slot, wall_group, slot_group, ext_dir, ext_push, comp, gsum, ext_keep,
-                            out):  # fmt: skip
+                            out, wall_wet=None):  # fmt: skip
     """:func:`wall_reaction` with the free-slip projection of ``fluid.sph.structure_load =
     "normal_pairs"``, N (N/m in 2D). Each external wall particle j of group g = ``wall_group[j -
     n_fluid]`` >= 0 (a structure member's interface point and the dummies of its column) keeps
@@ -473,7 +603,7 @@ def wall_reaction_projected(pos, vol, p, indptr, indices, n_fluid, inv_h, coef, 
     the fluid the same projected, gated pair terms, so the fluid loses exactly -out (Newton's
     third law, pair by pair). Work arrays ``comp`` (slots, 2) and ``gsum`` (groups, 2). A
     particle of group -1 gets the whole reaction. Serial, in the neighbour list's order:
-    deterministic."""
+    deterministic. ``wall_wet`` as :func:`wall_reaction`."""
     dim = pos.shape[1]
     out[:] = 0.0
     comp[:] = 0.0
@@ -487,8 +617,9 @@ def wall_reaction_projected(pos, vol, p, indptr, indices, n_fluid, inv_h, coef, 
             s = slot[j]
             if s < 0:
                 continue
+            wj = 1.0 if wall_wet is None else wall_wet[j - n_fluid]
             hit, r0, r1, r2 = pressure_pair_reaction(pos, vol, p, i, j, vi, inv_h, coef,
-                                                     corrected, M, dim)  # fmt: skip
+                                                     corrected, M, dim, wj)  # fmt: skip
             if not hit:
                 continue
             grp = wall_group[j - n_fluid]
@@ -520,12 +651,14 @@ def wall_reaction_projected(pos, vol, p, indptr, indices, n_fluid, inv_h, coef, 
 
 @njit(cache=True)
 def patch_exchange(pos, vol, p, indptr, indices, n_fluid, inv_h, coef, corrected, M, wall_patch,
-                   out):  # fmt: skip
+                   out, wall_wet=None):  # fmt: skip
     """Force of the fluid on each wall patch, N (N/m in 2D): the sum over the patch's particles
     (``wall_patch[j - n_fluid]`` = its index; -1: not summed) of :func:`wall_reaction`'s pair
     reactions V_i (p_i + p_j) M_i grad_i W_ij V_j (seed eqs. 6, 12): the momentum the fluid loses
     at the patch per unit time (``fluid.boundary_force = "momentum_exchange"``). Serial, in the
-    neighbour list's order: deterministic."""
+    neighbour list's order: deterministic. ``wall_wet``: the walls' wetness (:func:`dry_walls`,
+    ``fluid.sph.wall_pressure = "wetted"``; None: 1), weighing p_i in each pair as
+    :func:`pair_terms` does."""
     dim = pos.shape[1]
     out[:] = 0.0
     for i in range(n_fluid):
@@ -537,8 +670,9 @@ def patch_exchange(pos, vol, p, indptr, indices, n_fluid, inv_h, coef, corrected
             b = wall_patch[j - n_fluid]
             if b < 0:
                 continue
+            wj = 1.0 if wall_wet is None else wall_wet[j - n_fluid]
             hit, r0, r1, r2 = pressure_pair_reaction(pos, vol, p, i, j, vi, inv_h, coef,
-                                                     corrected, M, dim)  # fmt: skip
+                                                     corrected, M, dim, wj)  # fmt: skip
             if not hit:
                 continue
             out[b, 0] += r0

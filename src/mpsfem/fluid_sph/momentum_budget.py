@@ -25,7 +25,7 @@ from mpsfem.fluid_sph.wendland import gradient_factor_fast
 @njit(cache=True)
 def split_forces(pos, vel, rho, vol, p, indptr, indices, n_fluid, h, inv_h, coef, rho0, c0, mass,
                  corrected, M, alpha, internal, wall, project, wall_group, ext_dir,
-                 ext_keep):  # fmt: skip
+                 ext_keep, wall_wet=None):  # fmt: skip
     """The pair forces of one right-hand side, split (N; N/m in 2D): ``internal[0]`` the sum over
     fluid-fluid pressure pairs of -V_i <grad p>_i's share, ``internal[1]`` the same for the
     artificial viscosity, ``wall[j - n_fluid]`` the pressure force of the fluid on wall / dummy
@@ -33,7 +33,9 @@ def split_forces(pos, vel, rho, vol, p, indptr, indices, n_fluid, h, inv_h, coef
     pairs and arithmetic as ``delta_sph.pair_terms``; serial in index order (deterministic).
     With ``project`` a wall particle of group g = ``wall_group[j - n_fluid]`` >= 0 books only
     sum_k keep[g, k] (c . e_k) e_k of its pair (``fluid.sph.structure_load = "normal_pairs"``, as
-    ``pair_terms`` gives it to the fluid)."""
+    ``pair_terms`` gives it to the fluid). ``wall_wet`` (``fluid.sph.wall_pressure =
+    "wetted"``; None: 1): each wall's wetness w_j weighs p_i in its pairs, w_j p_i + p_j, as
+    ``pair_terms``."""
     dim = pos.shape[1]
     eta2 = ETA2 * h * h
     nvis = 2.0 * (dim + 2)
@@ -43,7 +45,7 @@ def split_forces(pos, vel, rho, vol, p, indptr, indices, n_fluid, h, inv_h, coef
         inv_rho = 1.0 / rho[i]
         vi = vol[i]  # V_i = m / rho_i
         visc = mass * h * c0 * rho0 * inv_rho  # m alpha h c0 rho0 / rho_i, seed eq. 3
-        pi = p[i]
+        p_own = p[i]
         for k in range(indptr[i], indptr[i + 1]):
             j = indices[k]
             d0 = pos[i, 0] - pos[j, 0]
@@ -59,6 +61,9 @@ def split_forces(pos, vel, rho, vol, p, indptr, indices, n_fluid, h, inv_h, coef
             g2 = fv * d2
             pj = p[j]
             fluid_j = j < n_fluid
+            pi = p_own
+            if wall_wet is not None and not fluid_j:
+                pi = p_own * wall_wet[j - n_fluid]  # w_j p_i at a wetted wall (dry_walls)
             if corrected:  # (p_i M_i + p_j M_j) grad_i W_ij V_j, seed eq. 12 (M_j = M_i at a wall)
                 jj = j if fluid_j else i
                 gp0 = (pi * M[i, 0, 0] + pj * M[jj, 0, 0]) * g0
@@ -180,7 +185,7 @@ class SPHMomentumBudget:
         split_forces(s.pos, s.vel, s.rho, s.vol, s.p, nb.indptr, nb.indices, s.n_fluid, s.h, s.inv_h,
                      s.grad_coef, s.rho0, s.c0, s.mass, s.corrected, s.M, s.alpha,
                      self._internal, self.wall_force, s.project_load, s.wall_group, s.ext_dir,
-                     s.ext_keep)  # fmt: skip
+                     s.ext_keep, s.wall_wet if s.wetted_walls else None)  # fmt: skip
         body_force(s.pos, s.n_fluid, s.mass, s.gravity, s.omega2, s.center, self.split[0])
         self.split[1:] = self._internal
 

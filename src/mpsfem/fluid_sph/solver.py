@@ -24,6 +24,7 @@ from mpsfem.fluid_mps import probes
 from mpsfem.fluid_mps.geometry import ParticleSet, build_particles, default_dummy_layers
 from mpsfem.fluid_mps.geometry import hydrostatic_pressure as hydrostatic_column_pressure
 from mpsfem.fluid_mps.neighbours import NeighbourSearch, build_neighbours
+from mpsfem.fluid_mps.particle_kinds import STRUCTURE, WALL
 from mpsfem.fluid_mps.sponge import SpongeLayer
 from mpsfem.fluid_mps.time_integration import first_bad_particle, split_window, step_towards
 from mpsfem.fluid_mps.wall_motion import MotionLaw, place_moving_walls
@@ -172,6 +173,22 @@ class DeltaSPHSolver:
             if pt.spec is not None:
                 self.wall_patch[pt.start - nf : pt.stop - nf] = k
         self.wall_exchange = np.zeros((len(self.patches), dim))
+        #: fluid.sph.wall_pressure = "wetted" (delta_sph.dry_walls): each wall particle's patch
+        #: (all patches), which are pressure-layer particles (WALL, STRUCTURE), the thresholds
+        #: on the fluid's kernel sum for a gap of DRY_GAP / WET_GAP spacings, and each wall
+        #: particle's wetness at the last right-hand side (1: Adami's pressure, 0: p_w = 0)
+        self.wetted_walls = sph.wall_pressure == "wetted"
+        self.wall_patch_all = np.full(n - nf, -1, dtype=np.int64)
+        for k, pt in enumerate(self.patches):
+            self.wall_patch_all[pt.start - nf : pt.stop - nf] = k
+        self.pressure_layer = np.isin(self.kind[nf:], (WALL, STRUCTURE))
+        ratio = sph.smoothing_ratio
+        self.wet_support = (
+            delta_sph.half_space_support(dim, ratio, 1.0 + delta_sph.DRY_GAP),
+            delta_sph.half_space_support(dim, ratio, 1.0 + delta_sph.WET_GAP),
+        )
+        self.wall_wet = np.ones(n - nf)
+        self._wet_own = np.ones(n - nf)  # work array of dry_walls
         self.wall_exchange_step = np.zeros((len(self.patches), dim))
         self.mass = self.rho0 * dx**dim  # kg (kg/m in 2D)
 
@@ -361,6 +378,13 @@ class DeltaSPHSolver:
             self.gravity, self.omega2, self.center, self.wall_acc, self.h, self.norm, self.rho0,
             self.c0,
         )  # fmt: skip
+        if self.wetted_walls:  # fluid.sph.wall_pressure = "wetted": no pull across an air gap
+            delta_sph.dry_walls(
+                self.pos, self.rho, self.p, nb.indptr, nb.indices, r2max, nf, self.mass,
+                self.h, self.norm, self.rho0, self.c0, self.pressure_layer,
+                self.wall_patch_all, *self.wet_support, (1.5 * self.l0) ** 2, self._wet_own,
+                self.wall_wet,
+            )  # fmt: skip
         delta_sph.particle_volume(self.rho, self.mass, self.vol)
         delta_sph.correction(
             self.pos, self.rho, self.vol, self.p, nb.indptr, nb.indices, r2max, nf, self.inv_h,
@@ -373,29 +397,31 @@ class DeltaSPHSolver:
                 self.zone_start, self.zone_inv, self.alpha,
             )  # fmt: skip
         project = self.project_load and self.ext_rows.size > 0
+        wet = self.wall_wet if self.wetted_walls else None  # weighs p_i in the wall pairs
         if project:  # the projected reactions and their gates, which pair_terms then applies
             delta_sph.wall_reaction_projected(
                 self.pos, self.vol, self.p, nb.indptr, nb.indices, nf, self.inv_h,
                 self.grad_coef, self.corrected, self.M, self.ext_slot, self.wall_group,
                 self.slot_group, self.ext_dir, self.ext_push, self._ext_comp, self._ext_gsum,
-                self.ext_keep, self.reaction,
+                self.ext_keep, self.reaction, wet,
             )  # fmt: skip
         delta_sph.pair_terms(
             self.pos, self.vel, self.rho, self.p, nb.indptr, self.row_end, self.pair_j,
             self.fv_pair, nf, self.h, self.rho0, self.c0, self.sph.density_diffusion,
             self.corrected, self.M, self.pM, self.grad_rho, self.alpha, self.gravity, self.omega2,
             self.center, self.acc, self.drho,
-            *((self.wall_group, self.ext_dir, self.ext_keep) if project else ()),
+            *((self.wall_group, self.ext_dir, self.ext_keep) if project else (None, None, None)),
+            wet,
         )  # fmt: skip
         if self.exchange_walls:
             delta_sph.patch_exchange(
                 self.pos, self.vol, self.p, nb.indptr, nb.indices, nf, self.inv_h,
-                self.grad_coef, self.corrected, self.M, self.wall_patch, self.wall_exchange,
+                self.grad_coef, self.corrected, self.M, self.wall_patch, self.wall_exchange, wet,
             )  # fmt: skip
         if self.ext_rows.size and not project:
             delta_sph.wall_reaction(
                 self.pos, self.rho, self.vol, self.p, nb.indptr, nb.indices, nf, self.inv_h,
-                self.grad_coef, self.corrected, self.M, self.ext_slot, self.reaction,
+                self.grad_coef, self.corrected, self.M, self.ext_slot, self.reaction, wet,
             )  # fmt: skip
         if self.budget.full:
             self.budget.evaluate(self, nb)

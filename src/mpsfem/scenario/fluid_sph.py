@@ -135,6 +135,18 @@ class DeltaSPHSection(Section):
         "'Coupled to a structure'); 'exchange', the whole pair exchange on both sides (the "
         "behaviour before this key)",
     )
+    wall_pressure: Literal["adami", "wetted"] = Field(
+        "adami",
+        description="pressure of the wall and structure dummy particles: 'adami', extrapolated "
+        "from every fluid neighbour, p_w = (sum p_f W + (g - a_w) . sum rho_f r_wf W) / sum W "
+        "(Adami et al. 2012, eq. 27; across an air gap narrower than the kernel it is "
+        "negative and pulls the wall and the free surface together); 'wetted', the same but "
+        "zero on a dry wall: a pressure-layer particle whose fluid kernel sum sum W V_f is "
+        "below that of a half-space 3/4 of a spacing beyond the wall face is dry (p_w = 0, and "
+        "the fluid's own pressure is dropped from its pairs: it exchanges no force), one whose "
+        "fluid reaches within 1/4 spacing of the face keeps Adami's pressure, linear in the sum "
+        "between; dummy layers are as wet as their face (docs/fluid_sph.md, 'Walls')",
+    )
 
     # ---- particle shifting (δ+-SPH; fluid_sph/particle_shifting.py, docs/fluid_sph.md)
     shifting: Literal["none", "delta_plus"] = Field(
