@@ -114,12 +114,18 @@ def light_overrides(
     max_iterations: int = 30,
     force_tolerance: str | None = None,
     end_time: float | None = None,
+    model: str = "lumped",
 ) -> list[str]:
     """The light section, the fictitious mass (``mf_factor`` x the estimate), Aitken and the
     convergence measure (rtol relative to the whole displacement or to the window's motion);
     ``force_tolerance`` (a number or "off"), coupling.convergence.fictitious_force_tolerance
-    (None: the schema's default); ``end_time`` (s), run.end_time (None: the case's)."""
+    (None: the schema's default); ``end_time`` (s), run.end_time (None: the case's); ``model``
+    the member's fictitious_mass_model ("potential_flow": ``mf_factor`` x the wetted patch's
+    potential-flow added-mass operator, task H1 of issue 21)."""
     extra = []
+    if model != "lumped":
+        extra.append(f'structure.members.0.fictitious_mass_model="{model}"')
+    mf = mf_factor if model == "potential_flow" else mf_factor * ADDED_MASS_ESTIMATE
     if force_tolerance is not None:
         ft = force_tolerance if force_tolerance == "off" else float(force_tolerance)
         extra.append(f"coupling.convergence.fictitious_force_tolerance={ft!r}".replace("'", '"'))
@@ -128,7 +134,7 @@ def light_overrides(
     return extra + [
         f"structure.members.0.area={AREA!r}",
         f"structure.members.0.second_moment={SECOND_MOMENT!r}",
-        f"structure.members.0.fictitious_mass={mf_factor * ADDED_MASS_ESTIMATE!r}",
+        f"structure.members.0.fictitious_mass={mf!r}",
         'coupling.acceleration.kind="aitken"',
         f"coupling.convergence.relative_tolerance={rtol!r}",
         f'coupling.convergence.relative_to="{relative_to}"',
@@ -145,12 +151,16 @@ def run_path(
     max_iterations: int = 30,
     force_tolerance: str | None = None,
     end_time: float | None = None,
+    model: str = "lumped",
 ) -> Path:
     """The results file of a run. Names without ``_ft``: runs of the code before the
-    force-error criterion and the wetted-node M_f (issue 21, task H1)."""
+    force-error criterion and the wetted-node M_f (issue 21, task H1); with ``_pf``: the
+    potential-flow M_f (``mf`` its factor, not a multiple of the estimate)."""
     wm = "wm" if relative_to == "window_motion" else ""
     if max_iterations != 30:  # the scenario's
         wm += f"it{max_iterations}"
+    if model == "potential_flow":
+        wm += "_pf"
     if force_tolerance is not None:
         wm += f"_ft{force_tolerance if force_tolerance == 'off' else f'{float(force_tolerance):g}'}"
     if end_time is not None:
@@ -162,7 +172,7 @@ def run_path(
 
 NAME = re.compile(
     r"bottom_slamming_light_(?P<l0>[0-9.e-]+)_mf(?P<mf>[0-9.e-]+)_rtol(?P<rtol>[0-9.e-]+)(?P<wm>(wm)?)(?:it(?P<maxit>[0-9]+))?"
-    r"(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?_"
+    r"(?P<pf>_pf)?(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?_"
     r"AH(?P<a>[0-9.]+)_DH(?P<d>[0-9.]+)\.h5$"
 )
 
@@ -176,7 +186,7 @@ class LightResult:
     a_over_h: float
     d_over_h: float
     mf_factor: float  # fictitious mass / ADDED_MASS_ESTIMATE
-    fictitious_mass: float  # kg/m^2
+    fictitious_mass: float  # kg/m^2 (lumped); NaN for the potential-flow operator
     rtol: float
     relative_to: str  # the convergence measure: "displacement" or "window_motion"
     max_iterations: int  # per window (the scenario: 30)
@@ -209,6 +219,14 @@ class LightResult:
     steps: int
     wall_time_s: float
     results_file: str = ""  # its name (the row's key when the CSV is merged)
+    fictitious_mass_model: str = "lumped"  # "potential_flow": mf_factor x the operator
+    # windows ending from WET_FROM on: count, iterations mean, unconverged, and the accepted
+    # windows' fictitious force error / load scale (median, 90 %)
+    wet_windows: int = 0
+    wet_it_mean: float = math.nan
+    wet_unconverged: int = 0
+    wet_force_error_median: float = math.nan
+    wet_force_error_p90: float = math.nan
 
 
 #: the rigid runs MF divides by: bottom_slamming_<RIGID_L0>.csv (there are none at H/20; the
@@ -244,6 +262,8 @@ def analyse_light(path: Path) -> LightResult:
     case = Case(base.a_over_h, base.d_over_h)
     rigid, rigid_s = rigid_reference(case)
     mf = float(m["mf"])
+    pf = bool(m["pf"])
+    wet = wet_split(path)
     last = td >= td[-1] - 0.1
     velocity = (uy[last][-1] - uy[last][0]) / max(td[last][-1] - td[last][0], 1e-12)
     return LightResult(
@@ -252,7 +272,7 @@ def analyse_light(path: Path) -> LightResult:
         a_over_h=base.a_over_h,
         d_over_h=base.d_over_h,
         mf_factor=mf,
-        fictitious_mass=mf * ADDED_MASS_ESTIMATE,
+        fictitious_mass=math.nan if pf else mf * ADDED_MASS_ESTIMATE,
         rtol=float(m["rtol"]),
         relative_to="window_motion" if m["wm"] else "displacement",
         max_iterations=int(m["maxit"] or 30),
@@ -283,7 +303,41 @@ def analyse_light(path: Path) -> LightResult:
         steps=base.steps,
         wall_time_s=base.wall_time_s,
         results_file=path.name,
+        fictitious_mass_model="potential_flow" if pf else "lumped",
+        **wet,
     )
+
+
+#: s: the first wet window's end at H/20 (dry, 1 iteration per window, before: the page's
+#: "wet windows (1.61-2.1 s)")
+WET_FROM = 1.61
+
+
+def wet_split(path: Path) -> dict:
+    """Windows ending at or after WET_FROM: count, iterations mean, unconverged, and the
+    fictitious force error / load scale of the accepted ones (median, 90th percentile)."""
+    with h5py.File(path, "r") as h5:
+        if "coupling" not in h5:
+            return {}
+        c = h5["coupling"]
+        t = c["time"][:]
+        its, conv = c["iterations"][:], c["converged"][:]
+        ferr = c["fictitious_force_error"][:] if "fictitious_force_error" in c else None
+    wet = t >= WET_FROM - 1e-9
+    if not wet.any():
+        return {}
+    out = {
+        "wet_windows": int(wet.sum()),
+        "wet_it_mean": float(its[wet].mean()),
+        "wet_unconverged": int(np.count_nonzero(conv[wet] == 0)),
+    }
+    if ferr is not None:
+        e = ferr[wet]
+        e = e[np.isfinite(e)]
+        if e.size:
+            out["wet_force_error_median"] = float(np.median(e))
+            out["wet_force_error_p90"] = float(np.percentile(e, 90))
+    return out
 
 
 def plot(paths: list[Path], out: Path) -> None:
@@ -302,6 +356,8 @@ def plot(paths: list[Path], out: Path) -> None:
         if r["maxit"]:
             label += f", {r['maxit']} it."
         label += f", force tol. {r['ft']}" if r["ft"] else ", old code"
+        if r["pf"]:
+            label = label.replace("M_f", "potential-flow M_f")
         with h5py.File(path, "r") as h5:
             t, f = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:, 1]
             td, u = h5["probes"]["plate_mid"]["time"][:], h5["probes"]["plate_mid"]["value"][:, 1]
@@ -347,6 +403,7 @@ def report() -> int:
     kept = [r for r in (read_csv(CSV) if CSV.is_file() else []) if _row_file(r) not in found]
     for r in kept:
         r.setdefault("force_tolerance", "none")
+        r.setdefault("fictitious_mass_model", "lumped")
         r["results_file"] = _row_file(r)
     merged = [asdict(r) for r in rows] + kept
     merged.sort(key=lambda r: (-float(r["l0"]), float(r["a_over_h"]), float(r["d_over_h"]),
@@ -428,6 +485,13 @@ def main(argv: list[str] | None = None) -> int:
         help="the force tolerance of the --branch-at base run (default: the first "
         "--force-tolerance); its dry part takes one iteration per window whatever it is",
     )
+    ap.add_argument(
+        "--mf-model",
+        default="lumped",
+        choices=("lumped", "potential_flow"),
+        help="structure.members.0.fictitious_mass_model (default lumped); potential_flow: "
+        "--mf is the factor on the wetted patch's potential-flow operator",
+    )
     ap.add_argument("--added-mass", action="store_true", help="print the estimate and stop")
     case_runner.add_run_options(ap)
     args = ap.parse_args(argv)
@@ -463,19 +527,20 @@ def main(argv: list[str] | None = None) -> int:
             for rtol in rtols:
                 for ft in fts:
                     for f in factors:
-                        out = run_path(args.l0, case, f, rtol, rel, its, ft, args.end_time)
+                        mm = args.mf_model
+                        out = run_path(args.l0, case, f, rtol, rel, its, ft, args.end_time, mm)
                         overrides = case_overrides("elastic", case, spacing) + light_overrides(
-                            f, rtol, rel, its, ft, args.end_time
+                            f, rtol, rel, its, ft, args.end_time, mm
                         )
                         tag = f"[light {case.label()} mf {f:g} rtol {rtol:g} ft {ft}]"
                         if args.branch_at is not None and not out.exists():
                             ft0 = args.base_force_tolerance or fts[0]
                             base = run_path(
-                                args.l0, case, f, rtols[0], rel, its, ft0, args.branch_at
+                                args.l0, case, f, rtols[0], rel, its, ft0, args.branch_at, mm
                             )
                             base_overrides = case_overrides(
                                 "elastic", case, spacing
-                            ) + light_overrides(f, rtols[0], rel, its, ft0, args.branch_at)
+                            ) + light_overrides(f, rtols[0], rel, its, ft0, args.branch_at, mm)
                             base_overrides.append(f"output.checkpoint_interval={args.branch_at!r}")
                             branch(base, base_overrides, out, overrides, args, tag)
                             continue
