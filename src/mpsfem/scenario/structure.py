@@ -232,6 +232,17 @@ class _MemberCommon(Section):
             '"all": every node of the member (the behaviour before this key).'
         ),
     )
+    fictitious_wet_pressure: float = Field(
+        0.0,
+        ge=0,
+        description=(
+            'With fictitious_mass_nodes = "wet": the interface pressure in Pa (>= 0) a node\'s '
+            "load (over its tributary length or area) must exceed for the node to count as wet; "
+            "0 (default): any nonzero load (the behaviour before this key). A fluid that puts "
+            "noise-level loads on a member just above its surface (MPS: 1e-4 Pa) otherwise "
+            "marks the whole member wet."
+        ),
+    )
     fictitious_mass_model: Literal["lumped", "potential_flow"] = Field(
         "lumped",
         description=(

@@ -82,14 +82,23 @@ def tributary_measure(nodes: np.ndarray, cells: np.ndarray) -> np.ndarray:
 
 
 def wet_nodes(
-    loads: list[np.ndarray], cells: list[np.ndarray], n_points: int, margin: int = 1
+    loads: list[np.ndarray],
+    cells: list[np.ndarray],
+    n_points: int,
+    margin: int = 1,
+    threshold: np.ndarray | None = None,
 ) -> np.ndarray:
     """Nodes (bool, (n_points,)) on which any of the nodal loads (each (n_points, dim), N) is
-    nonzero, widened `margin` times by the nodes of every cell (rows of global node indices)
-    holding one of them."""
+    nonzero (with ``threshold``, (n_points,) in N: whose magnitude exceeds it), widened
+    `margin` times by the nodes of every cell (rows of global node indices) holding one of
+    them."""
     wet = np.zeros(n_points, dtype=bool)
     for f in loads:
-        wet |= np.any(np.asarray(f) != 0.0, axis=1)
+        f = np.asarray(f)
+        if threshold is None:
+            wet |= np.any(f != 0.0, axis=1)
+        else:
+            wet |= np.linalg.norm(f, axis=1) > threshold
     for _ in range(int(margin)):
         grown = wet.copy()
         for c in cells:

@@ -216,6 +216,15 @@ class StructureParticipant:
         self._fm_measure = np.concatenate(
             [tributary_measure(m.nodes, m.connectivity) for m in sysm.models]
         )
+        # members' fictitious_wet_pressure (Pa) x each node's tributary measure: the nodal load
+        # (N) a node must exceed to count as wet; None: every member at 0 (any nonzero load)
+        wet_p = np.concatenate(
+            [
+                np.full(m.n_nodes, cfg.fictitious_wet_pressure)
+                for cfg, m in zip(section.members, sysm.models, strict=True)
+            ]
+        )
+        self._fm_threshold = wet_p * self._fm_measure if wet_p.any() else None
         self._fm_nodes = self._fm_always.copy()
         self._fm_pending = False  # decide the wet set at the next step (a window started)
         self._fm_load_start = np.zeros((sysm.n_points, self.dim))  # load at the checkpoint
@@ -324,7 +333,12 @@ class StructureParticipant:
         self._fm_pending = False
         if not self._fm_if_wet.any():
             return
-        wet = wet_nodes([self._fm_load_start, self._forces], self._fm_cells, self.system.n_points)
+        wet = wet_nodes(
+            [self._fm_load_start, self._forces],
+            self._fm_cells,
+            self.system.n_points,
+            threshold=self._fm_threshold,
+        )
         nodes = self._fm_always | (wet & self._fm_if_wet)
         if not np.array_equal(nodes, self._fm_nodes):
             self._install_fictitious_nodes(nodes)
