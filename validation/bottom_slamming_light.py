@@ -115,6 +115,7 @@ def light_overrides(
     force_tolerance: str | None = None,
     end_time: float | None = None,
     model: str = "lumped",
+    wet_pressure: float = 0.0,
 ) -> list[str]:
     """The light section, the fictitious mass (``mf_factor`` x the estimate), Aitken and the
     convergence measure (rtol relative to the whole displacement or to the window's motion);
@@ -125,6 +126,8 @@ def light_overrides(
     extra = []
     if model != "lumped":
         extra.append(f'structure.members.0.fictitious_mass_model="{model}"')
+    if wet_pressure > 0.0:
+        extra.append(f"structure.members.0.fictitious_wet_pressure={float(wet_pressure)!r}")
     mf = mf_factor if model == "potential_flow" else mf_factor * ADDED_MASS_ESTIMATE
     if force_tolerance is not None:
         ft = force_tolerance if force_tolerance == "off" else float(force_tolerance)
@@ -152,6 +155,7 @@ def run_path(
     force_tolerance: str | None = None,
     end_time: float | None = None,
     model: str = "lumped",
+    wet_pressure: float = 0.0,
 ) -> Path:
     """The results file of a run. Names without ``_ft``: runs of the code before the
     force-error criterion and the wetted-node M_f (issue 21, task H1); with ``_pf``: the
@@ -161,6 +165,8 @@ def run_path(
         wm += f"it{max_iterations}"
     if model == "potential_flow":
         wm += "_pf"
+    if wet_pressure > 0.0:
+        wm += f"_wp{wet_pressure:g}"
     if force_tolerance is not None:
         wm += f"_ft{force_tolerance if force_tolerance == 'off' else f'{float(force_tolerance):g}'}"
     if end_time is not None:
@@ -172,7 +178,7 @@ def run_path(
 
 NAME = re.compile(
     r"bottom_slamming_light_(?P<l0>[0-9.e-]+)_mf(?P<mf>[0-9.e-]+)_rtol(?P<rtol>[0-9.e-]+)(?P<wm>(wm)?)(?:it(?P<maxit>[0-9]+))?"
-    r"(?P<pf>_pf)?(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?_"
+    r"(?P<pf>_pf)?(?:_wp(?P<wp>[0-9.e-]+))?(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?_"
     r"AH(?P<a>[0-9.]+)_DH(?P<d>[0-9.]+)\.h5$"
 )
 
@@ -220,6 +226,7 @@ class LightResult:
     wall_time_s: float
     results_file: str = ""  # its name (the row's key when the CSV is merged)
     fictitious_mass_model: str = "lumped"  # "potential_flow": mf_factor x the operator
+    wet_pressure_pa: float = 0.0  # structure.members.0.fictitious_wet_pressure
     # windows ending from WET_FROM on: count, iterations mean, unconverged, and the accepted
     # windows' fictitious force error / load scale (median, 90 %)
     wet_windows: int = 0
@@ -304,6 +311,7 @@ def analyse_light(path: Path) -> LightResult:
         wall_time_s=base.wall_time_s,
         results_file=path.name,
         fictitious_mass_model="potential_flow" if pf else "lumped",
+        wet_pressure_pa=float(m["wp"] or 0.0),
         **wet,
     )
 
@@ -404,6 +412,7 @@ def report() -> int:
     for r in kept:
         r.setdefault("force_tolerance", "none")
         r.setdefault("fictitious_mass_model", "lumped")
+        r.setdefault("wet_pressure_pa", 0.0)
         r["results_file"] = _row_file(r)
     merged = [asdict(r) for r in rows] + kept
     merged.sort(key=lambda r: (-float(r["l0"]), float(r["a_over_h"]), float(r["d_over_h"]),
@@ -492,6 +501,12 @@ def main(argv: list[str] | None = None) -> int:
         help="structure.members.0.fictitious_mass_model (default lumped); potential_flow: "
         "--mf is the factor on the wetted patch's potential-flow operator",
     )
+    ap.add_argument(
+        "--wet-pressure",
+        type=float,
+        default=0.0,
+        help="structure.members.0.fictitious_wet_pressure, Pa (default 0: any nonzero load)",
+    )
     ap.add_argument("--added-mass", action="store_true", help="print the estimate and stop")
     case_runner.add_run_options(ap)
     args = ap.parse_args(argv)
@@ -528,19 +543,19 @@ def main(argv: list[str] | None = None) -> int:
                 for ft in fts:
                     for f in factors:
                         mm = args.mf_model
-                        out = run_path(args.l0, case, f, rtol, rel, its, ft, args.end_time, mm)
+                        wp = args.wet_pressure
+                        out = run_path(args.l0, case, f, rtol, rel, its, ft, args.end_time, mm, wp)
                         overrides = case_overrides("elastic", case, spacing) + light_overrides(
-                            f, rtol, rel, its, ft, args.end_time, mm
+                            f, rtol, rel, its, ft, args.end_time, mm, wp
                         )
                         tag = f"[light {case.label()} mf {f:g} rtol {rtol:g} ft {ft}]"
                         if args.branch_at is not None and not out.exists():
                             ft0 = args.base_force_tolerance or fts[0]
-                            base = run_path(
-                                args.l0, case, f, rtols[0], rel, its, ft0, args.branch_at, mm
-                            )
+                            at = args.branch_at
+                            base = run_path(args.l0, case, f, rtols[0], rel, its, ft0, at, mm, wp)
                             base_overrides = case_overrides(
                                 "elastic", case, spacing
-                            ) + light_overrides(f, rtols[0], rel, its, ft0, args.branch_at, mm)
+                            ) + light_overrides(f, rtols[0], rel, its, ft0, at, mm, wp)
                             base_overrides.append(f"output.checkpoint_interval={args.branch_at!r}")
                             branch(base, base_overrides, out, overrides, args, tag)
                             continue
