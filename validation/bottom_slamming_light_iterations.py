@@ -16,7 +16,8 @@ sees: the coupler interpolates the velocity linearly over the window; beta = 1/4
 against the potential-flow operator's w M_a w / |w|^2 (structure_fem.added_mass_potential) on
 the same nodes. A smooth map gives m_w independent of eps; jumps from particle-level switching
 give m_w growing as eps falls. Writes validation/results/bottom_slamming_light_iterations.csv
-(iterations) and bottom_slamming_light_map.csv (the probe).
+(iterations; its ``iteration`` counts on across the recorded windows of a run) and
+bottom_slamming_light_map.csv (the probe).
 
     python validation/bottom_slamming_light_iterations.py --restart FILE.ckpt.h5 \\
         --mf 0.5 --mf-model potential_flow --to 1.64 --windows 2
@@ -48,7 +49,7 @@ from mpsfem.simulation import (  # noqa: E402
     member_nodes,
 )
 from mpsfem.structure_fem.added_mass_potential import patch_added_mass, patch_coordinates  # noqa: E402
-from mpsfem.structure_fem.fictitious_mass import node_runs  # noqa: E402
+from mpsfem.structure_fem.fictitious_mass import node_runs, wet_nodes  # noqa: E402
 from mpsfem.structure_fem.participant import StructureParticipant  # noqa: E402
 
 ITER_CSV = RESULTS_DIR / "bottom_slamming_light_iterations.csv"
@@ -130,7 +131,7 @@ def instrument(scheme, st, rows, window_index):
     return state
 
 
-def probe_map(scheme, fluid, st, mesh, rho, out):
+def probe_map(scheme, fluid, st, mesh, rho, out, wet_pressure=0.0):
     """From the current window start: F(x + eps w) for shapes w and eps (module docstring)."""
     T = scheme.window
     t0, t1 = scheme.t, scheme.t + T
@@ -154,7 +155,6 @@ def probe_map(scheme, fluid, st, mesh, rho, out):
     F0 = forces(x0, s0)
     F0b = forces(x0, s0)
     det = float(np.abs(F0b - F0).max())
-    wet = np.any(F0 != 0.0, axis=1)
     pts = np.asarray(mesh.points)
     trib = np.zeros(pts.shape[0])
     seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
@@ -165,7 +165,16 @@ def probe_map(scheme, fluid, st, mesh, rho, out):
     print(" ".join(f"{p:.2g}" for p in pressure))
     for level in (1e-3, 1e-2, 1e-1, 1.0, 10.0):
         print(f"  nodes with |p| > {level:g} Pa: {int(np.count_nonzero(np.abs(pressure) > level))}")
+    # the wet set as the structure decides it (one element around the loaded nodes)
+    cells = [np.c_[np.arange(pts.shape[0] - 1), np.arange(1, pts.shape[0])]]
+    wet = wet_nodes(
+        [F0], cells, pts.shape[0], threshold=wet_pressure * trib if wet_pressure else None
+    )
     runs = node_runs(pts, wet)
+    if not runs:
+        print("  no wet run at this window's start: nothing to probe")
+        fluid.restore()
+        return
     run = max(runs, key=len)
     s_ = patch_coordinates(pts[run])
     Ma = patch_added_mass(s_, rho)
@@ -177,7 +186,7 @@ def probe_map(scheme, fluid, st, mesh, rho, out):
         "sin4": np.sin(4 * np.pi * s_ / lw),
     }
     beta, gamma = 0.25, 0.5
-    print(f"t = {t0:.4f} s: wet run of {run.size} nodes ({lw * 1e3:.1f} mm), "
+    print(f"t = {t0:.4f} s: wet run of {run.size} nodes from {run.min()} ({lw * 1e3:.1f} mm), "
           f"|F(x) - F(x)| repeat = {det:.3g} N/m")  # fmt: skip
     for name, w in shapes.items():
         ref = float(w @ Ma @ w / (w @ w))
@@ -202,6 +211,7 @@ def probe_map(scheme, fluid, st, mesh, rho, out):
                     "off_shape_norm_rel": float(np.linalg.norm(resid))
                     / max(float(np.linalg.norm(dFn)), 1e-300),
                     "wet_run_nodes": int(run.size),
+                    "wet_run_first_node": int(run.min()),
                     "repeat_diff": det,
                 }
             )
@@ -224,12 +234,14 @@ def main(argv=None) -> int:
     scheme, fluid, st, mesh, sc = build(args)
     print(f"restarted at t = {scheme.t:.4f} s")
     tic = time.perf_counter()
+    stepped = []
     while scheme.t < args.to - 1e-9:
-        scheme.advance_window()
+        stepped.append(scheme.advance_window().iterations)
+    print("iterations of the windows stepped:", " ".join(str(k) for k in stepped[-60:]))
     print(f"stepped to {scheme.t:.4f} s in {time.perf_counter() - tic:.0f} s")
     rows: list[dict] = []
     probe_rows: list[dict] = []
-    probe_map(scheme, fluid, st, mesh, sc.fluid.density, probe_rows)
+    probe_map(scheme, fluid, st, mesh, sc.fluid.density, probe_rows, args.wet_pressure)
     widx = [0]
     instrument(scheme, st, rows, widx)
     for _ in range(args.windows):
@@ -248,6 +260,8 @@ def main(argv=None) -> int:
     for r in rows + probe_rows:
         r["run"] = tag  # the CSVs' first column
     for new, path, key in ((rows, ITER_CSV, "window"), (probe_rows, MAP_CSV, "t_start")):
+        if not new:
+            continue
         # rows of other runs (or other windows / times of this run) stay
         done = {(tag, str(r[key])) for r in new}
         old = [

@@ -181,3 +181,25 @@ def sp_diag(B):
     import scipy.sparse as sp
 
     return sp.diags(B.diagonal())
+
+
+def test_force_error_column_stays_one_row_per_window(tmp_path):
+    """A window in which no fictitious mass acted records no force error (WindowRecord's row
+    leaves it out): the results file writes NaN there, so /coupling/fictitious_force_error
+    stays aligned with /coupling/time (before: it was shorter and shifted, found on the light
+    plate with fictitious_wet_pressure, whose wet set empties between wet windows)."""
+    import h5py
+
+    from mpsfem.results.results_file import ResultsFile
+
+    path = tmp_path / "r.h5"
+    rf = ResultsFile.create(path, "title = 'x'", [], {})
+    rf.append_coupling(0.1, 1, 1e-5)
+    rf.append_coupling(0.2, 3, 1e-5, fictitious_force_error=0.02)
+    rf.append_coupling(0.3, 1, 1e-5)
+    rf.append_coupling(0.4, 5, 1e-5, fictitious_force_error=0.04)
+    rf.close("finished")
+    with h5py.File(path, "r") as h5:
+        e = h5["coupling"]["fictitious_force_error"][:]
+        assert h5["coupling"]["time"].shape == e.shape == (4,)
+        assert np.isnan(e[[0, 2]]).all() and e[1] == 0.02 and e[3] == 0.04
