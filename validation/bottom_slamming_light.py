@@ -362,7 +362,7 @@ def wet_split(path: Path) -> dict:
     return out
 
 
-def plot(paths: list[Path], out: Path) -> None:
+def plot(paths: list[Path], out: Path, xlim: tuple[float, float] = (-0.4, 0.8)) -> None:
     """Uplift (11 ms running mean, every sample light) and mid-span displacement against
     t - t_c of every results file, one colour each."""
     import matplotlib
@@ -380,6 +380,8 @@ def plot(paths: list[Path], out: Path) -> None:
         label += f", force tol. {r['ft']}" if r["ft"] else ", old code"
         if r["pf"]:
             label = label.replace("M_f", "potential-flow M_f")
+        if r["wp"]:
+            label += f", wet > {float(r['wp']):g} Pa"
         with h5py.File(path, "r") as h5:
             t, f = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:, 1]
             td, u = h5["probes"]["plate_mid"]["time"][:], h5["probes"]["plate_mid"]["value"][:, 1]
@@ -391,7 +393,7 @@ def plot(paths: list[Path], out: Path) -> None:
     ax_f.set_ylim(-30.0, 80.0)  # a diverging window's spike would hide the rest
     ax_d.set_ylabel("mid-span uy (mm)")
     ax_d.set_xlabel("t - t_c (s)")
-    ax_f.set_xlim(-0.4, 0.8)
+    ax_f.set_xlim(*xlim)
     for ax in (ax_f, ax_d):
         ax.grid(alpha=0.3)
         ax.axhline(0.0, color="0.6", lw=0.4)
@@ -441,9 +443,12 @@ def report() -> int:
     rest = [p for p in paths if not _shaped_study(p)]
     old = [p for p in rest if not NAME.search(p.name)["ft"]]
     new = [p for p in rest if NAME.search(p.name)["ft"]]
-    for group, fig in ((old, FIGURE), (new, FIGURE_FORCE), (shaped, FIGURE_SHAPED)):
+    for group, fig in ((old, FIGURE), (new, FIGURE_FORCE)):
         if group:
             plot(group, fig)
+    shaped = [p for p in shaped if float(NAME.search(p.name)["end"] or 0.0) != 1.55]  # no bases
+    if shaped:
+        plot(shaped, FIGURE_SHAPED, xlim=(-0.35, -0.1))
     keys = ("l0", "d_over_h", "mf_factor", "rtol", "relative_to", "max_iterations", "force_tolerance", "status", "t_end_s", "it_per_window_mean",
             "it_per_window_max", "unconverged_windows", "peak_uplift", "peak_uplift_smooth",
             "mf_raw", "mf_smooth", "mid_disp_max_mm", "wall_time_s")  # fmt: skip
