@@ -448,7 +448,8 @@ def report() -> int:
             plot(group, fig)
     shaped = [p for p in shaped if float(NAME.search(p.name)["end"] or 0.0) != 1.55]  # no bases
     if shaped:
-        plot(shaped, FIGURE_SHAPED, xlim=(-0.35, -0.1))
+        last = max(float(NAME.search(p.name)["end"] or 1.85) for p in shaped)
+        plot(shaped, FIGURE_SHAPED, xlim=(-0.35, last - Case(0.3, 0.06).crest_time + 0.01))
     keys = ("l0", "d_over_h", "mf_factor", "rtol", "relative_to", "max_iterations", "force_tolerance", "status", "t_end_s", "it_per_window_mean",
             "it_per_window_max", "unconverged_windows", "peak_uplift", "peak_uplift_smooth",
             "mf_raw", "mf_smooth", "mid_disp_max_mm", "wall_time_s")  # fmt: skip
