@@ -53,6 +53,16 @@ CSV = RESULTS_DIR / "bottom_slamming_light.csv"
 FIGURE = Path(__file__).resolve().parents[1] / "docs" / "figures" / "bottom_slamming_light.png"
 #: the runs with the force-error criterion and the wetted-node M_f (task H1)
 FIGURE_FORCE = FIGURE.with_name("bottom_slamming_light_force.png")
+#: the runs of the shaped (potential-flow) M_f study and its lumped comparison (task H1, part 2:
+#: files with "_pf", or branched at / ending at 1.55 / 1.85 s)
+FIGURE_SHAPED = FIGURE.with_name("bottom_slamming_light_shaped.png")
+
+
+def _shaped_study(path: Path) -> bool:
+    m = NAME.search(path.name)
+    return bool(m["pf"]) or (m["end"] is not None and float(m["end"]) in (1.55, 1.85))
+
+
 AREA = 2.5e-5  # m^2, thesis Tables 5-3, 5-7
 SECOND_MOMENT = 1e-9  # m^4, thesis Tables 5-3, 5-7 read as 1e-9 (docs/validation.md item 3)
 MEMBER_DENSITY = 1040.0  # kg/m^3, thesis Tables 5-3, 5-7
@@ -114,12 +124,21 @@ def light_overrides(
     max_iterations: int = 30,
     force_tolerance: str | None = None,
     end_time: float | None = None,
+    model: str = "lumped",
+    wet_pressure: float = 0.0,
 ) -> list[str]:
     """The light section, the fictitious mass (``mf_factor`` x the estimate), Aitken and the
     convergence measure (rtol relative to the whole displacement or to the window's motion);
     ``force_tolerance`` (a number or "off"), coupling.convergence.fictitious_force_tolerance
-    (None: the schema's default); ``end_time`` (s), run.end_time (None: the case's)."""
+    (None: the schema's default); ``end_time`` (s), run.end_time (None: the case's); ``model``
+    the member's fictitious_mass_model ("potential_flow": ``mf_factor`` x the wetted patch's
+    potential-flow added-mass operator, task H1 of issue 21)."""
     extra = []
+    if model != "lumped":
+        extra.append(f'structure.members.0.fictitious_mass_model="{model}"')
+    if wet_pressure > 0.0:
+        extra.append(f"structure.members.0.fictitious_wet_pressure={float(wet_pressure)!r}")
+    mf = mf_factor if model == "potential_flow" else mf_factor * ADDED_MASS_ESTIMATE
     if force_tolerance is not None:
         ft = force_tolerance if force_tolerance == "off" else float(force_tolerance)
         extra.append(f"coupling.convergence.fictitious_force_tolerance={ft!r}".replace("'", '"'))
@@ -128,7 +147,7 @@ def light_overrides(
     return extra + [
         f"structure.members.0.area={AREA!r}",
         f"structure.members.0.second_moment={SECOND_MOMENT!r}",
-        f"structure.members.0.fictitious_mass={mf_factor * ADDED_MASS_ESTIMATE!r}",
+        f"structure.members.0.fictitious_mass={mf!r}",
         'coupling.acceleration.kind="aitken"',
         f"coupling.convergence.relative_tolerance={rtol!r}",
         f'coupling.convergence.relative_to="{relative_to}"',
@@ -145,12 +164,19 @@ def run_path(
     max_iterations: int = 30,
     force_tolerance: str | None = None,
     end_time: float | None = None,
+    model: str = "lumped",
+    wet_pressure: float = 0.0,
 ) -> Path:
     """The results file of a run. Names without ``_ft``: runs of the code before the
-    force-error criterion and the wetted-node M_f (issue 21, task H1)."""
+    force-error criterion and the wetted-node M_f (issue 21, task H1); with ``_pf``: the
+    potential-flow M_f (``mf`` its factor, not a multiple of the estimate)."""
     wm = "wm" if relative_to == "window_motion" else ""
     if max_iterations != 30:  # the scenario's
         wm += f"it{max_iterations}"
+    if model == "potential_flow":
+        wm += "_pf"
+    if wet_pressure > 0.0:
+        wm += f"_wp{wet_pressure:g}"
     if force_tolerance is not None:
         wm += f"_ft{force_tolerance if force_tolerance == 'off' else f'{float(force_tolerance):g}'}"
     if end_time is not None:
@@ -162,7 +188,7 @@ def run_path(
 
 NAME = re.compile(
     r"bottom_slamming_light_(?P<l0>[0-9.e-]+)_mf(?P<mf>[0-9.e-]+)_rtol(?P<rtol>[0-9.e-]+)(?P<wm>(wm)?)(?:it(?P<maxit>[0-9]+))?"
-    r"(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?_"
+    r"(?P<pf>_pf)?(?:_wp(?P<wp>[0-9.e-]+))?(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?_"
     r"AH(?P<a>[0-9.]+)_DH(?P<d>[0-9.]+)\.h5$"
 )
 
@@ -176,7 +202,7 @@ class LightResult:
     a_over_h: float
     d_over_h: float
     mf_factor: float  # fictitious mass / ADDED_MASS_ESTIMATE
-    fictitious_mass: float  # kg/m^2
+    fictitious_mass: float  # kg/m^2 (lumped); NaN for the potential-flow operator
     rtol: float
     relative_to: str  # the convergence measure: "displacement" or "window_motion"
     max_iterations: int  # per window (the scenario: 30)
@@ -209,6 +235,15 @@ class LightResult:
     steps: int
     wall_time_s: float
     results_file: str = ""  # its name (the row's key when the CSV is merged)
+    fictitious_mass_model: str = "lumped"  # "potential_flow": mf_factor x the operator
+    wet_pressure_pa: float = 0.0  # structure.members.0.fictitious_wet_pressure
+    # windows ending from WET_FROM on: count, iterations mean, unconverged, and the accepted
+    # windows' fictitious force error / load scale (median, 90 %)
+    wet_windows: int = 0
+    wet_it_mean: float = math.nan
+    wet_unconverged: int = 0
+    wet_force_error_median: float = math.nan
+    wet_force_error_p90: float = math.nan
 
 
 #: the rigid runs MF divides by: bottom_slamming_<RIGID_L0>.csv (there are none at H/20; the
@@ -244,6 +279,8 @@ def analyse_light(path: Path) -> LightResult:
     case = Case(base.a_over_h, base.d_over_h)
     rigid, rigid_s = rigid_reference(case)
     mf = float(m["mf"])
+    pf = bool(m["pf"])
+    wet = wet_split(path)
     last = td >= td[-1] - 0.1
     velocity = (uy[last][-1] - uy[last][0]) / max(td[last][-1] - td[last][0], 1e-12)
     return LightResult(
@@ -252,7 +289,7 @@ def analyse_light(path: Path) -> LightResult:
         a_over_h=base.a_over_h,
         d_over_h=base.d_over_h,
         mf_factor=mf,
-        fictitious_mass=mf * ADDED_MASS_ESTIMATE,
+        fictitious_mass=math.nan if pf else mf * ADDED_MASS_ESTIMATE,
         rtol=float(m["rtol"]),
         relative_to="window_motion" if m["wm"] else "displacement",
         max_iterations=int(m["maxit"] or 30),
@@ -283,10 +320,49 @@ def analyse_light(path: Path) -> LightResult:
         steps=base.steps,
         wall_time_s=base.wall_time_s,
         results_file=path.name,
+        fictitious_mass_model="potential_flow" if pf else "lumped",
+        wet_pressure_pa=float(m["wp"] or 0.0),
+        **wet,
     )
 
 
-def plot(paths: list[Path], out: Path) -> None:
+#: s: the first wet window's end at H/20 (dry, 1 iteration per window, before: the page's
+#: "wet windows (1.61-2.1 s)")
+WET_FROM = 1.61
+
+
+def wet_split(path: Path) -> dict:
+    """Windows ending at or after WET_FROM: count, iterations mean, unconverged, and the
+    fictitious force error / load scale of the accepted ones (median, 90th percentile)."""
+    with h5py.File(path, "r") as h5:
+        if "coupling" not in h5:
+            return {}
+        c = h5["coupling"]
+        t = c["time"][:]
+        its, conv = c["iterations"][:], c["converged"][:]
+        ferr = c["fictitious_force_error"][:] if "fictitious_force_error" in c else None
+    wet = t >= WET_FROM - 1e-9
+    if not wet.any():
+        return {}
+    out = {
+        "wet_windows": int(wet.sum()),
+        "wet_it_mean": float(its[wet].mean()),
+        "wet_unconverged": int(np.count_nonzero(conv[wet] == 0)),
+    }
+    if ferr is not None and ferr.size != t.size:
+        # written before results_file padded a window without a force error with NaN: the
+        # column is shorter than /coupling/time and cannot be aligned with it
+        ferr = None
+    if ferr is not None:
+        e = ferr[wet]
+        e = e[np.isfinite(e)]
+        if e.size:
+            out["wet_force_error_median"] = float(np.median(e))
+            out["wet_force_error_p90"] = float(np.percentile(e, 90))
+    return out
+
+
+def plot(paths: list[Path], out: Path, xlim: tuple[float, float] = (-0.4, 0.8)) -> None:
     """Uplift (11 ms running mean, every sample light) and mid-span displacement against
     t - t_c of every results file, one colour each."""
     import matplotlib
@@ -302,6 +378,10 @@ def plot(paths: list[Path], out: Path) -> None:
         if r["maxit"]:
             label += f", {r['maxit']} it."
         label += f", force tol. {r['ft']}" if r["ft"] else ", old code"
+        if r["pf"]:
+            label = label.replace("M_f", "potential-flow M_f")
+        if r["wp"]:
+            label += f", wet > {float(r['wp']):g} Pa"
         with h5py.File(path, "r") as h5:
             t, f = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:, 1]
             td, u = h5["probes"]["plate_mid"]["time"][:], h5["probes"]["plate_mid"]["value"][:, 1]
@@ -313,7 +393,7 @@ def plot(paths: list[Path], out: Path) -> None:
     ax_f.set_ylim(-30.0, 80.0)  # a diverging window's spike would hide the rest
     ax_d.set_ylabel("mid-span uy (mm)")
     ax_d.set_xlabel("t - t_c (s)")
-    ax_f.set_xlim(-0.4, 0.8)
+    ax_f.set_xlim(*xlim)
     for ax in (ax_f, ax_d):
         ax.grid(alpha=0.3)
         ax.axhline(0.0, color="0.6", lw=0.4)
@@ -347,6 +427,8 @@ def report() -> int:
     kept = [r for r in (read_csv(CSV) if CSV.is_file() else []) if _row_file(r) not in found]
     for r in kept:
         r.setdefault("force_tolerance", "none")
+        r.setdefault("fictitious_mass_model", "lumped")
+        r.setdefault("wet_pressure_pa", 0.0)
         r["results_file"] = _row_file(r)
     merged = [asdict(r) for r in rows] + kept
     merged.sort(key=lambda r: (-float(r["l0"]), float(r["a_over_h"]), float(r["d_over_h"]),
@@ -357,11 +439,17 @@ def report() -> int:
         columns=list(LightResult.__dataclass_fields__),
         comment="validation/bottom_slamming_light.py: the light plate with the fictitious mass",
     )
-    old = [p for p in paths if not NAME.search(p.name)["ft"]]
-    new = [p for p in paths if NAME.search(p.name)["ft"]]
+    shaped = [p for p in paths if _shaped_study(p)]
+    rest = [p for p in paths if not _shaped_study(p)]
+    old = [p for p in rest if not NAME.search(p.name)["ft"]]
+    new = [p for p in rest if NAME.search(p.name)["ft"]]
     for group, fig in ((old, FIGURE), (new, FIGURE_FORCE)):
         if group:
             plot(group, fig)
+    shaped = [p for p in shaped if float(NAME.search(p.name)["end"] or 0.0) != 1.55]  # no bases
+    if shaped:
+        last = max(float(NAME.search(p.name)["end"] or 1.85) for p in shaped)
+        plot(shaped, FIGURE_SHAPED, xlim=(-0.35, last - Case(0.3, 0.06).crest_time + 0.01))
     keys = ("l0", "d_over_h", "mf_factor", "rtol", "relative_to", "max_iterations", "force_tolerance", "status", "t_end_s", "it_per_window_mean",
             "it_per_window_max", "unconverged_windows", "peak_uplift", "peak_uplift_smooth",
             "mf_raw", "mf_smooth", "mid_disp_max_mm", "wall_time_s")  # fmt: skip
@@ -428,6 +516,19 @@ def main(argv: list[str] | None = None) -> int:
         help="the force tolerance of the --branch-at base run (default: the first "
         "--force-tolerance); its dry part takes one iteration per window whatever it is",
     )
+    ap.add_argument(
+        "--mf-model",
+        default="lumped",
+        choices=("lumped", "potential_flow"),
+        help="structure.members.0.fictitious_mass_model (default lumped); potential_flow: "
+        "--mf is the factor on the wetted patch's potential-flow operator",
+    )
+    ap.add_argument(
+        "--wet-pressure",
+        type=float,
+        default=0.0,
+        help="structure.members.0.fictitious_wet_pressure, Pa (default 0: any nonzero load)",
+    )
     ap.add_argument("--added-mass", action="store_true", help="print the estimate and stop")
     case_runner.add_run_options(ap)
     args = ap.parse_args(argv)
@@ -463,19 +564,20 @@ def main(argv: list[str] | None = None) -> int:
             for rtol in rtols:
                 for ft in fts:
                     for f in factors:
-                        out = run_path(args.l0, case, f, rtol, rel, its, ft, args.end_time)
+                        mm = args.mf_model
+                        wp = args.wet_pressure
+                        out = run_path(args.l0, case, f, rtol, rel, its, ft, args.end_time, mm, wp)
                         overrides = case_overrides("elastic", case, spacing) + light_overrides(
-                            f, rtol, rel, its, ft, args.end_time
+                            f, rtol, rel, its, ft, args.end_time, mm, wp
                         )
                         tag = f"[light {case.label()} mf {f:g} rtol {rtol:g} ft {ft}]"
                         if args.branch_at is not None and not out.exists():
                             ft0 = args.base_force_tolerance or fts[0]
-                            base = run_path(
-                                args.l0, case, f, rtols[0], rel, its, ft0, args.branch_at
-                            )
+                            at = args.branch_at
+                            base = run_path(args.l0, case, f, rtols[0], rel, its, ft0, at, mm, wp)
                             base_overrides = case_overrides(
                                 "elastic", case, spacing
-                            ) + light_overrides(f, rtols[0], rel, its, ft0, args.branch_at)
+                            ) + light_overrides(f, rtols[0], rel, its, ft0, at, mm, wp)
                             base_overrides.append(f"output.checkpoint_interval={args.branch_at!r}")
                             branch(base, base_overrides, out, overrides, args, tag)
                             continue

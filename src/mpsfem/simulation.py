@@ -453,7 +453,9 @@ def serve_structure_role(loaded: LoadedScenario, config, log: Callable[[str], No
     from mpsfem.structure_fem.participant import StructureParticipant
 
     sc = loaded.scenario
-    structure = StructureParticipant(sc.structure, base_dir=loaded.path.parent)
+    structure = StructureParticipant(
+        sc.structure, base_dir=loaded.path.parent, fluid_density=sc.fluid.density
+    )
     try:
         n = serve_structure(structure, config)
     except CouplingError as exc:
@@ -509,7 +511,9 @@ def run_coupled(
     if kind == "inproc":
         from mpsfem.structure_fem.participant import StructureParticipant
 
-        structure = StructureParticipant(sc.structure, base_dir=loaded.path.parent)
+        structure = StructureParticipant(
+            sc.structure, base_dir=loaded.path.parent, fluid_density=sc.fluid.density
+        )
     else:
         if kind == "zenoh" and participant is None:
             child = spawn_structure(child_argv or [], module="mpsfem.cli")

@@ -144,3 +144,21 @@ def test_keys_are_validated():
         ScenarioError, match=r"fictitious_force_tolerance = 2.0: .*a number in \(0, 1\) or \"off\""
     ):
         load_scenario(PLATE_TOML, ["coupling.convergence.fictitious_force_tolerance=2.0"])
+
+
+def test_wet_pressure_threshold_leaves_noise_loaded_nodes_dry():
+    """fictitious_wet_pressure = 1 Pa: nodes 4, 5 at 30 Pa are wet (with one element around),
+    node 9 at 1e-3 Pa (an MPS member just above the surface) is not; at the default 0 every
+    loaded node is."""
+    cells = [np.c_[np.arange(10), np.arange(1, 11)]]
+    area = np.full(11, 0.025)
+    area[[0, -1]] = 0.0125
+    f = np.zeros((11, 2))
+    f[[4, 5], 1] = 30.0 * 0.025
+    f[9, 1] = 1e-3 * 0.025
+    assert np.flatnonzero(wet_nodes([f], cells, 11, threshold=1.0 * area)).tolist() == [3, 4, 5, 6]
+    assert np.flatnonzero(wet_nodes([f], cells, 11)).tolist() == [3, 4, 5, 6, 8, 9, 10]
+    st = beam(MASS, fictitious_wet_pressure=1.0)
+    rng = np.random.default_rng(0)
+    window(st, [f, f], lambda r: np.zeros((11, 2)), rng)
+    assert np.flatnonzero(st.fictitious_nodes).tolist() == [3, 4, 5, 6]

@@ -345,6 +345,12 @@ class ResultsFile:
                 if g["time"].shape[0] > 1:  # a late key: pad earlier windows with NaN
                     _append_rows(ds, np.full(g["time"].shape[0] - 1, np.nan))
             _append_rows(g[key], np.array([val], dtype=np.float64))
+        # a key this window lacks (e.g. fictitious_force_error of a window in which no
+        # fictitious mass acted): NaN, so every column stays one row per window
+        n = g["time"].shape[0]
+        for key in g:
+            if g[key].shape[0] == n - 1 and g[key].dtype.kind == "f":
+                _append_rows(g[key], np.array([np.nan], dtype=g[key].dtype))
 
     # ------------------------------------------------------------------ momentum budget
     def add_momentum_budget(

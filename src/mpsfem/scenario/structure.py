@@ -218,7 +218,9 @@ class _MemberCommon(Section):
             "C v^k + K u^k = F^k + M_f a^{k-1}, M_f lumped on its nodes along its normal; at "
             "convergence the original equation holds. Estimate: the added mass of the member's "
             "first wet mode (docs/coupler.md, 'Fictitious mass'). Needs coupling.scheme = "
-            '"implicit" and coupling.transport.kind = "inproc".'
+            '"implicit" and coupling.transport.kind = "inproc". With fictitious_mass_model = '
+            '"potential_flow" a dimensionless factor (>= 0; 1: the operator itself) on the '
+            "potential-flow added-mass operator instead of kg/m^2."
         ),
     )
     fictitious_mass_nodes: Literal["wet", "all"] = Field(
@@ -228,6 +230,29 @@ class _MemberCommon(Section):
             "window's start or in its first iterate plus the nodes of every element touching "
             "one, decided once per coupling window (a dry node steps exactly as without it); "
             '"all": every node of the member (the behaviour before this key).'
+        ),
+    )
+    fictitious_wet_pressure: float = Field(
+        0.0,
+        ge=0,
+        description=(
+            'With fictitious_mass_nodes = "wet": the interface pressure in Pa (>= 0) a node\'s '
+            "load (over its tributary length or area) must exceed for the node to count as wet; "
+            "0 (default): any nonzero load (the behaviour before this key). A fluid that puts "
+            "noise-level loads on a member just above its surface (MPS: 1e-4 Pa) otherwise "
+            "marks the whole member wet."
+        ),
+    )
+    fictitious_mass_model: Literal["lumped", "potential_flow"] = Field(
+        "lumped",
+        description=(
+            'Shape of the fictitious mass: "lumped", m_f A_i n_i n_i^T on each node (diagonal; '
+            'fictitious_mass in kg/m^2); "potential_flow" (beams, 2D only), on each maximal run '
+            "of consecutive carrying nodes the impact (high-frequency) potential-flow added-mass "
+            "operator of that straight wetted patch, fluid on one face, phi = 0 on the free "
+            "surface continuing its line, infinite depth, density fluid.density, times "
+            "fictitious_mass (a factor): a full matrix on the normal translations whose modes "
+            "carry their own added mass (docs/coupler.md, 'Fictitious mass')."
         ),
     )
     motion: MemberMotion = Field(
@@ -439,6 +464,13 @@ class PlateMember(_MemberCommon):
 
     @model_validator(mode="after")
     def _geometry(self) -> PlateMember:
+        if self.fictitious_mass_model != "lumped":
+            raise InvalidValue(
+                "fictitious_mass_model",
+                'a plate (3D) takes only the "lumped" fictitious mass; "potential_flow" is the '
+                "2D strip operator of a beam's wetted patch",
+                self.fictitious_mass_model,
+            )
         if self.material.poisson_ratio is None:
             raise InvalidValue("material.poisson_ratio", "a plate needs `material.poisson_ratio`")
         if self.kinematics == "von_karman" and (self.element != "bfs" or self.shape != "rectangle"):

@@ -35,6 +35,17 @@ m^2 of plate, per m of beam and m of depth in 2D), A_i its tributary length (bea
 adjacent element) or area (plates: an element's area shared equally by its vertices), n_i the
 unit normal. Over the free dofs M_f = T^T B T (T the nodal translation map of
 :class:`~.system.StructureSystem`, B the block-diagonal nodal masses).
+
+``fictitious_mass_model = "potential_flow"`` (beams, 2D) shapes M_f like the added mass it
+stands in for: on every maximal run of consecutive carrying nodes of a member (each wetted
+patch) B holds c M_a,ij n_i n_j^T, M_a the impact potential-flow added-mass operator of that
+straight patch (:func:`.added_mass_potential.patch_added_mass`: fluid on one face, phi = 0 on
+the free surface continuing its line, infinite depth, the fluid's density) and c the member's
+``fictitious_mass`` read as a factor. Why: one mode's iteration error is multiplied by
+(m_f - m_a) / (m_s + m_f) per iterate (docs/coupler.md, "Fictitious mass"), and a lumped m_f
+matches the added mass of one mode only: the patch's added mass falls with the mode's
+wavenumber (about rho / k), so under a lumped m_f sized for the first mode the short modes
+contract by a factor near 1. With M_f = M_a every mode's factor is (about) 0.
 """
 
 from __future__ import annotations
@@ -42,7 +53,15 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["IterationHistory", "fictitious_mass_matrix", "tributary_measure", "wet_nodes"]
+from .added_mass_potential import patch_added_mass, patch_coordinates
+
+__all__ = [
+    "IterationHistory",
+    "fictitious_mass_matrix",
+    "node_runs",
+    "tributary_measure",
+    "wet_nodes",
+]
 
 
 def tributary_measure(nodes: np.ndarray, cells: np.ndarray) -> np.ndarray:
@@ -63,14 +82,23 @@ def tributary_measure(nodes: np.ndarray, cells: np.ndarray) -> np.ndarray:
 
 
 def wet_nodes(
-    loads: list[np.ndarray], cells: list[np.ndarray], n_points: int, margin: int = 1
+    loads: list[np.ndarray],
+    cells: list[np.ndarray],
+    n_points: int,
+    margin: int = 1,
+    threshold: np.ndarray | None = None,
 ) -> np.ndarray:
     """Nodes (bool, (n_points,)) on which any of the nodal loads (each (n_points, dim), N) is
-    nonzero, widened `margin` times by the nodes of every cell (rows of global node indices)
-    holding one of them."""
+    nonzero (with ``threshold``, (n_points,) in N: whose magnitude exceeds it), widened
+    `margin` times by the nodes of every cell (rows of global node indices) holding one of
+    them."""
     wet = np.zeros(n_points, dtype=bool)
     for f in loads:
-        wet |= np.any(np.asarray(f) != 0.0, axis=1)
+        f = np.asarray(f)
+        if threshold is None:
+            wet |= np.any(f != 0.0, axis=1)
+        else:
+            wet |= np.linalg.norm(f, axis=1) > threshold
     for _ in range(int(margin)):
         grown = wet.copy()
         for c in cells:
@@ -80,24 +108,54 @@ def wet_nodes(
     return wet
 
 
+def node_runs(points: np.ndarray, carrying: np.ndarray) -> list[np.ndarray]:
+    """Maximal runs (each an index array, in order along the member, >= 2 nodes) of
+    consecutive carrying nodes of a straight member whose nodes are ``points`` ((n, dim), m),
+    ``carrying`` (bool, (n,)). Nodes are ordered by their position along the end-to-end
+    chord; a lone carrying node (no patch length) is left out."""
+    p = np.asarray(points, dtype=float)
+    order = np.argsort((p - p[0]) @ (p[np.argmax(np.linalg.norm(p - p[0], axis=1))] - p[0]))
+    on = np.asarray(carrying, dtype=bool)[order]
+    runs, start = [], None
+    for k in range(on.size + 1):
+        if k < on.size and on[k]:
+            start = k if start is None else start
+        elif start is not None:
+            if k - start >= 2:
+                runs.append(order[start:k])
+            start = None
+    return runs
+
+
 def fictitious_mass_matrix(
-    system, masses: list[float], nodes: np.ndarray | None = None
+    system,
+    masses: list[float],
+    nodes: np.ndarray | None = None,
+    models: list[str] | None = None,
+    density: float | None = None,
 ) -> sp.csr_matrix | None:
     """B, the nodal fictitious masses (kg; kg/m in 2D) as an (n_points dim)^2 matrix of
     m_f A_i n_i n_i^T blocks, with ``masses[k]`` (kg/m^2) on member k of `system` (a
     :class:`~.system.StructureSystem`); M_f = T^T B T over the free dofs. ``nodes`` (bool,
     (n_points,)): only these nodes carry it (default: all). None when no node carries any
-    (the method off)."""
+    (the method off). ``models[k]`` (default all "lumped"): "potential_flow" puts
+    masses[k] x the potential-flow added-mass operator of every run of carrying nodes
+    (:func:`node_runs`) of member k there, c M_a,ij n_i n_j^T blocks, for a fluid of
+    ``density`` (kg/m^3, needed then)."""
     if not any(m > 0 for m in masses):
         return None
     if nodes is not None and not np.asarray(nodes).any():
         return None
     dim = system.dim
+    models = ["lumped"] * len(masses) if models is None else list(models)
     rows, cols, vals = [], [], []
-    for mf, model in zip(masses, system.models, strict=True):
+    for mf, model, kind in zip(masses, system.models, models, strict=True):
         if mf <= 0:
             continue
         off = system.node_slices[model.name].start
+        if kind == "potential_flow":
+            _potential_flow_blocks(model, off, mf, nodes, density, dim, rows, cols, vals)
+            continue
         weight = mf * tributary_measure(model.nodes, model.connectivity)
         nrm = np.asarray(model.normals, dtype=float)
         nrm = nrm / np.linalg.norm(nrm, axis=1)[:, None]
@@ -118,6 +176,37 @@ def fictitious_mass_matrix(
     )
     B.eliminate_zeros()
     return B
+
+
+def _potential_flow_blocks(model, off, factor, nodes, density, dim, rows, cols, vals) -> None:
+    """Append (rows, cols, vals) of factor M_a,ij n_i n_j^T over every run of carrying nodes
+    of ``model`` (its nodes from ``off`` in the system's numbering)."""
+    if density is None or not density > 0.0:
+        raise ValueError(
+            f"member {model.name!r}: fictitious_mass_model = 'potential_flow' needs the fluid "
+            f"density (kg/m^3, > 0; fluid.density of the scenario), got {density!r}"
+        )
+    if dim != 2:
+        raise ValueError(
+            f"member {model.name!r}: fictitious_mass_model = 'potential_flow' is the 2D strip "
+            f"operator; this is a {dim}D member (use 'lumped')"
+        )
+    carrying = (
+        np.ones(model.n_nodes, dtype=bool)
+        if nodes is None
+        else np.asarray(nodes, dtype=bool)[off + np.arange(model.n_nodes)]
+    )
+    pts = np.asarray(model.nodes, dtype=float)
+    nrm = np.asarray(model.normals, dtype=float)
+    nrm = nrm / np.linalg.norm(nrm, axis=1)[:, None]
+    for run in node_runs(pts, carrying):
+        Ma = factor * patch_added_mass(patch_coordinates(pts[run]), density)
+        gi = off + run
+        for a in range(dim):
+            for b in range(dim):
+                rows.append(np.repeat(gi * dim + a, run.size))
+                cols.append(np.tile(gi * dim + b, run.size))
+                vals.append((Ma * np.outer(nrm[run, a], nrm[run, b])).reshape(-1))
 
 
 def shift_factor(n: int, beta: float, gamma: float) -> float:

@@ -57,6 +57,10 @@ decided at the window's first step (:func:`.fictitious_mass.wet_nodes`) from the
 at the checkpoint and the first forces written after it, and kept for the window's iterations;
 the fictitious factorisation is redone only when that set changes
 (``fictitious_set_changes``). A window with no node in it steps plainly.
+Members with ``fictitious_mass_model = "potential_flow"`` carry, on each run of consecutive
+carrying nodes, ``fictitious_mass`` x the wetted patch's potential-flow added-mass operator
+(a dense block, :mod:`.added_mass_potential`) for a fluid of ``fluid_density`` (kg/m^3, the
+scenario's fluid.density, passed by the caller: structure_fem imports no fluid code).
 :meth:`fictitious_force_error` reports the force the fictitious mass left in the member's
 equation in the last iteration (the coupler's ``ForceErrorCriterion``).
 """
@@ -162,6 +166,7 @@ class StructureParticipant:
         prescribed_loads: bool = False,
         base_dir: str | Path | None = None,
         probes=(),
+        fluid_density: float | None = None,
     ) -> None:
         section = getattr(structure, "structure", structure)
         if section is None:
@@ -179,7 +184,23 @@ class StructureParticipant:
         # fictitious added mass (members' `fictitious_mass`; None: off) and the accelerations
         # of the previous coupling iteration, per sub-step of the window (:mod:`.fictitious_mass`)
         self._fm_masses = [cfg.fictitious_mass for cfg in section.members]
-        B = fictitious_mass_matrix(sysm, self._fm_masses)
+        self._fm_models = [cfg.fictitious_mass_model for cfg in section.members]
+        self._fm_density = fluid_density
+        shaped = [
+            i
+            for i, cfg in enumerate(section.members)
+            if cfg.fictitious_mass > 0 and cfg.fictitious_mass_model == "potential_flow"
+        ]
+        if shaped and fluid_density is None:
+            if not prescribed_loads:
+                raise ValueError(
+                    f"structure.members[{shaped[0]}].fictitious_mass_model = 'potential_flow' "
+                    "needs the fluid density (StructureParticipant(fluid_density=...), the "
+                    "scenario's fluid.density); none was given"
+                )
+            # standalone (prescribed loads): no coupling window, the fictitious mass never acts
+            self._fm_masses = [0.0] * len(section.members)
+        B = fictitious_mass_matrix(sysm, self._fm_masses, None, self._fm_models, fluid_density)
         self.fictitious = (
             None if B is None else IterationHistory(B, sysm.T, beta=t.beta, gamma=t.gamma)
         )
@@ -195,6 +216,15 @@ class StructureParticipant:
         self._fm_measure = np.concatenate(
             [tributary_measure(m.nodes, m.connectivity) for m in sysm.models]
         )
+        # members' fictitious_wet_pressure (Pa) x each node's tributary measure: the nodal load
+        # (N) a node must exceed to count as wet; None: every member at 0 (any nonzero load)
+        wet_p = np.concatenate(
+            [
+                np.full(m.n_nodes, cfg.fictitious_wet_pressure)
+                for cfg, m in zip(section.members, sysm.models, strict=True)
+            ]
+        )
+        self._fm_threshold = wet_p * self._fm_measure if wet_p.any() else None
         self._fm_nodes = self._fm_always.copy()
         self._fm_pending = False  # decide the wet set at the next step (a window started)
         self._fm_load_start = np.zeros((sysm.n_points, self.dim))  # load at the checkpoint
@@ -282,7 +312,7 @@ class StructureParticipant:
         if self.fictitious is None:
             return None
         sysm = self.system
-        B = fictitious_mass_matrix(sysm, self._fm_masses, nodes)
+        B = fictitious_mass_matrix(sysm, self._fm_masses, nodes, self._fm_models, self._fm_density)
         self._fm_B = B
         Mf = None if B is None else (sysm.TT @ B @ sysm.T).tocsr()
         if Mf is not None:
@@ -303,7 +333,12 @@ class StructureParticipant:
         self._fm_pending = False
         if not self._fm_if_wet.any():
             return
-        wet = wet_nodes([self._fm_load_start, self._forces], self._fm_cells, self.system.n_points)
+        wet = wet_nodes(
+            [self._fm_load_start, self._forces],
+            self._fm_cells,
+            self.system.n_points,
+            threshold=self._fm_threshold,
+        )
         nodes = self._fm_always | (wet & self._fm_if_wet)
         if not np.array_equal(nodes, self._fm_nodes):
             self._install_fictitious_nodes(nodes)
