@@ -138,6 +138,8 @@ class FluidSolver:
         self.pos, self.vel, self.kind, self.normal = ps.pos, ps.vel, ps.kind, ps.normal
         self.n_fluid = ps.n_fluid
         self.contact_wet = ps.contact_wet  # polygon walls' pressure layers (wall_boundary.py)
+        #: fluid.pressure.buried_walls = "ghost": buried boundary particles stay ghosts
+        self.buried_wet = spec.pressure.buried_walls == "ghost"
         self.patches = ps.patches
         self._patch = {pt.name: pt for pt in self.patches}
         n = len(self.pos)
@@ -565,6 +567,7 @@ class FluidSolver:
                 near.indices,
                 self.re_n,
                 self.contact_wet,
+                self.buried_wet,
             )
         if self.surface_freeze is not None:  # implicit coupling: one set of flags per window
             self.surface_freeze.apply(self.free_surface)
@@ -782,7 +785,7 @@ class FluidSolver:
         if self.neumann:
             wall_boundary.mark_dry(
                 self.pos, self.kind, self.free_surface, self.dummy_src, nb.indptr, nb.indices,
-                self.re_n, self.contact_wet,
+                self.re_n, self.contact_wet, self.buried_wet,
             )  # fmt: skip
         operators.fill_reference_pressures(  # cmps reads them; the step's gradient fills them
             self.pos, self.p, self.kind, nb.indptr, nb.indices, self.re_grad, self.grad_form,

@@ -138,6 +138,18 @@ class PressureSection(Section):
         "piston_added_mass.py). Neumann wall model only; not with the higher-order source term "
         "or Laplacian, whose ghost parts follow gravity alone",
     )
+    buried_walls: Literal["dry", "ghost"] = Field(
+        "dry",
+        description="Neumann wall model: a wall or member particle that the free-surface "
+        "detector leaves unflagged but that has no fluid within the density radius (buried in "
+        "the solid, e.g. a side wall's layer below a floor in a corner, a member's foot in the "
+        "floor). 'dry' (the earlier model): it and its dummies are p = 0 neighbours of the "
+        "pressure equation, which drains a quarter of an accelerating floor's added-mass "
+        "pressure through the corners of the 1 m piston column and lets the fluid follow the "
+        "floor about a step late; 'ghost': they stay ghosts p_i + D_ij like the wall around "
+        "them (with wall_acceleration the piston's force is then in phase to 0.1 deg at the "
+        "step's midpoint; validation/piston_added_mass.py, docs/fluid.md)",
+    )
     dynamic_stabilization: float = Field(
         0.0,
         ge=0.0,
@@ -769,6 +781,13 @@ class FluidSection(Section):
                 f"'standard' (given {pr.wall_model!r}, {pr.source_term!r}, {pr.laplacian!r}): the "
                 "other models' wall terms do not carry the walls' acceleration",
                 True,
+            )
+        if pr.buried_walls != "dry" and pr.wall_model != "neumann":
+            raise InvalidValue(
+                "pressure.buried_walls",
+                f"needs wall_model = 'neumann' (given {pr.wall_model!r}): the pressure-layer "
+                "model's walls are unknowns, not ghosts",
+                pr.buried_walls,
             )
         if (  # MPS only: δ-SPH's pressure pairs are antisymmetric (seed eqs. 6, 12)
             self.method == "mps"
