@@ -43,6 +43,16 @@ def particle_volume(rho, mass, vol):
         vol[i] = mass / rho[i]
 
 
+@njit(cache=True, inline="always")
+def squared_distance(pos, i, j, dim):
+    """|r_i - r_j|^2, m^2, summed over the first ``dim`` axes in order."""
+    r2 = 0.0
+    for a in range(dim):
+        d = pos[i, a] - pos[j, a]
+        r2 += d * d
+    return r2
+
+
 @njit(cache=True, parallel=True)
 def wall_pressure(pos, rho, p, kind, indptr, indices, r2max, n_fluid, gravity, omega2, center,
                   wall_acc, h, norm, rho0, c0):  # fmt: skip
@@ -65,10 +75,7 @@ def wall_pressure(pos, rho, p, kind, indptr, indices, r2max, n_fluid, gravity, o
             j = indices[k]
             if j >= n_fluid:
                 break  # ascending rows: the fluid neighbours come first
-            r2 = 0.0
-            for a in range(dim):
-                d = pos[i, a] - pos[j, a]
-                r2 += d * d
+            r2 = squared_distance(pos, i, j, dim)
             if r2 >= r2max:
                 continue  # a candidate beyond the radius
             bdot = 0.0
@@ -147,10 +154,7 @@ def dry_walls(pos, rho, p, indptr, indices, r2max, n_fluid, mass, h, norm, rho0,
             j = indices[k]
             if j >= n_fluid:
                 break  # ascending rows: the fluid neighbours come first
-            r2 = 0.0
-            for a in range(dim):
-                d = pos[i, a] - pos[j, a]
-                r2 += d * d
+            r2 = squared_distance(pos, i, j, dim)
             if r2 >= r2max:
                 continue
             s += kernel_value(np.sqrt(r2), h, norm) * mass / rho[j]  # Shepard sum W_wf V_f
@@ -166,10 +170,7 @@ def dry_walls(pos, rho, p, indptr, indices, r2max, n_fluid, mass, h, norm, rho0,
                 continue
             if not pressure_layer[j - n_fluid] or wall_patch[j - n_fluid] != own:
                 continue
-            r2 = 0.0
-            for a in range(dim):
-                d = pos[i, a] - pos[j, a]
-                r2 += d * d
+            r2 = squared_distance(pos, i, j, dim)
             if r2 < r2_adjacent:
                 w = max(w, wet_own[j - n_fluid])
         wet[i - n_fluid] = w
@@ -187,10 +188,7 @@ def dry_walls(pos, rho, p, indptr, indices, r2max, n_fluid, mass, h, norm, rho0,
                 continue
             if not pressure_layer[j - n_fluid] or wall_patch[j - n_fluid] != own:
                 continue
-            r2 = 0.0
-            for a in range(dim):
-                d = pos[i, a] - pos[j, a]
-                r2 += d * d
+            r2 = squared_distance(pos, i, j, dim)
             if r2 >= r2max:
                 continue
             w = max(w, wet[j - n_fluid])
