@@ -126,14 +126,18 @@ def light_overrides(
     end_time: float | None = None,
     model: str = "lumped",
     wet_pressure: float = 0.0,
+    wet_update: str = "window",
 ) -> list[str]:
     """The light section, the fictitious mass (``mf_factor`` x the estimate), Aitken and the
     convergence measure (rtol relative to the whole displacement or to the window's motion);
     ``force_tolerance`` (a number or "off"), coupling.convergence.fictitious_force_tolerance
     (None: the schema's default); ``end_time`` (s), run.end_time (None: the case's); ``model``
     the member's fictitious_mass_model ("potential_flow": ``mf_factor`` x the wetted patch's
-    potential-flow added-mass operator, task H1 of issue 21)."""
+    potential-flow added-mass operator, task H1 of issue 21); ``wet_update`` the member's
+    fictitious_wet_update ("grow": the wet set grows inside a window, task H5)."""
     extra = []
+    if wet_update != "window":
+        extra.append(f'structure.members.0.fictitious_wet_update="{wet_update}"')
     if model != "lumped":
         extra.append(f'structure.members.0.fictitious_mass_model="{model}"')
     if wet_pressure > 0.0:
@@ -166,10 +170,12 @@ def run_path(
     end_time: float | None = None,
     model: str = "lumped",
     wet_pressure: float = 0.0,
+    wet_update: str = "window",
 ) -> Path:
     """The results file of a run. Names without ``_ft``: runs of the code before the
     force-error criterion and the wetted-node M_f (issue 21, task H1); with ``_pf``: the
-    potential-flow M_f (``mf`` its factor, not a multiple of the estimate)."""
+    potential-flow M_f (``mf`` its factor, not a multiple of the estimate); with ``_grow``: the
+    wet set grown inside windows (fictitious_wet_update = "grow", task H5)."""
     wm = "wm" if relative_to == "window_motion" else ""
     if max_iterations != 30:  # the scenario's
         wm += f"it{max_iterations}"
@@ -177,6 +183,8 @@ def run_path(
         wm += "_pf"
     if wet_pressure > 0.0:
         wm += f"_wp{wet_pressure:g}"
+    if wet_update != "window":
+        wm += f"_{wet_update}"
     if force_tolerance is not None:
         wm += f"_ft{force_tolerance if force_tolerance == 'off' else f'{float(force_tolerance):g}'}"
     if end_time is not None:
@@ -188,7 +196,7 @@ def run_path(
 
 NAME = re.compile(
     r"bottom_slamming_light_(?P<l0>[0-9.e-]+)_mf(?P<mf>[0-9.e-]+)_rtol(?P<rtol>[0-9.e-]+)(?P<wm>(wm)?)(?:it(?P<maxit>[0-9]+))?"
-    r"(?P<pf>_pf)?(?:_wp(?P<wp>[0-9.e-]+))?(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?_"
+    r"(?P<pf>_pf)?(?:_wp(?P<wp>[0-9.e-]+))?(?P<grow>_grow)?(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?_"
     r"AH(?P<a>[0-9.]+)_DH(?P<d>[0-9.]+)\.h5$"
 )
 
@@ -244,6 +252,11 @@ class LightResult:
     wet_unconverged: int = 0
     wet_force_error_median: float = math.nan
     wet_force_error_p90: float = math.nan
+    # structure.members.0.fictitious_wet_update, and the windows ending from WET_FROM on whose
+    # wet set grew inside them and the growths in all (/coupling/fictitious_set_growths)
+    wet_update: str = "window"
+    wet_windows_grown: int = 0
+    wet_set_growths: int = 0
 
 
 #: the rigid runs MF divides by: bottom_slamming_<RIGID_L0>.csv (there are none at H/20; the
@@ -322,6 +335,7 @@ def analyse_light(path: Path) -> LightResult:
         results_file=path.name,
         fictitious_mass_model="potential_flow" if pf else "lumped",
         wet_pressure_pa=float(m["wp"] or 0.0),
+        wet_update="grow" if m["grow"] else "window",
         **wet,
     )
 
@@ -341,6 +355,7 @@ def wet_split(path: Path) -> dict:
         t = c["time"][:]
         its, conv = c["iterations"][:], c["converged"][:]
         ferr = c["fictitious_force_error"][:] if "fictitious_force_error" in c else None
+        grown = c["fictitious_set_growths"][:] if "fictitious_set_growths" in c else None
     wet = t >= WET_FROM - 1e-9
     if not wet.any():
         return {}
@@ -349,6 +364,10 @@ def wet_split(path: Path) -> dict:
         "wet_it_mean": float(its[wet].mean()),
         "wet_unconverged": int(np.count_nonzero(conv[wet] == 0)),
     }
+    if grown is not None and grown.size == t.size:
+        g = np.nan_to_num(grown[wet])
+        out["wet_windows_grown"] = int(np.count_nonzero(g > 0))
+        out["wet_set_growths"] = int(g.sum())
     if ferr is not None and ferr.size != t.size:
         # written before results_file padded a window without a force error with NaN: the
         # column is shorter than /coupling/time and cannot be aligned with it
@@ -429,6 +448,9 @@ def report() -> int:
         r.setdefault("force_tolerance", "none")
         r.setdefault("fictitious_mass_model", "lumped")
         r.setdefault("wet_pressure_pa", 0.0)
+        r.setdefault("wet_update", "window")
+        r.setdefault("wet_windows_grown", 0)
+        r.setdefault("wet_set_growths", 0)
         r["results_file"] = _row_file(r)
     merged = [asdict(r) for r in rows] + kept
     merged.sort(key=lambda r: (-float(r["l0"]), float(r["a_over_h"]), float(r["d_over_h"]),
@@ -529,6 +551,13 @@ def main(argv: list[str] | None = None) -> int:
         default=0.0,
         help="structure.members.0.fictitious_wet_pressure, Pa (default 0: any nonzero load)",
     )
+    ap.add_argument(
+        "--wet-update",
+        default="window",
+        choices=("window", "grow"),
+        help="structure.members.0.fictitious_wet_update (default window); grow: the wet set "
+        "grows inside a window when a later iterate wets more nodes (file name _grow)",
+    )
     ap.add_argument("--added-mass", action="store_true", help="print the estimate and stop")
     case_runner.add_run_options(ap)
     args = ap.parse_args(argv)
@@ -565,10 +594,12 @@ def main(argv: list[str] | None = None) -> int:
                 for ft in fts:
                     for f in factors:
                         mm = args.mf_model
-                        wp = args.wet_pressure
-                        out = run_path(args.l0, case, f, rtol, rel, its, ft, args.end_time, mm, wp)
+                        wp, wu = args.wet_pressure, args.wet_update
+                        out = run_path(
+                            args.l0, case, f, rtol, rel, its, ft, args.end_time, mm, wp, wu
+                        )
                         overrides = case_overrides("elastic", case, spacing) + light_overrides(
-                            f, rtol, rel, its, ft, args.end_time, mm, wp
+                            f, rtol, rel, its, ft, args.end_time, mm, wp, wu
                         )
                         tag = f"[light {case.label()} mf {f:g} rtol {rtol:g} ft {ft}]"
                         if args.branch_at is not None and not out.exists():

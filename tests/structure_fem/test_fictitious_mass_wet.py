@@ -100,6 +100,58 @@ def test_wet_set_is_decided_once_per_window_and_refactorised_only_when_it_change
     assert st.integrator.fictitious_factorizations == count
 
 
+def test_grow_adds_the_nodes_a_later_iterate_wets_and_never_removes_any():
+    """fictitious_wet_update = "grow": the window of the test above (first iterate loads nodes
+    4, 5, the second node 9 only) ends with M_f on 3 .. 6 and 8 .. 10 (their free dofs), one
+    growth counted;
+    the next window starts from its own load (node 9: 8 .. 10) and a third iterate with no
+    load removes nothing. With "window" (the default) the first window keeps 3 .. 6."""
+    st = beam(MASS, fictitious_wet_update="grow")
+    f1, f2 = np.zeros((11, 2)), np.zeros((11, 2))
+    f1[[4, 5], 1] = 3.0
+    f2[9, 1] = 3.0
+    rng = np.random.default_rng(0)
+    window(st, [f1, f2], lambda r: np.zeros((11, 2)), rng)
+    assert np.flatnonzero(st.fictitious_nodes).tolist() == [3, 4, 5, 6, 8, 9, 10]
+    assert st.fictitious_set_growths() == 1
+    rows = np.flatnonzero(abs(st.integrator.Mf).sum(axis=1))
+    T = st.system.T.tocsr()
+    nodes = {int(c) // 2 for r in rows for c in T[:, r].nonzero()[0]}
+    assert nodes == {3, 4, 5, 6, 8, 9}  # node 10 is supported: no free y dof
+    window(st, [f2, f2, np.zeros((11, 2))], lambda r: np.zeros((11, 2)), rng)
+    assert np.flatnonzero(st.fictitious_nodes).tolist() == [8, 9, 10]
+    assert st.fictitious_set_growths() == 0
+    plain = beam(MASS)
+    window(plain, [f1, f2], lambda r: np.zeros((11, 2)), rng)
+    assert np.flatnonzero(plain.fictitious_nodes).tolist() == [3, 4, 5, 6]
+    assert plain.fictitious_set_growths() is None
+
+
+def test_a_grown_node_takes_the_previous_iterate_acceleration():
+    """The nodes added in the second iteration (9 and its neighbours) solve (M + M_f) a^2 +
+    C v^2 + K u^2 = F^2 + M_f a^1 with a^1 the acceleration of the first iteration, as the
+    nodes wet from the start: the member's residual is M_f (a^1 - a^2) over every dof, with
+    M_f the grown one, and nonzero on the added nodes."""
+    st = beam(MASS, fictitious_wet_update="grow")
+    f1, f2 = np.zeros((11, 2)), np.zeros((11, 2))
+    f1[[4, 5], 1] = 3.0
+    f2[[4, 5, 9], 1] = 3.0
+    st.checkpoint()
+    st.write("forces", f1)
+    st.advance(DT)
+    a1 = st.integrator.state.a.copy()
+    st.restore()
+    st.write("forces", f2)
+    st.advance(DT)
+    assert np.flatnonzero(st.fictitious_nodes).tolist() == [3, 4, 5, 6, 8, 9, 10]
+    s, sysm, Mf = st.integrator.state, st.system, st.integrator.Mf
+    r = sysm.M @ s.a + sysm.C @ s.v + sysm.K @ s.u - sysm.nodal_load(f2) - st.external_load(DT)
+    expected = Mf @ (a1 - s.a)
+    assert np.abs(r - expected).max() <= 1e-9 * np.abs(expected).max()
+    y9 = st.system.T.tocsr()[2 * 9 + 1].indices  # the dof of node 9's y translation
+    assert abs(expected[y9]).max() > 1e-3 * np.abs(expected).max()
+
+
 @pytest.mark.parametrize("nodes", ["wet", "all"])
 def test_reported_force_error_is_the_residual_of_the_true_equation(nodes):
     """After a step on an arbitrary iterate, fictitious_force_error's e is rms(M a + C v + K u -

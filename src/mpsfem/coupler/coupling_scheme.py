@@ -114,11 +114,16 @@ class WindowRecord:
     # fictitious force error / load of the accepted iterate (ForceErrorCriterion); NaN: no
     # fictitious mass acting
     force_error: float = float("nan")
+    # times the structure's fictitious-mass wet set grew inside the window (its fixed-point
+    # map changed; fictitious_wet_update = "grow"); NaN: a structure whose set cannot grow
+    set_growths: float = float("nan")
 
     def results_row(self) -> dict[str, float]:
         """Scalars for ``ResultsFile.append_coupling(time, iterations, residual, **extra)``
         (``fictitious_force_error`` only from a window with a fictitious mass acting)."""
         extra = {} if np.isnan(self.force_error) else {"fictitious_force_error": self.force_error}
+        if not np.isnan(self.set_growths):
+            extra["fictitious_set_growths"] = self.set_growths
         return extra | {
             "residual_abs": self.residual_abs,
             "converged": float(self.converged),
@@ -304,6 +309,9 @@ class CouplingScheme:
         force_error = (
             getattr(self.structure, "fictitious_force_error", None) if self.implicit else None
         )
+        # optional structure hook: how often its wet set (its fixed-point map) grew in the window
+        growths = getattr(self.structure, "fictitious_set_growths", None) if self.implicit else None
+        grown = float("nan")
         f_ratio = float("nan")
         f_scale = 0.0
         for k in range(1, max_it + 1):
@@ -354,6 +362,14 @@ class CouplingScheme:
                         f"completed iterate (retreat {retreats} of {MAX_RETREATS})"
                     )
             last = (x.copy(), s.copy())
+            g = growths() if growths is not None else None
+            if g is not None:
+                if g > (0 if np.isnan(grown) else grown):
+                    # the structure's map changed in this iteration: the secant pairs of the
+                    # earlier ones belong to another map (preCICE: an accelerator's history
+                    # holds for one fixed-point map)
+                    self.acceleration.restart_window()
+                grown = float(g)
             where = f"coupling window {self.index} ending at t = {t1:.9g} s, iteration {k}"
             check_finite(
                 where,
@@ -476,6 +492,7 @@ class CouplingScheme:
             warning=warning,
             timings=timings,
             force_error=f_ratio,
+            set_growths=grown,
         )
         self.history.append(rec)
         self.index += 1

@@ -243,6 +243,18 @@ class _MemberCommon(Section):
             "marks the whole member wet."
         ),
     )
+    fictitious_wet_update: Literal["window", "grow"] = Field(
+        "window",
+        description=(
+            'With fictitious_mass_nodes = "wet": when the wet set is decided. "window" '
+            "(default): once per coupling window, from the load at its start and in its first "
+            'iterate, kept for its iterations; "grow": also after every later iterate\'s forces '
+            "arrive, adding (never removing) the nodes that became wet, so a window whose "
+            "first iterate is dry and a later one touches the water carries the fictitious mass "
+            "from then on (the set changes at most a finite number of times, the coupler's "
+            "acceleration restarts its window each time; docs/coupler.md, 'Fictitious mass')."
+        ),
+    )
     fictitious_mass_model: Literal["lumped", "potential_flow"] = Field(
         "lumped",
         description=(

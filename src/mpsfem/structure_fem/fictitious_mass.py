@@ -27,7 +27,12 @@ previous acceleration. The set is decided once per coupling window, at the windo
 structure step (:func:`wet_nodes`: nodes whose interface load at the window's start, the
 previous window's accepted load, or in the window's first iterate is nonzero, plus the nodes of
 every element touching one), and kept for the window's iterations, so the fixed-point map does
-not change between iterations. A node outside it steps exactly as without M_f.
+not change between iterations. With ``fictitious_wet_update = "grow"`` the set also grows (never
+shrinks) by the nodes each later iterate's forces wet: a window whose first iterate is dry and a
+later one touches the water would otherwise iterate without M_f on the wetted nodes (cycling
+between a dry and a wet iterate); being monotone, the set changes at most a finite number of
+times in a window, after which the map is fixed and the iteration can settle. A node outside
+the set steps exactly as without M_f.
 
 ``M_f`` here is lumped on the translational dofs of the interface nodes, along the member's
 normal: node i carries m_f A_i n_i n_i^T, m_f the member's ``fictitious_mass`` (kg/m^2: per
@@ -254,7 +259,9 @@ class IterationHistory:
         self.load_scale = 0.0
 
     def set_mass(self, B: sp.csr_matrix) -> None:
-        """Replace the nodal fictitious masses B (a new wet set; between windows only)."""
+        """Replace the nodal fictitious masses B (a new wet set: between windows, or grown
+        between two iterations of one; the kept accelerations cover every dof, so a^{k-1} of a
+        node just added is its acceleration in the previous iteration)."""
         self.B = B
 
     def record_error(self, error: float, load: float) -> None:

@@ -54,9 +54,10 @@ checkpoint) ended with in the previous iteration; :meth:`restore` keeps these ac
 (standalone runs) the steps are plain. With every ``fictitious_mass`` 0 nothing changes.
 Members with ``fictitious_mass_nodes = "wet"`` carry M_f only on the window's wetted nodes,
 decided at the window's first step (:func:`.fictitious_mass.wet_nodes`) from the interface load
-at the checkpoint and the first forces written after it, and kept for the window's iterations;
-the fictitious factorisation is redone only when that set changes
-(``fictitious_set_changes``). A window with no node in it steps plainly.
+at the checkpoint and the first forces written after it, and kept for the window's iterations
+(``fictitious_wet_update = "grow"``: grown, never shrunk, by the nodes each later iterate's
+forces wet; :meth:`fictitious_set_growths`); the fictitious factorisation is redone only when
+that set changes (``fictitious_set_changes``). A window with no node in it steps plainly.
 Members with ``fictitious_mass_model = "potential_flow"`` carry, on each run of consecutive
 carrying nodes, ``fictitious_mass`` x the wetted patch's potential-flow added-mass operator
 (a dense block, :mod:`.added_mass_potential`) for a fluid of ``fluid_density`` (kg/m^3, the
@@ -208,10 +209,14 @@ class StructureParticipant:
         # that carry it only while wet ("wet"); the set in use; the cells that give the margin
         self._fm_always = np.zeros(sysm.n_points, dtype=bool)
         self._fm_if_wet = np.zeros(sysm.n_points, dtype=bool)
+        # wet nodes whose set may grow inside a window (fictitious_wet_update = "grow")
+        self._fm_grow = np.zeros(sysm.n_points, dtype=bool)
         for cfg, m in zip(section.members, sysm.models, strict=True):
             if cfg.fictitious_mass > 0:
                 which = self._fm_always if cfg.fictitious_mass_nodes == "all" else self._fm_if_wet
                 which[sysm.node_slices[m.name]] = True
+                if cfg.fictitious_mass_nodes == "wet" and cfg.fictitious_wet_update == "grow":
+                    self._fm_grow[sysm.node_slices[m.name]] = True
         self._fm_cells = [m.connectivity + sysm.node_slices[m.name].start for m in sysm.models]
         self._fm_measure = np.concatenate(
             [tributary_measure(m.nodes, m.connectivity) for m in sysm.models]
@@ -229,6 +234,7 @@ class StructureParticipant:
         self._fm_pending = False  # decide the wet set at the next step (a window started)
         self._fm_load_start = np.zeros((sysm.n_points, self.dim))  # load at the checkpoint
         self.fictitious_set_changes = 0
+        self._fm_window_growths = 0  # times the set grew inside the current window
         Mf = self._install_fictitious_nodes(self._fm_nodes, build=False)
         if self.nonlinear:
             nw = section.newton
@@ -343,6 +349,30 @@ class StructureParticipant:
         if not np.array_equal(nodes, self._fm_nodes):
             self._install_fictitious_nodes(nodes)
             self.fictitious_set_changes += 1
+
+    def _grow_fictitious_nodes(self) -> None:
+        """A later iterate of the window (fictitious_wet_update = "grow"): add the nodes its
+        forces now wet (with the margin) to the window's set, never removing any, so the set
+        and with it the fixed-point map change at most a finite number of times. The added
+        nodes' a^{k-1} is the previous iterate's acceleration, as for every wet node (the
+        IterationHistory keeps it over all dofs)."""
+        wet = wet_nodes(
+            [self._forces], self._fm_cells, self.system.n_points, threshold=self._fm_threshold
+        )
+        nodes = self._fm_nodes | (wet & self._fm_grow)
+        if not np.array_equal(nodes, self._fm_nodes):
+            self._install_fictitious_nodes(nodes)
+            self.fictitious_set_changes += 1
+            self._fm_window_growths += 1
+
+    def fictitious_set_growths(self) -> int | None:
+        """Optional coupler hook: how many times the wet set, and so the structure's
+        fixed-point map, grew inside the current window so far (the coupler restarts its
+        acceleration's window when it does and records the count); None when no member lets
+        it grow (fictitious_wet_update = "window" everywhere, or no fictitious mass)."""
+        if self.fictitious is None or not self._fm_grow.any():
+            return None
+        return self._fm_window_growths
 
     @property
     def fictitious_nodes(self) -> np.ndarray:
@@ -478,6 +508,8 @@ class StructureParticipant:
         fm = self.fictitious if self.fictitious is not None and self.fictitious.active else None
         if fm is not None and self._fm_pending:
             self._decide_fictitious_nodes()
+        elif fm is not None and self._fm_grow.any():
+            self._grow_fictitious_nodes()
         if fm is not None and self._fm_B is None:  # no node carries M_f in this window
             fm = None
         f_before = f0
@@ -565,6 +597,7 @@ class StructureParticipant:
         if self.fictitious is not None:  # a new coupling window: no previous iteration yet
             self.fictitious.reset(s.steps, s.u, s.v, s.a)
             self._fm_pending = True  # its wet set: at its first step
+            self._fm_window_growths = 0
             self._fm_load_start = self._forces.copy()
         self._checkpoint = state
         return {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in state.items()}
