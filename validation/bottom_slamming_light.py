@@ -610,7 +610,10 @@ def main(argv: list[str] | None = None) -> int:
                                 "elastic", case, spacing
                             ) + light_overrides(f, rtols[0], rel, its, ft0, at, mm, wp)
                             base_overrides.append(f"output.checkpoint_interval={args.branch_at!r}")
-                            branch(base, base_overrides, out, overrides, args, tag)
+                            case_runner.branch_case(
+                                SCENARIOS["elastic"], base, base_overrides, out, overrides,
+                                at, args.threads, args.retry_failed, tag,
+                            )  # fmt: skip
                             continue
                         case_runner.ensure_case(
                             SCENARIOS["elastic"],
@@ -621,38 +624,6 @@ def main(argv: list[str] | None = None) -> int:
                             tag,
                         )
     return report()
-
-
-def branch(
-    base: Path, base_overrides: list[str], out: Path, overrides: list[str], args, tag: str
-) -> None:
-    """Run ``base`` (to ``args.branch_at``) unless finished, copy it and its checkpoint to
-    ``out`` and continue ``out`` from there with ``overrides`` (``mpsfem run --restart``; only
-    run.* and coupling.convergence.* may differ). Says why when the base did not finish or
-    has no checkpoint at that time; a branch interrupted later resumes as any run."""
-    import shutil
-
-    from mpsfem.results.checkpoint import default_checkpoint_path, read_checkpoint
-
-    at = args.branch_at
-    status = case_runner.ensure_case(
-        SCENARIOS["elastic"], base, base_overrides, args.threads, args.retry_failed, tag + " base"
-    )
-    ckpt = default_checkpoint_path(base)
-    if status != "finished" or not ckpt.is_file():
-        print(f"{tag}: base {base.name} is {status}; no branch")
-        return
-    _, meta, _ = read_checkpoint(ckpt)
-    t = float(meta["scheme"]["t"])
-    if abs(t - at) > 1e-9:
-        print(f"{tag}: the checkpoint of {base.name} is at t = {t:g} s, not {at:g}; no branch")
-        return
-    if base != out:
-        shutil.copyfile(base, out)
-        shutil.copyfile(ckpt, default_checkpoint_path(out))
-    case_runner.run_scenario(
-        SCENARIOS["elastic"], out, overrides, args.threads, default_checkpoint_path(out), tag
-    )
 
 
 if __name__ == "__main__":

@@ -342,38 +342,19 @@ def main(argv: list[str] | None = None) -> int:
 
 def branch(run: str, spacing: float, out: Path, args: argparse.Namespace) -> None:
     """Run the base of ``run`` to ``args.branch_at`` with the force tolerance
-    ``args.base_force_tolerance`` (unless finished), copy it and its checkpoint to ``out`` and
-    continue ``out`` with the force tolerance 1e-2 to ``args.end_time`` (``mpsfem run
-    --restart``). Says why when the base did not finish or has no checkpoint there."""
-    import shutil
-
-    from mpsfem.results.checkpoint import default_checkpoint_path, read_checkpoint
-
-    scenario = write_scenario("elastic")
-    ft0, at, tag = args.base_force_tolerance, args.branch_at, f"[dsph {run}]"
-    base = run_path(run, at, ft0)
-    base_overrides = overrides(run, spacing, at, ft0) + [f"output.checkpoint_interval={at!r}"]
-    status = case_runner.ensure_case(
-        scenario, base, base_overrides, args.threads, args.retry_failed, tag + " base"
-    )
-    ckpt = default_checkpoint_path(base)
-    if status != "finished" or not ckpt.is_file():
-        print(f"{tag}: base {base.name} is {status}; no branch")
-        return
-    _, meta, _ = read_checkpoint(ckpt)
-    t = float(meta["scheme"]["t"])
-    if abs(t - at) > 1e-9:
-        print(f"{tag}: the checkpoint of {base.name} is at t = {t:g} s, not {at:g}; no branch")
-        return
-    shutil.copyfile(base, out)
-    shutil.copyfile(ckpt, default_checkpoint_path(out))
-    case_runner.run_scenario(
-        scenario,
+    ``args.base_force_tolerance`` (unless finished) and continue ``out`` from its checkpoint
+    with the force tolerance 1e-2 to ``args.end_time`` (:func:`case_runner.branch_case`)."""
+    ft0, at = args.base_force_tolerance, args.branch_at
+    case_runner.branch_case(
+        write_scenario("elastic"),
+        run_path(run, at, ft0),
+        overrides(run, spacing, at, ft0) + [f"output.checkpoint_interval={at!r}"],
         out,
         overrides(run, spacing, args.end_time),
+        at,
         args.threads,
-        default_checkpoint_path(out),
-        tag,
+        args.retry_failed,
+        f"[dsph {run}]",
     )
 
 

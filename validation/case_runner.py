@@ -160,3 +160,38 @@ def finished_cases(
         else:
             print(f"{tag}: {status}, not analysed")
     return finished
+
+
+def branch_case(
+    scenario: Path,
+    base: Path,
+    base_overrides: Sequence[str],
+    out: Path,
+    overrides: Sequence[str],
+    at: float,
+    threads: int,
+    retry: bool,
+    tag: str = "",
+) -> None:
+    """Run ``base`` (its overrides must write a checkpoint at ``at`` s and end there) unless
+    finished, copy it and its checkpoint to ``out`` and continue ``out`` from there with
+    ``overrides`` (``mpsfem run --restart``: only the keys a restart may change may differ).
+    Says why when the base did not finish or has no checkpoint at ``at``."""
+    import shutil
+
+    from mpsfem.results.checkpoint import read_checkpoint
+
+    status = ensure_case(scenario, base, base_overrides, threads, retry, f"{tag} base".strip())
+    ckpt = default_checkpoint_path(base)
+    if status != "finished" or not ckpt.is_file():
+        print(f"{tag}: base {base.name} is {status}; no branch")
+        return
+    _, meta, _ = read_checkpoint(ckpt)
+    t = float(meta["scheme"]["t"])
+    if abs(t - at) > 1e-9:
+        print(f"{tag}: the checkpoint of {base.name} is at t = {t:g} s, not {at:g}; no branch")
+        return
+    if base != out:
+        shutil.copyfile(base, out)
+        shutil.copyfile(ckpt, default_checkpoint_path(out))
+    run_scenario(scenario, out, overrides, threads, default_checkpoint_path(out), tag)
