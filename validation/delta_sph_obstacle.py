@@ -72,6 +72,11 @@ FACE = (
     "structure.members.0.end=[0.298, 0.08]",
     "probes.0.position=[0.298, 0.08]",
 )
+#: MPS: the walls' acceleration in their ghosts and the buried wall particles as ghosts (issue
+#: 20, item 4: the piston's added mass in phase; docs/fluid.md, "Buried walls")
+WALLS = ("fluid.pressure.wall_acceleration=true", 'fluid.pressure.buried_walls="ghost"')
+#: MPS weakly compressible with shifting, c = 10 sqrt(g H) (validation/weakly_compressible_mps.py)
+WEAKLY = ("fluid.pressure.shifting=0.1", "fluid.pressure.compressibility=3.5e-6")
 #: key -> (fluid method, L / l0, end time in s[, extra --set overrides])
 CASES = {
     "dsph20": ("delta-sph", 20, 0.3),
@@ -88,6 +93,9 @@ CASES = {
     "dsph40_face": ("delta-sph", 40, 0.3, FACE),
     "dsph20_wetted": ("delta-sph", 20, 0.3, WETTED),
     "dsph40_wetted": ("delta-sph", 40, 0.3, WETTED),
+    "mps20_walls": ("mps", 20, 0.3, WALLS),
+    "mps40_walls": ("mps", 40, 0.3, WALLS),
+    "mps40_weakly": ("mps", 40, 0.3, WEAKLY),
 }
 #: 0.1 s blocks after the first peak whose mean tip u_x is reported (the water piled up behind
 #: the plate; docs/validation.md gives MPS's of an earlier fluid)
