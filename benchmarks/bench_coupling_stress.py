@@ -148,6 +148,23 @@ def sweeps() -> list[tuple[str, str, str, float, list[str], float | None]]:
             out.append(
                 ("obstacle_fictitious", "obstacle", "fictitious_mass_x_estimate", f, sets, None)
             )
+    # the shaped M_f (task H1, issue 21): fictitious_mass_model = "potential_flow", the
+    # fictitious_mass a factor c on the patch's potential-flow added-mass operator
+    # (structure_fem/added_mass_potential.py); c = 0 on the obstacle: the same run without M_f
+    for scene, H, h, ratios, factors in (
+        ("plate", 2.0, 0.05, (1e-3, 1e-4), (0.25, 0.5, 1.0)),
+        ("obstacle", 0.292, 0.012, (1e-2, 1e-4), (0.0, 0.25, 0.5, 1.0)),
+    ):
+        for r in ratios:
+            rho = r * RHO_W * H / h
+            for c in factors:
+                sets = [f"structure.members.0.material.density={rho!r}"]
+                if c > 0.0:
+                    sets += [
+                        'structure.members.0.fictitious_mass_model="potential_flow"',
+                        f"structure.members.0.fictitious_mass={c!r}",
+                    ]
+                out.append((f"{scene}_shaped", scene, "potential_flow_factor", c, sets, None))
     return out
 
 
@@ -225,8 +242,11 @@ def run_one(
         peak_t = float(tw[np.argmax(np.abs(w))])
     else:
         disp = math.nan
+    wet = np.isfinite(fe) if fe.size == it.size else np.zeros(it.size, dtype=bool)
     fe = fe[np.isfinite(fe)]
     return {
+        "iterations_mean_wet": round(float(it[wet].mean()), 3) if wet.any() else "",
+        "not_converged_wet": int((conv[wet] == 0).sum()) if wet.any() else "",
         "peak_time_s": peak_t,
         "wet_windows": int(fe.size),
         "force_error_max": float(fe.max()) if fe.size else "",
@@ -333,6 +353,22 @@ def mock_sweep(out: Path) -> None:
     print(f"wrote {out}")
 
 
+def _probe_tank_operator(depth: float) -> None:
+    """A probe, not a scenario setting (task H1): the ``potential_flow`` model's operator is
+    replaced in this process by the tank-bottom one (:func:`~mpsfem.structure_fem.
+    added_mass_tank.tank_bottom_added_mass`: rigid walls at the wetted run's ends, water depth
+    ``depth`` m, phi = 0 on the free surface), to measure whether the impact operator's
+    geometry (free surface continuing the patch's line, infinite depth) matters on the
+    hydrostatic plate, a tank's whole bottom under a 2 m column."""
+    from mpsfem.structure_fem import fictitious_mass
+    from mpsfem.structure_fem.added_mass_tank import tank_bottom_added_mass
+
+    def operator(s, density):
+        return tank_bottom_added_mass(s, density, depth)
+
+    fictitious_mass.patch_added_mass = operator
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default=None, help="comma-separated sweeps (default: the first four)")
@@ -347,7 +383,28 @@ def main(argv=None) -> int:
     ap.add_argument(
         "--set", action="append", default=[], help="extra scenario override for every run"
     )
+    ap.add_argument(
+        "--wet-pressure",
+        type=float,
+        default=None,
+        help="structure.members.0.fictitious_wet_pressure (Pa) for every run",
+    )
+    ap.add_argument(
+        "--force-tolerance",
+        type=float,
+        default=None,
+        help="coupling.convergence.fictitious_force_tolerance for every run (default 1e-2)",
+    )
+    ap.add_argument(
+        "--probe-tank-depth",
+        type=float,
+        default=None,
+        help="a probe (task H1): the potential_flow model's operator replaced in-process by the "
+        "tank-bottom one (structure_fem/added_mass_tank.py) at this water depth (m)",
+    )
     args = ap.parse_args(argv)
+    if args.probe_tank_depth is not None:
+        _probe_tank_operator(args.probe_tank_depth)
     if args.only == "mock_fictitious":
         default = ROOT / "benchmarks/results/coupling_stress.csv"
         mock_sweep(
@@ -358,7 +415,7 @@ def main(argv=None) -> int:
         return 0
     runs = sweeps()
     if not args.only:
-        runs = [r for r in runs if not r[0].endswith("_fictitious")]
+        runs = [r for r in runs if not r[0].endswith(("_fictitious", "_shaped"))]
     if args.only:
         keep = set(args.only.split(","))
         unknown = keep - {r[0] for r in runs}
@@ -374,9 +431,20 @@ def main(argv=None) -> int:
     fields = ["sweep", "scene", "acceleration", "factor", "value", "mass_ratio", "verdict",
               "end_time_s", "windows", "iterations_mean", "iterations_max",
               "windows_not_converged", "displacement_m", "wall_s"]  # fmt: skip
-    fictitious_only = all(r[0].endswith("_fictitious") for r in runs)
+    fictitious_only = all(r[0].endswith(("_fictitious", "_shaped")) for r in runs)
+    shaped_only = all(r[0].endswith("_shaped") for r in runs)
     if fictitious_only:  # the fictitious-mass runs' extra columns (issue 21)
         fields += ["peak_time_s", "wet_windows", "force_error_max", "settings"]
+    if shaped_only:  # task H1: the iterations of the windows in which M_f acted
+        fields += ["iterations_mean_wet", "not_converged_wet"]
+        if args.out == ROOT / "benchmarks/results/coupling_stress.csv":
+            args.out = ROOT / "benchmarks/results/coupling_stress_shaped.csv"
+    if args.wet_pressure is not None:
+        args.set = args.set + [f"structure.members.0.fictitious_wet_pressure={args.wet_pressure!r}"]
+    if args.force_tolerance is not None:
+        args.set = args.set + [
+            f"coupling.convergence.fictitious_force_tolerance={args.force_tolerance!r}"
+        ]
     args.out.parent.mkdir(parents=True, exist_ok=True)
     new = not (args.append and args.out.exists())
     if not new:
@@ -399,6 +467,8 @@ def main(argv=None) -> int:
             got = run_one(scene, sets, end, args.acceleration, path, args.relaxation)
             if fictitious_only:
                 got["settings"] = " ".join(args.set)
+                if args.probe_tank_depth is not None:
+                    got["settings"] += f" probe:tank_bottom_operator_depth={args.probe_tank_depth}"
             row.update({k: v for k, v in got.items() if k in fields})
             wr.writerow(row)
             fh.flush()
