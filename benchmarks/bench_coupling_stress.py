@@ -72,6 +72,7 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+import scipy.linalg as sla
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
@@ -353,6 +354,142 @@ def mock_sweep(out: Path) -> None:
     print(f"wrote {out}")
 
 
+def plate_map_probe(out: Path, ratio: float = 1e-3, windows: int = 25) -> None:
+    """``--only plate_map`` (task H1): the added mass the MPS window presents to the
+    hydrostatic plate along a few interface shapes, against the two potential-flow operators.
+
+    The plate of ``plate_shaped`` (l0 0.05 m, window 0.2 ms, mass ratio ``ratio``, Aitken, no
+    fictitious mass) is stepped ``windows`` windows from rest in process; then, from that
+    window's start, the fluid window is evaluated as a map x -> F at the first iterate x0 and at
+    x0 + eps w (the window-end velocity moved consistently by gamma eps w / (beta T)), giving
+
+        m_w = -(w . (F(x0 + eps w) - F(x0))) / (|w|^2 delta_a),  delta_a = gamma eps / (beta T^2)
+
+    (delta_a: the change of the window's mean wall acceleration, what the fluid sees; beta 1/4,
+    gamma 1/2; the method of validation/bottom_slamming_light_iterations.py), against w M w /
+    |w|^2 of the impact operator (added_mass_potential) and of the tank-bottom operator
+    (added_mass_tank, H = 2 m) on the same nodes. Shapes: rigid heave, the clamped first mode
+    sin^2(pi x / L), the tank's cos(pi x / L) and cos(2 pi x / L) (no volume change)."""
+    from mpsfem.coupler.coupling_scheme import create_scheme
+    from mpsfem.fluid_methods import create_fluid_participant
+    from mpsfem.scenario.loader import load_scenario
+    from mpsfem.simulation import coupling_config, member_nodes
+    from mpsfem.structure_fem.added_mass_potential import patch_added_mass, patch_coordinates
+    from mpsfem.structure_fem.added_mass_tank import tank_bottom_added_mass
+    from mpsfem.structure_fem.participant import StructureParticipant
+
+    toml, H, h, *_, spacing, _end, bound = SCENES["plate"]
+    sets = [
+        "run.threads=1",
+        f"fluid.spacing={spacing}",
+        "structure.members.0.self_weight=false",
+        'coupling.scheme="implicit"',
+        'coupling.acceleration={kind = "aitken"}',
+        "coupling.convergence.relative_tolerance=0.001",
+        "coupling.convergence.max_iterations=30",
+        "fluid.surface.freeze_in_coupling_window=true",
+        f"coupling.convergence.max_displacement={bound!r}",
+        f"structure.members.0.material.density={ratio * RHO_W * H / h!r}",
+    ]
+    loaded = load_scenario(toml, sets)
+    sc = loaded.scenario
+    st = StructureParticipant(
+        sc.structure, base_dir=loaded.path.parent, fluid_density=sc.fluid.density
+    )
+    mesh = st.interface()
+    fluid = create_fluid_participant(
+        sc.fluid, mesh, base_dir=loaded.path.parent, member_names=[m for m, _ in member_nodes(sc)]
+    )
+    scheme = create_scheme(fluid, st, coupling_config(sc, None), log=lambda m: None)
+    scheme.initialize()
+    for _ in range(windows):
+        scheme.advance_window()
+    T = scheme.window
+    t0, t1 = scheme.t, scheme.t + T
+    d_f0 = scheme.mapping.displacement_to_fluid(scheme.d)
+    v_f0 = scheme.mapping.velocity_to_fluid(scheme.v, scheme.d)
+    x0, s0 = scheme.d + T * scheme.v, scheme.v.copy()  # the window's first iterate
+    fluid.checkpoint()
+
+    def forces(x, s):
+        fluid.restore()
+        F, _ = scheme._fluid_window(
+            t0, t1, d_f0, v_f0,
+            scheme.mapping.displacement_to_fluid(x), scheme.mapping.velocity_to_fluid(s, x),
+        )  # fmt: skip
+        return scheme.mapping.forces_to_structure(F, x)
+
+    F0 = forces(x0, s0)
+    repeat = float(np.abs(forces(x0, s0) - F0).max())
+    pts = np.asarray(mesh.points)
+    nrm = np.asarray(mesh.normals)
+    xs = patch_coordinates(pts)
+    L = xs[-1]
+    ops = {
+        "impact": patch_added_mass(xs, sc.fluid.density),
+        "tank": tank_bottom_added_mass(xs, sc.fluid.density, H),
+    }
+    shapes = {
+        "heave": np.ones(xs.size),
+        "sin2": np.sin(np.pi * xs / L) ** 2,
+        "cos1": np.cos(np.pi * xs / L),
+        "cos2": np.cos(2.0 * np.pi * xs / L),
+        "cos5": np.cos(5.0 * np.pi * xs / L),
+        "zigzag": (-1.0) ** np.arange(xs.size),
+    }
+    beta, gamma = 0.25, 0.5
+    rows = []
+    for name, w in shapes.items():
+        ref = {k: float(w @ M @ w / (w @ w)) for k, M in ops.items()}
+        for eps in (1e-8, 1e-7, 1e-6):
+            x = x0 + eps * w[:, None] * nrm
+            s = s0 + (gamma / (beta * T)) * eps * w[:, None] * nrm
+            dFn = np.einsum("ij,ij->i", forces(x, s) - F0, nrm)
+            m = -float(w @ dFn) / (float(w @ w) * gamma * eps / (beta * T * T))
+            row = {"t_start_s": t0, "mass_ratio": ratio, "shape": name, "eps_m": eps,
+                   "m_w_kg_per_m": m, "impact_kg_per_m": ref["impact"],
+                   "tank_kg_per_m": ref["tank"], "m_w_over_impact": m / ref["impact"],
+                   "m_w_over_tank": m / ref["tank"], "repeat_diff_N_per_m": repeat}  # fmt: skip
+            rows.append(row)
+            print(row, flush=True)
+    # the whole window operator on the free (interior) nodes, one node at a time (eps 1e-7 m:
+    # the map is linear there, the rows above), and its generalized eigenvalues lambda against
+    # each operator: M_mps v = lambda M_op v. Under M_f = c M_op an unrelaxed iteration
+    # multiplies a mode's error by about 1 - gamma lambda / c (m_s << m_a; the fluid answers
+    # to the window's mean acceleration, gamma of the end acceleration's change), so it
+    # contracts for c > gamma lambda / 2 and best at c = gamma lambda
+    free = np.arange(1, xs.size - 1)
+    eps = 1e-7
+    Mw = np.zeros((free.size, free.size))
+    for j, node in enumerate(free):
+        x, sv = x0.copy(), s0.copy()
+        x[node] += eps * nrm[node]
+        sv[node] += (gamma / (beta * T)) * eps * nrm[node]
+        dFn = np.einsum("ij,ij->i", forces(x, sv) - F0, nrm)
+        Mw[:, j] = -dFn[free] / (gamma * eps / (beta * T * T))
+    fluid.restore()
+    asym = float(np.abs(Mw - Mw.T).max() / np.abs(Mw).max())
+    Ms = 0.5 * (Mw + Mw.T)
+    modes = []
+    lam = {
+        k: np.sort(sla.eigh(Ms, M[np.ix_(free, free)], eigvals_only=True)) for k, M in ops.items()
+    }
+    for k in range(free.size):
+        modes.append({"mass_ratio": ratio, "t_start_s": t0, "mode": k,
+                      "lambda_vs_impact": lam["impact"][k], "lambda_vs_tank": lam["tank"][k],
+                      "asymmetry_rel": asym})  # fmt: skip
+    print(f"MPS window operator: asymmetry {asym:.3g}; lambda vs impact "
+          f"{lam['impact'].min():.3g}..{lam['impact'].max():.3g}, vs tank "
+          f"{lam['tank'].min():.3g}..{lam['tank'].max():.3g}")  # fmt: skip
+    out.parent.mkdir(parents=True, exist_ok=True)
+    for path, table in ((out, rows), (out.with_name(out.stem + "_modes.csv"), modes)):
+        with path.open("w", newline="") as fh:
+            wr = csv.DictWriter(fh, fieldnames=list(table[0]))
+            wr.writeheader()
+            wr.writerows(table)
+        print(f"wrote {path}")
+
+
 def _probe_tank_operator(depth: float) -> None:
     """A probe, not a scenario setting (task H1): the ``potential_flow`` model's operator is
     replaced in this process by the tank-bottom one (:func:`~mpsfem.structure_fem.
@@ -402,9 +539,18 @@ def main(argv=None) -> int:
         help="a probe (task H1): the potential_flow model's operator replaced in-process by the "
         "tank-bottom one (structure_fem/added_mass_tank.py) at this water depth (m)",
     )
+    ap.add_argument(
+        "--keep-h5",
+        type=Path,
+        default=None,
+        help="keep each run's results file in this folder (default: a temporary one)",
+    )
     args = ap.parse_args(argv)
     if args.probe_tank_depth is not None:
         _probe_tank_operator(args.probe_tank_depth)
+    if args.only == "plate_map":
+        plate_map_probe(ROOT / "benchmarks/results/coupling_stress_shaped_plate_map.csv")
+        return 0
     if args.only == "mock_fictitious":
         default = ROOT / "benchmarks/results/coupling_stress.csv"
         mock_sweep(
@@ -463,6 +609,13 @@ def main(argv=None) -> int:
             row = {"sweep": sweep, "scene": scene, "acceleration": accel_name,
                    "factor": factor, "value": value}  # fmt: skip
             path = Path(tmp) / f"r{k}.h5"
+            if args.keep_h5 is not None:
+                args.keep_h5.mkdir(parents=True, exist_ok=True)
+                stamp = time.strftime("%H%M%S")
+                path = (
+                    args.keep_h5
+                    / f"{sweep}_{value:g}_{_ratio((sweep, scene, factor, value, sets)):g}_{stamp}.h5"
+                )
             sets = sets + args.set
             got = run_one(scene, sets, end, args.acceleration, path, args.relaxation)
             if fictitious_only:
