@@ -40,6 +40,20 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
   --ratios 0.01 --acceleration aitken --out ...``; ``--only plate_fictitious --ratios 0.0001
   ... --append``, with ``--set coupling.convergence.fictitious_force_tolerance=0.05`` for the
   5e-2 rows). ``--append`` refuses a CSV with other columns.
+* ``plate_shaped`` / ``obstacle_shaped`` (task H1; not in the default set): the plate at mass
+  ratio 1e-3 and 1e-4 with ``fictitious_mass_model = "potential_flow"`` and ``fictitious_mass``
+  (then a factor c) 0.25, 0.5, 1; the obstacle at 1e-2 and 1e-4 with c = 0 (no M_f), 0.25,
+  0.5, 1. Their own CSV, benchmarks/results/coupling_stress_shaped.csv, with the extra columns
+  iterations_mean_wet / not_converged_wet (the windows in which M_f acted). ``--wet-pressure
+  Pa`` sets ``fictitious_wet_pressure``, ``--force-tolerance`` the coupling's
+  ``fictitious_force_tolerance``, ``--keep-h5 DIR`` keeps each run's results file, and
+  ``--probe-tank-depth H`` (a probe, :func:`_probe_tank_operator`) replaces the potential-flow
+  model's operator in process by the tank-bottom one (structure_fem/added_mass_tank.py).
+  Rows: docs/validation_coupling_stress.md, "The shaped fictitious mass on the plate and the
+  obstacle".
+* ``plate_map`` (``--only plate_map``; :func:`plate_map_probe`): the added mass the MPS window
+  presents to the plate along interface shapes and as a whole matrix, against the impact and
+  tank operators (benchmarks/results/coupling_stress_shaped_plate_map.csv, ..._modes.csv).
 * ``mock_fictitious`` (``--only mock_fictitious``, its own CSV
   benchmarks/results/coupling_stress_mock_fictitious.csv; see :func:`mock_sweep`): the FEM beam
   against the added-mass mock at added / structure mass 1e4, with and without fictitious mass.
