@@ -368,7 +368,9 @@ def mock_sweep(out: Path) -> None:
     print(f"wrote {out}")
 
 
-def plate_map_probe(out: Path, ratio: float = 1e-3, windows: int = 25) -> None:
+def plate_map_probe(
+    out: Path, ratio: float = 1e-3, windows: int = 25, spacing: float | None = None
+) -> None:
     """``--only plate_map`` (task H1): the added mass the MPS window presents to the
     hydrostatic plate along a few interface shapes, against the two potential-flow operators.
 
@@ -392,7 +394,8 @@ def plate_map_probe(out: Path, ratio: float = 1e-3, windows: int = 25) -> None:
     from mpsfem.structure_fem.added_mass_tank import tank_bottom_added_mass
     from mpsfem.structure_fem.participant import StructureParticipant
 
-    toml, H, h, *_, spacing, _end, bound = SCENES["plate"]
+    toml, H, h, *_, l0, _end, bound = SCENES["plate"]
+    spacing = l0 if spacing is None else spacing  # fluid.spacing (m)
     sets = [
         "run.threads=1",
         f"fluid.spacing={spacing}",
@@ -559,11 +562,20 @@ def main(argv=None) -> int:
         default=None,
         help="keep each run's results file in this folder (default: a temporary one)",
     )
+    ap.add_argument(
+        "--map-spacing",
+        type=float,
+        default=None,
+        help="plate_map: fluid.spacing (m; default the sweeps' 0.05), its own CSV",
+    )
     args = ap.parse_args(argv)
     if args.probe_tank_depth is not None:
         _probe_tank_operator(args.probe_tank_depth)
     if args.only == "plate_map":
-        plate_map_probe(ROOT / "benchmarks/results/coupling_stress_shaped_plate_map.csv")
+        name = "coupling_stress_shaped_plate_map"
+        if args.map_spacing is not None:
+            name += f"_l0_{args.map_spacing:g}"
+        plate_map_probe(ROOT / f"benchmarks/results/{name}.csv", spacing=args.map_spacing)
         return 0
     if args.only == "mock_fictitious":
         default = ROOT / "benchmarks/results/coupling_stress.csv"
