@@ -369,7 +369,11 @@ def mock_sweep(out: Path) -> None:
 
 
 def plate_map_probe(
-    out: Path, ratio: float = 1e-3, windows: int = 25, spacing: float | None = None
+    out: Path,
+    ratio: float = 1e-3,
+    windows: int = 25,
+    spacing: float | None = None,
+    scene: str = "plate",
 ) -> None:
     """``--only plate_map`` (task H1): the added mass the MPS window presents to the
     hydrostatic plate along a few interface shapes, against the two potential-flow operators.
@@ -385,7 +389,12 @@ def plate_map_probe(
     gamma 1/2; the method of validation/bottom_slamming_light_iterations.py), against w M w /
     |w|^2 of the impact operator (added_mass_potential) and of the tank-bottom operator
     (added_mass_tank, H = 2 m) on the same nodes. Shapes: rigid heave, the clamped first mode
-    sin^2(pi x / L), the tank's cos(pi x / L) and cos(2 pi x / L) (no volume change)."""
+    sin^2(pi x / L), the tank's cos(pi x / L) and cos(2 pi x / L) (no volume change).
+
+    ``scene = "obstacle"`` (``--only obstacle_map``): the obstacle at ``ratio`` stepped
+    ``windows`` windows (into the surge's contact), the shapes and the matrix on the run of
+    nodes whose first-iterate pressure exceeds 1 Pa (the clamped foot excluded), against the
+    impact operator of that run only (the tank operator does not apply)."""
     from mpsfem.coupler.coupling_scheme import create_scheme
     from mpsfem.fluid_methods import create_fluid_participant
     from mpsfem.scenario.loader import load_scenario
@@ -394,7 +403,7 @@ def plate_map_probe(
     from mpsfem.structure_fem.added_mass_tank import tank_bottom_added_mass
     from mpsfem.structure_fem.participant import StructureParticipant
 
-    toml, H, h, *_, l0, _end, bound = SCENES["plate"]
+    toml, H, h, *_, l0, _end, bound = SCENES[scene]
     spacing = l0 if spacing is None else spacing  # fluid.spacing (m)
     sets = [
         "run.threads=1",
@@ -440,6 +449,8 @@ def plate_map_probe(
     repeat = float(np.abs(forces(x0, s0) - F0).max())
     pts = np.asarray(mesh.points)
     nrm = np.asarray(mesh.normals)
+    if scene == "obstacle":
+        return _obstacle_map(out, ratio, scheme, fluid, forces, x0, s0, F0, repeat, pts, nrm, sc)
     xs = patch_coordinates(pts)
     L = xs[-1]
     ops = {
@@ -498,6 +509,70 @@ def plate_map_probe(
     print(f"MPS window operator: asymmetry {asym:.3g}; lambda vs impact "
           f"{lam['impact'].min():.3g}..{lam['impact'].max():.3g}, vs tank "
           f"{lam['tank'].min():.3g}..{lam['tank'].max():.3g}")  # fmt: skip
+    out.parent.mkdir(parents=True, exist_ok=True)
+    for path, table in ((out, rows), (out.with_name(out.stem + "_modes.csv"), modes)):
+        with path.open("w", newline="") as fh:
+            wr = csv.DictWriter(fh, fieldnames=list(table[0]))
+            wr.writeheader()
+            wr.writerows(table)
+        print(f"wrote {path}")
+
+
+def _obstacle_map(out, ratio, scheme, fluid, forces, x0, s0, F0, repeat, pts, nrm, sc) -> None:
+    """:func:`plate_map_probe` on the obstacle's wetted run (``--only obstacle_map``)."""
+    from mpsfem.structure_fem.added_mass_potential import patch_added_mass, patch_coordinates
+    from mpsfem.structure_fem.fictitious_mass import node_runs, tributary_measure
+
+    T, t0 = scheme.window, scheme.t
+    beta, gamma = 0.25, 0.5
+    cells = np.c_[np.arange(pts.shape[0] - 1), np.arange(1, pts.shape[0])]
+    pressure = np.einsum("ij,ij->i", F0, nrm) / tributary_measure(pts, cells)
+    runs = node_runs(pts, np.abs(pressure) > 1.0)
+    if not runs:
+        raise SystemExit(f"obstacle_map: no node above 1 Pa at t = {t0:.4f} s")
+    run = max(runs, key=len)
+    run = run[run != 0]  # node 0: the clamped foot
+    xs = patch_coordinates(pts[run])
+    L = xs[-1]
+    Ma = patch_added_mass(xs, sc.fluid.density)
+    shapes = {
+        "heave": np.ones(xs.size),
+        "sin_half": np.sin(np.pi * xs / L),
+        "sin_full": np.sin(2.0 * np.pi * xs / L),
+        "zigzag": (-1.0) ** np.arange(xs.size),
+    }
+    print(f"t = {t0:.4f} s: wet run nodes {run.min()}-{run.max()} ({L * 1e3:.1f} mm), "
+          f"pressure {np.abs(pressure[run]).min():.3g}-{np.abs(pressure[run]).max():.3g} Pa")  # fmt: skip
+    rows = []
+    for name, w in shapes.items():
+        ref = float(w @ Ma @ w / (w @ w))
+        for eps in (1e-8, 1e-7, 1e-6):
+            x, sv = x0.copy(), s0.copy()
+            x[run] += eps * w[:, None] * nrm[run]
+            sv[run] += (gamma / (beta * T)) * eps * w[:, None] * nrm[run]
+            dFn = np.einsum("ij,ij->i", (forces(x, sv) - F0)[run], nrm[run])
+            m = -float(w @ dFn) / (float(w @ w) * gamma * eps / (beta * T * T))
+            row = {"t_start_s": t0, "mass_ratio": ratio, "shape": name, "eps_m": eps,
+                   "wet_run_nodes": int(run.size), "wet_run_length_m": float(L),
+                   "m_w_kg_per_m": m, "impact_kg_per_m": ref, "m_w_over_impact": m / ref,
+                   "repeat_diff_N_per_m": repeat}  # fmt: skip
+            rows.append(row)
+            print(row, flush=True)
+    eps = 1e-7
+    Mw = np.zeros((run.size, run.size))
+    for j, node in enumerate(run):
+        x, sv = x0.copy(), s0.copy()
+        x[node] += eps * nrm[node]
+        sv[node] += (gamma / (beta * T)) * eps * nrm[node]
+        dFn = np.einsum("ij,ij->i", forces(x, sv) - F0, nrm)
+        Mw[:, j] = -dFn[run] / (gamma * eps / (beta * T * T))
+    fluid.restore()
+    asym = float(np.abs(Mw - Mw.T).max() / np.abs(Mw).max())
+    lam = np.sort(sla.eigh(0.5 * (Mw + Mw.T), Ma, eigvals_only=True))
+    modes = [{"mass_ratio": ratio, "t_start_s": t0, "mode": k, "lambda_vs_impact": lam[k],
+              "asymmetry_rel": asym} for k in range(run.size)]  # fmt: skip
+    print(f"MPS window operator: asymmetry {asym:.3g}; lambda vs impact "
+          f"{lam.min():.3g}..{lam.max():.3g}")  # fmt: skip
     out.parent.mkdir(parents=True, exist_ok=True)
     for path, table in ((out, rows), (out.with_name(out.stem + "_modes.csv"), modes)):
         with path.open("w", newline="") as fh:
@@ -568,9 +643,23 @@ def main(argv=None) -> int:
         default=None,
         help="plate_map: fluid.spacing (m; default the sweeps' 0.05), its own CSV",
     )
+    ap.add_argument(
+        "--map-windows",
+        type=int,
+        default=560,
+        help="obstacle_map: windows stepped before the probe (default 560: t = 0.14 s)",
+    )
     args = ap.parse_args(argv)
     if args.probe_tank_depth is not None:
         _probe_tank_operator(args.probe_tank_depth)
+    if args.only == "obstacle_map":
+        plate_map_probe(
+            ROOT / "benchmarks/results/coupling_stress_shaped_obstacle_map.csv",
+            ratio=0.103,
+            windows=args.map_windows,
+            scene="obstacle",
+        )
+        return 0
     if args.only == "plate_map":
         name = "coupling_stress_shaped_plate_map"
         if args.map_spacing is not None:
