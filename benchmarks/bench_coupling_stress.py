@@ -53,7 +53,10 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
   obstacle".
 * ``plate_map`` (``--only plate_map``; :func:`plate_map_probe`): the added mass the MPS window
   presents to the plate along interface shapes and as a whole matrix, against the impact and
-  tank operators (benchmarks/results/coupling_stress_shaped_plate_map.csv, ..._modes.csv).
+  tank operators (benchmarks/results/coupling_stress_shaped_plate_map.csv, ..._modes.csv;
+  ``--map-spacing`` another l0, its own CSV); ``obstacle_map`` the same on the obstacle's
+  wetted run at t = 0.14 s (``--map-windows``) against the impact operator
+  (..._obstacle_map.csv).
 * ``mock_fictitious`` (``--only mock_fictitious``, its own CSV
   benchmarks/results/coupling_stress_mock_fictitious.csv; see :func:`mock_sweep`): the FEM beam
   against the added-mass mock at added / structure mass 1e4, with and without fictitious mass.
