@@ -40,6 +40,23 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
   --ratios 0.01 --acceleration aitken --out ...``; ``--only plate_fictitious --ratios 0.0001
   ... --append``, with ``--set coupling.convergence.fictitious_force_tolerance=0.05`` for the
   5e-2 rows). ``--append`` refuses a CSV with other columns.
+* ``plate_shaped`` / ``obstacle_shaped`` (task H1; not in the default set): the plate at mass
+  ratio 1e-3 and 1e-4 with ``fictitious_mass_model = "potential_flow"`` and ``fictitious_mass``
+  (then a factor c) 0.25, 0.5, 1; the obstacle at 1e-2 and 1e-4 with c = 0 (no M_f), 0.25,
+  0.5, 1. Their own CSV, benchmarks/results/coupling_stress_shaped.csv, with the extra columns
+  iterations_mean_wet / not_converged_wet (the windows in which M_f acted). ``--wet-pressure
+  Pa`` sets ``fictitious_wet_pressure``, ``--force-tolerance`` the coupling's
+  ``fictitious_force_tolerance``, ``--keep-h5 DIR`` keeps each run's results file, and
+  ``--probe-tank-depth H`` (a probe, :func:`_probe_tank_operator`) replaces the potential-flow
+  model's operator in process by the tank-bottom one (structure_fem/added_mass_tank.py).
+  Rows: docs/validation_coupling_stress.md, "The shaped fictitious mass on the plate and the
+  obstacle".
+* ``plate_map`` (``--only plate_map``; :func:`plate_map_probe`): the added mass the MPS window
+  presents to the plate along interface shapes and as a whole matrix, against the impact and
+  tank operators (benchmarks/results/coupling_stress_shaped_plate_map.csv, ..._modes.csv;
+  ``--map-spacing`` another l0, its own CSV); ``obstacle_map`` the same on the obstacle's
+  wetted run at t = 0.14 s (``--map-windows``) against the impact operator
+  (..._obstacle_map.csv).
 * ``mock_fictitious`` (``--only mock_fictitious``, its own CSV
   benchmarks/results/coupling_stress_mock_fictitious.csv; see :func:`mock_sweep`): the FEM beam
   against the added-mass mock at added / structure mass 1e4, with and without fictitious mass.
@@ -72,6 +89,7 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+import scipy.linalg as sla
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
@@ -148,6 +166,23 @@ def sweeps() -> list[tuple[str, str, str, float, list[str], float | None]]:
             out.append(
                 ("obstacle_fictitious", "obstacle", "fictitious_mass_x_estimate", f, sets, None)
             )
+    # the shaped M_f (task H1, issue 21): fictitious_mass_model = "potential_flow", the
+    # fictitious_mass a factor c on the patch's potential-flow added-mass operator
+    # (structure_fem/added_mass_potential.py); c = 0 on the obstacle: the same run without M_f
+    for scene, H, h, ratios, factors in (
+        ("plate", 2.0, 0.05, (1e-3, 1e-4), (0.25, 0.5, 1.0)),
+        ("obstacle", 0.292, 0.012, (1e-2, 1e-4), (0.0, 0.25, 0.5, 1.0)),
+    ):
+        for r in ratios:
+            rho = r * RHO_W * H / h
+            for c in factors:
+                sets = [f"structure.members.0.material.density={rho!r}"]
+                if c > 0.0:
+                    sets += [
+                        'structure.members.0.fictitious_mass_model="potential_flow"',
+                        f"structure.members.0.fictitious_mass={c!r}",
+                    ]
+                out.append((f"{scene}_shaped", scene, "potential_flow_factor", c, sets, None))
     return out
 
 
@@ -225,8 +260,11 @@ def run_one(
         peak_t = float(tw[np.argmax(np.abs(w))])
     else:
         disp = math.nan
+    wet = np.isfinite(fe) if fe.size == it.size else np.zeros(it.size, dtype=bool)
     fe = fe[np.isfinite(fe)]
     return {
+        "iterations_mean_wet": round(float(it[wet].mean()), 3) if wet.any() else "",
+        "not_converged_wet": int((conv[wet] == 0).sum()) if wet.any() else "",
         "peak_time_s": peak_t,
         "wet_windows": int(fe.size),
         "force_error_max": float(fe.max()) if fe.size else "",
@@ -333,6 +371,236 @@ def mock_sweep(out: Path) -> None:
     print(f"wrote {out}")
 
 
+def plate_map_probe(
+    out: Path,
+    ratio: float = 1e-3,
+    windows: int = 25,
+    spacing: float | None = None,
+    scene: str = "plate",
+) -> None:
+    """``--only plate_map`` (task H1): the added mass the MPS window presents to the
+    hydrostatic plate along a few interface shapes, against the two potential-flow operators.
+
+    The plate of ``plate_shaped`` (l0 0.05 m, window 0.2 ms, mass ratio ``ratio``, Aitken, no
+    fictitious mass) is stepped ``windows`` windows from rest in process; then, from that
+    window's start, the fluid window is evaluated as a map x -> F at the first iterate x0 and at
+    x0 + eps w (the window-end velocity moved consistently by gamma eps w / (beta T)), giving
+
+        m_w = -(w . (F(x0 + eps w) - F(x0))) / (|w|^2 delta_a),  delta_a = gamma eps / (beta T^2)
+
+    (delta_a: the change of the window's mean wall acceleration, what the fluid sees; beta 1/4,
+    gamma 1/2; the method of validation/bottom_slamming_light_iterations.py), against w M w /
+    |w|^2 of the impact operator (added_mass_potential) and of the tank-bottom operator
+    (added_mass_tank, H = 2 m) on the same nodes. Shapes: rigid heave, the clamped first mode
+    sin^2(pi x / L), the tank's cos(pi x / L) and cos(2 pi x / L) (no volume change).
+
+    ``scene = "obstacle"`` (``--only obstacle_map``): the obstacle at ``ratio`` stepped
+    ``windows`` windows (into the surge's contact), the shapes and the matrix on the run of
+    nodes whose first-iterate pressure exceeds 1 Pa (the clamped foot excluded), against the
+    impact operator of that run only (the tank operator does not apply)."""
+    from mpsfem.coupler.coupling_scheme import create_scheme
+    from mpsfem.fluid_methods import create_fluid_participant
+    from mpsfem.scenario.loader import load_scenario
+    from mpsfem.simulation import coupling_config, member_nodes
+    from mpsfem.structure_fem.added_mass_potential import patch_added_mass, patch_coordinates
+    from mpsfem.structure_fem.added_mass_tank import tank_bottom_added_mass
+    from mpsfem.structure_fem.participant import StructureParticipant
+
+    toml, H, h, *_, l0, _end, bound = SCENES[scene]
+    spacing = l0 if spacing is None else spacing  # fluid.spacing (m)
+    sets = [
+        "run.threads=1",
+        f"fluid.spacing={spacing}",
+        "structure.members.0.self_weight=false",
+        'coupling.scheme="implicit"',
+        'coupling.acceleration={kind = "aitken"}',
+        "coupling.convergence.relative_tolerance=0.001",
+        "coupling.convergence.max_iterations=30",
+        "fluid.surface.freeze_in_coupling_window=true",
+        f"coupling.convergence.max_displacement={bound!r}",
+        f"structure.members.0.material.density={ratio * RHO_W * H / h!r}",
+    ]
+    loaded = load_scenario(toml, sets)
+    sc = loaded.scenario
+    st = StructureParticipant(
+        sc.structure, base_dir=loaded.path.parent, fluid_density=sc.fluid.density
+    )
+    mesh = st.interface()
+    fluid = create_fluid_participant(
+        sc.fluid, mesh, base_dir=loaded.path.parent, member_names=[m for m, _ in member_nodes(sc)]
+    )
+    scheme = create_scheme(fluid, st, coupling_config(sc, None), log=lambda m: None)
+    scheme.initialize()
+    for _ in range(windows):
+        scheme.advance_window()
+    T = scheme.window
+    t0, t1 = scheme.t, scheme.t + T
+    d_f0 = scheme.mapping.displacement_to_fluid(scheme.d)
+    v_f0 = scheme.mapping.velocity_to_fluid(scheme.v, scheme.d)
+    x0, s0 = scheme.d + T * scheme.v, scheme.v.copy()  # the window's first iterate
+    fluid.checkpoint()
+
+    def forces(x, s):
+        fluid.restore()
+        F, _ = scheme._fluid_window(
+            t0, t1, d_f0, v_f0,
+            scheme.mapping.displacement_to_fluid(x), scheme.mapping.velocity_to_fluid(s, x),
+        )  # fmt: skip
+        return scheme.mapping.forces_to_structure(F, x)
+
+    F0 = forces(x0, s0)
+    repeat = float(np.abs(forces(x0, s0) - F0).max())
+    pts = np.asarray(mesh.points)
+    nrm = np.asarray(mesh.normals)
+    if scene == "obstacle":
+        return _obstacle_map(out, ratio, scheme, fluid, forces, x0, s0, F0, repeat, pts, nrm, sc)
+    xs = patch_coordinates(pts)
+    L = xs[-1]
+    ops = {
+        "impact": patch_added_mass(xs, sc.fluid.density),
+        "tank": tank_bottom_added_mass(xs, sc.fluid.density, H),
+    }
+    shapes = {
+        "heave": np.ones(xs.size),
+        "sin2": np.sin(np.pi * xs / L) ** 2,
+        "cos1": np.cos(np.pi * xs / L),
+        "cos2": np.cos(2.0 * np.pi * xs / L),
+        "cos5": np.cos(5.0 * np.pi * xs / L),
+        "zigzag": (-1.0) ** np.arange(xs.size),
+    }
+    beta, gamma = 0.25, 0.5
+    rows = []
+    for name, w in shapes.items():
+        ref = {k: float(w @ M @ w / (w @ w)) for k, M in ops.items()}
+        for eps in (1e-8, 1e-7, 1e-6):
+            x = x0 + eps * w[:, None] * nrm
+            s = s0 + (gamma / (beta * T)) * eps * w[:, None] * nrm
+            dFn = np.einsum("ij,ij->i", forces(x, s) - F0, nrm)
+            m = -float(w @ dFn) / (float(w @ w) * gamma * eps / (beta * T * T))
+            row = {"t_start_s": t0, "mass_ratio": ratio, "shape": name, "eps_m": eps,
+                   "m_w_kg_per_m": m, "impact_kg_per_m": ref["impact"],
+                   "tank_kg_per_m": ref["tank"], "m_w_over_impact": m / ref["impact"],
+                   "m_w_over_tank": m / ref["tank"], "repeat_diff_N_per_m": repeat}  # fmt: skip
+            rows.append(row)
+            print(row, flush=True)
+    # the whole window operator on the free (interior) nodes, one node at a time (eps 1e-7 m:
+    # the map is linear there, the rows above), and its generalized eigenvalues lambda against
+    # each operator: M_mps v = lambda M_op v. Under M_f = c M_op an unrelaxed iteration
+    # multiplies a mode's error by about 1 - gamma lambda / c (m_s << m_a; the fluid answers
+    # to the window's mean acceleration, gamma of the end acceleration's change), so it
+    # contracts for c > gamma lambda / 2 and best at c = gamma lambda
+    free = np.arange(1, xs.size - 1)
+    eps = 1e-7
+    Mw = np.zeros((free.size, free.size))
+    for j, node in enumerate(free):
+        x, sv = x0.copy(), s0.copy()
+        x[node] += eps * nrm[node]
+        sv[node] += (gamma / (beta * T)) * eps * nrm[node]
+        dFn = np.einsum("ij,ij->i", forces(x, sv) - F0, nrm)
+        Mw[:, j] = -dFn[free] / (gamma * eps / (beta * T * T))
+    fluid.restore()
+    asym = float(np.abs(Mw - Mw.T).max() / np.abs(Mw).max())
+    Ms = 0.5 * (Mw + Mw.T)
+    modes = []
+    lam = {
+        k: np.sort(sla.eigh(Ms, M[np.ix_(free, free)], eigvals_only=True)) for k, M in ops.items()
+    }
+    for k in range(free.size):
+        modes.append({"mass_ratio": ratio, "t_start_s": t0, "mode": k,
+                      "lambda_vs_impact": lam["impact"][k], "lambda_vs_tank": lam["tank"][k],
+                      "asymmetry_rel": asym})  # fmt: skip
+    print(f"MPS window operator: asymmetry {asym:.3g}; lambda vs impact "
+          f"{lam['impact'].min():.3g}..{lam['impact'].max():.3g}, vs tank "
+          f"{lam['tank'].min():.3g}..{lam['tank'].max():.3g}")  # fmt: skip
+    out.parent.mkdir(parents=True, exist_ok=True)
+    for path, table in ((out, rows), (out.with_name(out.stem + "_modes.csv"), modes)):
+        with path.open("w", newline="") as fh:
+            wr = csv.DictWriter(fh, fieldnames=list(table[0]))
+            wr.writeheader()
+            wr.writerows(table)
+        print(f"wrote {path}")
+
+
+def _obstacle_map(out, ratio, scheme, fluid, forces, x0, s0, F0, repeat, pts, nrm, sc) -> None:
+    """:func:`plate_map_probe` on the obstacle's wetted run (``--only obstacle_map``)."""
+    from mpsfem.structure_fem.added_mass_potential import patch_added_mass, patch_coordinates
+    from mpsfem.structure_fem.fictitious_mass import node_runs, tributary_measure
+
+    T, t0 = scheme.window, scheme.t
+    beta, gamma = 0.25, 0.5
+    cells = np.c_[np.arange(pts.shape[0] - 1), np.arange(1, pts.shape[0])]
+    pressure = np.einsum("ij,ij->i", F0, nrm) / tributary_measure(pts, cells)
+    runs = node_runs(pts, np.abs(pressure) > 1.0)
+    if not runs:
+        raise SystemExit(f"obstacle_map: no node above 1 Pa at t = {t0:.4f} s")
+    run = max(runs, key=len)
+    run = run[run != 0]  # node 0: the clamped foot
+    xs = patch_coordinates(pts[run])
+    L = xs[-1]
+    Ma = patch_added_mass(xs, sc.fluid.density)
+    shapes = {
+        "heave": np.ones(xs.size),
+        "sin_half": np.sin(np.pi * xs / L),
+        "sin_full": np.sin(2.0 * np.pi * xs / L),
+        "zigzag": (-1.0) ** np.arange(xs.size),
+    }
+    print(f"t = {t0:.4f} s: wet run nodes {run.min()}-{run.max()} ({L * 1e3:.1f} mm), "
+          f"pressure {np.abs(pressure[run]).min():.3g}-{np.abs(pressure[run]).max():.3g} Pa")  # fmt: skip
+    rows = []
+    for name, w in shapes.items():
+        ref = float(w @ Ma @ w / (w @ w))
+        for eps in (1e-8, 1e-7, 1e-6):
+            x, sv = x0.copy(), s0.copy()
+            x[run] += eps * w[:, None] * nrm[run]
+            sv[run] += (gamma / (beta * T)) * eps * w[:, None] * nrm[run]
+            dFn = np.einsum("ij,ij->i", (forces(x, sv) - F0)[run], nrm[run])
+            m = -float(w @ dFn) / (float(w @ w) * gamma * eps / (beta * T * T))
+            row = {"t_start_s": t0, "mass_ratio": ratio, "shape": name, "eps_m": eps,
+                   "wet_run_nodes": int(run.size), "wet_run_length_m": float(L),
+                   "m_w_kg_per_m": m, "impact_kg_per_m": ref, "m_w_over_impact": m / ref,
+                   "repeat_diff_N_per_m": repeat}  # fmt: skip
+            rows.append(row)
+            print(row, flush=True)
+    eps = 1e-7
+    Mw = np.zeros((run.size, run.size))
+    for j, node in enumerate(run):
+        x, sv = x0.copy(), s0.copy()
+        x[node] += eps * nrm[node]
+        sv[node] += (gamma / (beta * T)) * eps * nrm[node]
+        dFn = np.einsum("ij,ij->i", forces(x, sv) - F0, nrm)
+        Mw[:, j] = -dFn[run] / (gamma * eps / (beta * T * T))
+    fluid.restore()
+    asym = float(np.abs(Mw - Mw.T).max() / np.abs(Mw).max())
+    lam = np.sort(sla.eigh(0.5 * (Mw + Mw.T), Ma, eigvals_only=True))
+    modes = [{"mass_ratio": ratio, "t_start_s": t0, "mode": k, "lambda_vs_impact": lam[k],
+              "asymmetry_rel": asym} for k in range(run.size)]  # fmt: skip
+    print(f"MPS window operator: asymmetry {asym:.3g}; lambda vs impact "
+          f"{lam.min():.3g}..{lam.max():.3g}")  # fmt: skip
+    out.parent.mkdir(parents=True, exist_ok=True)
+    for path, table in ((out, rows), (out.with_name(out.stem + "_modes.csv"), modes)):
+        with path.open("w", newline="") as fh:
+            wr = csv.DictWriter(fh, fieldnames=list(table[0]))
+            wr.writeheader()
+            wr.writerows(table)
+        print(f"wrote {path}")
+
+
+def _probe_tank_operator(depth: float) -> None:
+    """A probe, not a scenario setting (task H1): the ``potential_flow`` model's operator is
+    replaced in this process by the tank-bottom one (:func:`~mpsfem.structure_fem.
+    added_mass_tank.tank_bottom_added_mass`: rigid walls at the wetted run's ends, water depth
+    ``depth`` m, phi = 0 on the free surface), to measure whether the impact operator's
+    geometry (free surface continuing the patch's line, infinite depth) matters on the
+    hydrostatic plate, a tank's whole bottom under a 2 m column."""
+    from mpsfem.structure_fem import fictitious_mass
+    from mpsfem.structure_fem.added_mass_tank import tank_bottom_added_mass
+
+    def operator(s, density):
+        return tank_bottom_added_mass(s, density, depth)
+
+    fictitious_mass.patch_added_mass = operator
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default=None, help="comma-separated sweeps (default: the first four)")
@@ -347,7 +615,60 @@ def main(argv=None) -> int:
     ap.add_argument(
         "--set", action="append", default=[], help="extra scenario override for every run"
     )
+    ap.add_argument(
+        "--wet-pressure",
+        type=float,
+        default=None,
+        help="structure.members.0.fictitious_wet_pressure (Pa) for every run",
+    )
+    ap.add_argument(
+        "--force-tolerance",
+        type=float,
+        default=None,
+        help="coupling.convergence.fictitious_force_tolerance for every run (default 1e-2)",
+    )
+    ap.add_argument(
+        "--probe-tank-depth",
+        type=float,
+        default=None,
+        help="a probe (task H1): the potential_flow model's operator replaced in-process by the "
+        "tank-bottom one (structure_fem/added_mass_tank.py) at this water depth (m)",
+    )
+    ap.add_argument(
+        "--keep-h5",
+        type=Path,
+        default=None,
+        help="keep each run's results file in this folder (default: a temporary one)",
+    )
+    ap.add_argument(
+        "--map-spacing",
+        type=float,
+        default=None,
+        help="plate_map: fluid.spacing (m; default the sweeps' 0.05), its own CSV",
+    )
+    ap.add_argument(
+        "--map-windows",
+        type=int,
+        default=560,
+        help="obstacle_map: windows stepped before the probe (default 560: t = 0.14 s)",
+    )
     args = ap.parse_args(argv)
+    if args.probe_tank_depth is not None:
+        _probe_tank_operator(args.probe_tank_depth)
+    if args.only == "obstacle_map":
+        plate_map_probe(
+            ROOT / "benchmarks/results/coupling_stress_shaped_obstacle_map.csv",
+            ratio=0.103,
+            windows=args.map_windows,
+            scene="obstacle",
+        )
+        return 0
+    if args.only == "plate_map":
+        name = "coupling_stress_shaped_plate_map"
+        if args.map_spacing is not None:
+            name += f"_l0_{args.map_spacing:g}"
+        plate_map_probe(ROOT / f"benchmarks/results/{name}.csv", spacing=args.map_spacing)
+        return 0
     if args.only == "mock_fictitious":
         default = ROOT / "benchmarks/results/coupling_stress.csv"
         mock_sweep(
@@ -358,7 +679,7 @@ def main(argv=None) -> int:
         return 0
     runs = sweeps()
     if not args.only:
-        runs = [r for r in runs if not r[0].endswith("_fictitious")]
+        runs = [r for r in runs if not r[0].endswith(("_fictitious", "_shaped"))]
     if args.only:
         keep = set(args.only.split(","))
         unknown = keep - {r[0] for r in runs}
@@ -374,9 +695,20 @@ def main(argv=None) -> int:
     fields = ["sweep", "scene", "acceleration", "factor", "value", "mass_ratio", "verdict",
               "end_time_s", "windows", "iterations_mean", "iterations_max",
               "windows_not_converged", "displacement_m", "wall_s"]  # fmt: skip
-    fictitious_only = all(r[0].endswith("_fictitious") for r in runs)
+    fictitious_only = all(r[0].endswith(("_fictitious", "_shaped")) for r in runs)
+    shaped_only = all(r[0].endswith("_shaped") for r in runs)
     if fictitious_only:  # the fictitious-mass runs' extra columns (issue 21)
         fields += ["peak_time_s", "wet_windows", "force_error_max", "settings"]
+    if shaped_only:  # task H1: the iterations of the windows in which M_f acted
+        fields += ["iterations_mean_wet", "not_converged_wet"]
+        if args.out == ROOT / "benchmarks/results/coupling_stress.csv":
+            args.out = ROOT / "benchmarks/results/coupling_stress_shaped.csv"
+    if args.wet_pressure is not None:
+        args.set = args.set + [f"structure.members.0.fictitious_wet_pressure={args.wet_pressure!r}"]
+    if args.force_tolerance is not None:
+        args.set = args.set + [
+            f"coupling.convergence.fictitious_force_tolerance={args.force_tolerance!r}"
+        ]
     args.out.parent.mkdir(parents=True, exist_ok=True)
     new = not (args.append and args.out.exists())
     if not new:
@@ -395,10 +727,19 @@ def main(argv=None) -> int:
             row = {"sweep": sweep, "scene": scene, "acceleration": accel_name,
                    "factor": factor, "value": value}  # fmt: skip
             path = Path(tmp) / f"r{k}.h5"
+            if args.keep_h5 is not None:
+                args.keep_h5.mkdir(parents=True, exist_ok=True)
+                stamp = time.strftime("%H%M%S")
+                path = (
+                    args.keep_h5
+                    / f"{sweep}_{value:g}_{_ratio((sweep, scene, factor, value, sets)):g}_{stamp}.h5"
+                )
             sets = sets + args.set
             got = run_one(scene, sets, end, args.acceleration, path, args.relaxation)
             if fictitious_only:
                 got["settings"] = " ".join(args.set)
+                if args.probe_tank_depth is not None:
+                    got["settings"] += f" probe:tank_bottom_operator_depth={args.probe_tank_depth}"
             row.update({k: v for k, v in got.items() if k in fields})
             wr.writerow(row)
             fh.flush()
