@@ -353,7 +353,15 @@ def main(argv=None) -> int:
         help="extra scenario override KEY=VALUE (repeatable; the in-process branch may change "
         "any key, e.g. fluid.surface.freeze_in_coupling_window=true)",
     )
+    ap.add_argument(
+        "--patch",
+        default=None,
+        choices=("hull",),
+        help="in-process probe of a structure_fem idea (a proposal, not the code): hull = "
+        "the potential-flow M_f over the hull of a split wet patch (merged_runs)",
+    )
     args = ap.parse_args(argv)
+    apply_patch(args.patch)
     scheme, fluid, st, mesh, sc = build(args)
     if args.record_to is not None:
         return crest(args, scheme, st, mesh)
@@ -397,6 +405,35 @@ def main(argv=None) -> int:
         )
     print(f"wrote {ITER_CSV.name}, {MAP_CSV.name}")
     return 0
+
+
+def merged_runs(points: np.ndarray, carrying: np.ndarray) -> list[np.ndarray]:
+    """Probe ``--patch hull`` (a proposal for structure_fem, not the code's rule): the wet runs
+    of a member merged into one run from its first to its last carrying node, so that the
+    potential-flow M_f of a patch split by a dry gap is one operator over the hull (with the
+    cross terms between the parts and M_f on the gap's nodes) instead of one per part."""
+    runs = node_runs(points, carrying)
+    if len(runs) < 2:
+        return runs
+    p = np.asarray(points, dtype=float)
+    order = np.argsort((p - p[0]) @ (p[np.argmax(np.linalg.norm(p - p[0], axis=1))] - p[0]))
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    lo = min(int(rank[r].min()) for r in runs)
+    hi = max(int(rank[r].max()) for r in runs)
+    return [order[lo : hi + 1]]
+
+
+def apply_patch(name: str | None) -> None:
+    """In-process probes of ideas outside validation/ (reported as proposals, task H3)."""
+    if name is None:
+        return
+    if name == "hull":
+        import mpsfem.structure_fem.fictitious_mass as fm
+
+        fm.node_runs = merged_runs
+        return
+    raise ValueError(f"--patch {name!r}: allowed: hull")
 
 
 def crest(args, scheme, st, mesh) -> int:
