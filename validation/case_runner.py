@@ -87,6 +87,31 @@ def check(loaded, restart, log):
 
 
 sim.check_restart_scenario = check
+import mpsfem.coupler.coupling_scheme as cs
+
+_load = cs.CouplingScheme.load_state_dict
+
+
+def load(self, state):
+    # another acceleration kind than the checkpoint's: its saved history does not fit; it
+    # starts without one (as in a run's first window)
+    acc = getattr(self, "acceleration", None)
+    if acc is not None:
+        inner = acc.load_state_dict
+
+        def tolerant(saved):
+            try:
+                inner(saved)
+            except (KeyError, ValueError) as exc:
+                print(f"physics branch: the checkpoint's acceleration state does not fit "
+                      f"({type(exc).__name__}: {exc}); the acceleration starts without history",
+                      flush=True)
+
+        acc.load_state_dict = tolerant
+    _load(self, state)
+
+
+cs.CouplingScheme.load_state_dict = load
 from mpsfem.cli import main
 
 sys.exit(main(sys.argv[1:]))
