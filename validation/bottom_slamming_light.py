@@ -60,7 +60,24 @@ FIGURE_SHAPED = FIGURE.with_name("bottom_slamming_light_shaped.png")
 
 def _shaped_study(path: Path) -> bool:
     m = NAME.search(path.name)
-    return bool(m["pf"]) or (m["end"] is not None and float(m["end"]) in (1.55, 1.85))
+    return not _crest_study(path) and (
+        bool(m["pf"]) or (m["end"] is not None and float(m["end"]) in (1.55, 1.85))
+    )
+
+
+#: the task H3 branches from the 1.85 s state of the potential-flow 0.5 / 1 Pa run (another
+#: factor, threshold, frozen flags, acceleration or iteration limit, ending at 2.1 s), plotted
+#: with that run to FIGURE_CREST
+FIGURE_CREST = FIGURE.with_name("bottom_slamming_light_crest.png")
+
+
+def _crest_study(path: Path, with_base: bool = False) -> bool:
+    m = NAME.search(path.name)
+    if not m["pf"] or m["end"] is None or float(m["end"]) != 2.1:
+        return False
+    base = float(m["mf"]) in (0.5, 1.0) and float(m["wp"] or 0) == 1.0
+    base = base and not (m["frz"] or m["acc"] or m["maxit"])
+    return with_base and float(m["mf"]) == 0.5 if base else True
 
 
 AREA = 2.5e-5  # m^2, thesis Tables 5-3, 5-7
@@ -437,6 +454,10 @@ def plot(paths: list[Path], out: Path, xlim: tuple[float, float] = (-0.4, 0.8)) 
             label = label.replace("M_f", "potential-flow M_f")
         if r["wp"]:
             label += f", wet > {float(r['wp']):g} Pa"
+        if r["frz"]:
+            label += ", frozen flags"
+        if r["acc"]:
+            label += f", {r['acc']}"
         with h5py.File(path, "r") as h5:
             t, f = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:, 1]
             td, u = h5["probes"]["plate_mid"]["time"][:], h5["probes"]["plate_mid"]["value"][:, 1]
@@ -500,7 +521,10 @@ def report() -> int:
         comment="validation/bottom_slamming_light.py: the light plate with the fictitious mass",
     )
     shaped = [p for p in paths if _shaped_study(p)]
-    rest = [p for p in paths if not _shaped_study(p)]
+    crest = [p for p in paths if _crest_study(p, with_base=True)]
+    rest = [p for p in paths if not _shaped_study(p) and not _crest_study(p, with_base=True)]
+    if crest:
+        plot(crest, FIGURE_CREST, xlim=(-0.11, 0.15))
     old = [p for p in rest if not NAME.search(p.name)["ft"]]
     new = [p for p in rest if NAME.search(p.name)["ft"]]
     for group, fig in ((old, FIGURE), (new, FIGURE_FORCE)):
