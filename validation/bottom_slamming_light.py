@@ -66,17 +66,17 @@ def _shaped_study(path: Path) -> bool:
 
 
 #: the task H3 branches from the 1.85 s state of the potential-flow 0.5 / 1 Pa run (another
-#: factor, threshold, frozen flags, acceleration or iteration limit, ending at 2.1 s), plotted
-#: with that run to FIGURE_CREST
+#: factor, threshold, frozen flags, acceleration or iteration limit, ending at 2.1 s or later),
+#: plotted with that run to FIGURE_CREST
 FIGURE_CREST = FIGURE.with_name("bottom_slamming_light_crest.png")
 
 
 def _crest_study(path: Path, with_base: bool = False) -> bool:
     m = NAME.search(path.name)
-    if not m["pf"] or m["end"] is None or float(m["end"]) != 2.1:
+    if not m["pf"] or m["end"] is None or float(m["end"]) < 2.1:
         return False
     base = float(m["mf"]) in (0.5, 1.0) and float(m["wp"] or 0) == 1.0
-    base = base and not (m["frz"] or m["acc"] or m["maxit"])
+    base = base and float(m["end"]) == 2.1 and not (m["frz"] or m["acc"] or m["maxit"])
     return with_base and float(m["mf"]) == 0.5 if base else True
 
 
@@ -524,7 +524,8 @@ def report() -> int:
     crest = [p for p in paths if _crest_study(p, with_base=True)]
     rest = [p for p in paths if not _shaped_study(p) and not _crest_study(p, with_base=True)]
     if crest:
-        plot(crest, FIGURE_CREST, xlim=(-0.11, 0.15))
+        last = max(float(NAME.search(p.name)["end"]) for p in crest)
+        plot(crest, FIGURE_CREST, xlim=(-0.11, last - Case(0.3, 0.06).crest_time + 0.005))
     old = [p for p in rest if not NAME.search(p.name)["ft"]]
     new = [p for p in rest if NAME.search(p.name)["ft"]]
     for group, fig in ((old, FIGURE), (new, FIGURE_FORCE)):
