@@ -60,7 +60,24 @@ FIGURE_SHAPED = FIGURE.with_name("bottom_slamming_light_shaped.png")
 
 def _shaped_study(path: Path) -> bool:
     m = NAME.search(path.name)
-    return bool(m["pf"]) or (m["end"] is not None and float(m["end"]) in (1.55, 1.85))
+    return not _crest_study(path) and (
+        bool(m["pf"]) or (m["end"] is not None and float(m["end"]) in (1.55, 1.85))
+    )
+
+
+#: the task H3 branches from the 1.85 s state of the potential-flow 0.5 / 1 Pa run (another
+#: factor, threshold, frozen flags, acceleration or iteration limit, ending at 2.1 s or later),
+#: plotted with that run to FIGURE_CREST
+FIGURE_CREST = FIGURE.with_name("bottom_slamming_light_crest.png")
+
+
+def _crest_study(path: Path, with_base: bool = False) -> bool:
+    m = NAME.search(path.name)
+    if not m["pf"] or m["end"] is None or float(m["end"]) < 2.1:
+        return False
+    base = float(m["mf"]) in (0.5, 1.0) and float(m["wp"] or 0) == 1.0
+    base = base and float(m["end"]) == 2.1 and not (m["frz"] or m["acc"] or m["maxit"])
+    return with_base and float(m["mf"]) == 0.5 if base else True
 
 
 AREA = 2.5e-5  # m^2, thesis Tables 5-3, 5-7
@@ -127,6 +144,8 @@ def light_overrides(
     model: str = "lumped",
     wet_pressure: float = 0.0,
     wet_update: str = "window",
+    freeze: bool = False,
+    acceleration: str = "aitken",
 ) -> list[str]:
     """The light section, the fictitious mass (``mf_factor`` x the estimate), Aitken and the
     convergence measure (rtol relative to the whole displacement or to the window's motion);
@@ -134,8 +153,12 @@ def light_overrides(
     (None: the schema's default); ``end_time`` (s), run.end_time (None: the case's); ``model``
     the member's fictitious_mass_model ("potential_flow": ``mf_factor`` x the wetted patch's
     potential-flow added-mass operator, task H1 of issue 21); ``wet_update`` the member's
-    fictitious_wet_update ("grow": the wet set grows inside a window, task H5)."""
+    fictitious_wet_update ("grow": the wet set grows inside a window, task H5); ``freeze``
+    fluid.surface.freeze_in_coupling_window (its default rule "settled"); ``acceleration`` the
+    coupling.acceleration.kind (task H3: after the crest)."""
     extra = []
+    if freeze:
+        extra.append("fluid.surface.freeze_in_coupling_window=true")
     if wet_update != "window":
         extra.append(f'structure.members.0.fictitious_wet_update="{wet_update}"')
     if model != "lumped":
@@ -152,7 +175,7 @@ def light_overrides(
         f"structure.members.0.area={AREA!r}",
         f"structure.members.0.second_moment={SECOND_MOMENT!r}",
         f"structure.members.0.fictitious_mass={mf!r}",
-        'coupling.acceleration.kind="aitken"',
+        f'coupling.acceleration.kind="{acceleration}"',
         f"coupling.convergence.relative_tolerance={rtol!r}",
         f'coupling.convergence.relative_to="{relative_to}"',
         f"coupling.convergence.max_iterations={max_iterations}",
@@ -171,11 +194,14 @@ def run_path(
     model: str = "lumped",
     wet_pressure: float = 0.0,
     wet_update: str = "window",
+    freeze: bool = False,
+    acceleration: str = "aitken",
 ) -> Path:
     """The results file of a run. Names without ``_ft``: runs of the code before the
     force-error criterion and the wetted-node M_f (issue 21, task H1); with ``_pf``: the
     potential-flow M_f (``mf`` its factor, not a multiple of the estimate); with ``_grow``: the
-    wet set grown inside windows (fictitious_wet_update = "grow", task H5)."""
+    wet set grown inside windows (fictitious_wet_update = "grow", task H5); with ``_frz``: surface
+    flags frozen in a window; with ``_acc<kind>``: an acceleration other than Aitken (task H3)."""
     wm = "wm" if relative_to == "window_motion" else ""
     if max_iterations != 30:  # the scenario's
         wm += f"it{max_iterations}"
@@ -185,6 +211,10 @@ def run_path(
         wm += f"_wp{wet_pressure:g}"
     if wet_update != "window":
         wm += f"_{wet_update}"
+    if freeze:
+        wm += "_frz"
+    if acceleration != "aitken":
+        wm += f"_acc{acceleration}"
     if force_tolerance is not None:
         wm += f"_ft{force_tolerance if force_tolerance == 'off' else f'{float(force_tolerance):g}'}"
     if end_time is not None:
@@ -196,7 +226,7 @@ def run_path(
 
 NAME = re.compile(
     r"bottom_slamming_light_(?P<l0>[0-9.e-]+)_mf(?P<mf>[0-9.e-]+)_rtol(?P<rtol>[0-9.e-]+)(?P<wm>(wm)?)(?:it(?P<maxit>[0-9]+))?"
-    r"(?P<pf>_pf)?(?:_wp(?P<wp>[0-9.e-]+))?(?P<grow>_grow)?(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?_"
+    r"(?P<pf>_pf)?(?:_wp(?P<wp>[0-9.e-]+))?(?P<grow>_grow)?(?P<frz>_frz)?(?:_acc(?P<acc>[a-z-]+))?(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?_"
     r"AH(?P<a>[0-9.]+)_DH(?P<d>[0-9.]+)\.h5$"
 )
 
@@ -257,6 +287,17 @@ class LightResult:
     wet_update: str = "window"
     wet_windows_grown: int = 0
     wet_set_growths: int = 0
+    # task H3: fluid.surface.freeze_in_coupling_window, coupling.acceleration.kind, and the
+    # windows ending after LATE_FROM (1.85 s: the branches' start) and after CREST_FROM (2.0 s:
+    # after the crest): count, iterations mean, unconverged
+    freeze_surface: bool = False
+    acceleration: str = "aitken"
+    late_windows: int = 0
+    late_it_mean: float = math.nan
+    late_unconverged: int = 0
+    crest_windows: int = 0
+    crest_it_mean: float = math.nan
+    crest_unconverged: int = 0
 
 
 #: the rigid runs MF divides by: bottom_slamming_<RIGID_L0>.csv (there are none at H/20; the
@@ -336,6 +377,8 @@ def analyse_light(path: Path) -> LightResult:
         fictitious_mass_model="potential_flow" if pf else "lumped",
         wet_pressure_pa=float(m["wp"] or 0.0),
         wet_update="grow" if m["grow"] else "window",
+        freeze_surface=bool(m["frz"]),
+        acceleration=m["acc"] or "aitken",
         **wet,
     )
 
@@ -343,6 +386,10 @@ def analyse_light(path: Path) -> LightResult:
 #: s: the first wet window's end at H/20 (dry, 1 iteration per window, before: the page's
 #: "wet windows (1.61-2.1 s)")
 WET_FROM = 1.61
+#: s: the 1.85 s checkpoint the task H3 branches start from, and the end of the crest's passage
+#: over the plate (t_c = 1.953 s): windows ending after these
+LATE_FROM = 1.85
+CREST_FROM = 2.0
 
 
 def wet_split(path: Path) -> dict:
@@ -364,6 +411,12 @@ def wet_split(path: Path) -> dict:
         "wet_it_mean": float(its[wet].mean()),
         "wet_unconverged": int(np.count_nonzero(conv[wet] == 0)),
     }
+    for name, start in (("late", LATE_FROM), ("crest", CREST_FROM)):
+        sel = t > start + 1e-9
+        if sel.any():
+            out[f"{name}_windows"] = int(sel.sum())
+            out[f"{name}_it_mean"] = float(its[sel].mean())
+            out[f"{name}_unconverged"] = int(np.count_nonzero(conv[sel] == 0))
     if grown is not None and grown.size == t.size:
         g = np.nan_to_num(grown[wet])
         out["wet_windows_grown"] = int(np.count_nonzero(g > 0))
@@ -401,6 +454,10 @@ def plot(paths: list[Path], out: Path, xlim: tuple[float, float] = (-0.4, 0.8)) 
             label = label.replace("M_f", "potential-flow M_f")
         if r["wp"]:
             label += f", wet > {float(r['wp']):g} Pa"
+        if r["frz"]:
+            label += ", frozen flags"
+        if r["acc"]:
+            label += f", {r['acc']}"
         with h5py.File(path, "r") as h5:
             t, f = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:, 1]
             td, u = h5["probes"]["plate_mid"]["time"][:], h5["probes"]["plate_mid"]["value"][:, 1]
@@ -451,6 +508,8 @@ def report() -> int:
         r.setdefault("wet_update", "window")
         r.setdefault("wet_windows_grown", 0)
         r.setdefault("wet_set_growths", 0)
+        r.setdefault("freeze_surface", False)
+        r.setdefault("acceleration", "aitken")
         r["results_file"] = _row_file(r)
     merged = [asdict(r) for r in rows] + kept
     merged.sort(key=lambda r: (-float(r["l0"]), float(r["a_over_h"]), float(r["d_over_h"]),
@@ -462,7 +521,11 @@ def report() -> int:
         comment="validation/bottom_slamming_light.py: the light plate with the fictitious mass",
     )
     shaped = [p for p in paths if _shaped_study(p)]
-    rest = [p for p in paths if not _shaped_study(p)]
+    crest = [p for p in paths if _crest_study(p, with_base=True)]
+    rest = [p for p in paths if not _shaped_study(p) and not _crest_study(p, with_base=True)]
+    if crest:
+        last = max(float(NAME.search(p.name)["end"]) for p in crest)
+        plot(crest, FIGURE_CREST, xlim=(-0.11, last - Case(0.3, 0.06).crest_time + 0.005))
     old = [p for p in rest if not NAME.search(p.name)["ft"]]
     new = [p for p in rest if NAME.search(p.name)["ft"]]
     for group, fig in ((old, FIGURE), (new, FIGURE_FORCE)):
@@ -558,6 +621,25 @@ def main(argv: list[str] | None = None) -> int:
         help="structure.members.0.fictitious_wet_update (default window); grow: the wet set "
         "grows inside a window when a later iterate wets more nodes (file name _grow)",
     )
+    ap.add_argument(
+        "--freeze-surface",
+        action="store_true",
+        help="fluid.surface.freeze_in_coupling_window = true (rule 'settled'; file name _frz)",
+    )
+    ap.add_argument(
+        "--acceleration",
+        default="aitken",
+        choices=("aitken", "iqn-ils", "iqn-imvj"),
+        help="coupling.acceleration.kind (default aitken; others: file name _acc<kind>)",
+    )
+    ap.add_argument(
+        "--branch-from",
+        type=Path,
+        default=None,
+        help="a finished results file (its checkpoint at its end): continue it under this "
+        "run's keys, physics included (case_runner.physics_branch; task H3's what-ifs from "
+        "the 1.85 s state); --branch-at is then not used",
+    )
     ap.add_argument("--added-mass", action="store_true", help="print the estimate and stop")
     case_runner.add_run_options(ap)
     args = ap.parse_args(argv)
@@ -595,13 +677,21 @@ def main(argv: list[str] | None = None) -> int:
                     for f in factors:
                         mm = args.mf_model
                         wp, wu = args.wet_pressure, args.wet_update
+                        fz, acc = args.freeze_surface, args.acceleration
                         out = run_path(
-                            args.l0, case, f, rtol, rel, its, ft, args.end_time, mm, wp, wu
-                        )
+                            args.l0, case, f, rtol, rel, its, ft, args.end_time, mm, wp, wu, fz,
+                            acc,
+                        )  # fmt: skip
                         overrides = case_overrides("elastic", case, spacing) + light_overrides(
-                            f, rtol, rel, its, ft, args.end_time, mm, wp, wu
+                            f, rtol, rel, its, ft, args.end_time, mm, wp, wu, fz, acc
                         )
                         tag = f"[light {case.label()} mf {f:g} rtol {rtol:g} ft {ft}]"
+                        if args.branch_from is not None:
+                            case_runner.physics_branch(
+                                SCENARIOS["elastic"], args.branch_from, out, overrides,
+                                args.threads, args.retry_failed, tag,
+                            )  # fmt: skip
+                            continue
                         if args.branch_at is not None and not out.exists():
                             ft0 = args.base_force_tolerance or fts[0]
                             at = args.branch_at

@@ -54,6 +54,9 @@ from mpsfem.structure_fem.participant import StructureParticipant  # noqa: E402
 
 ITER_CSV = RESULTS_DIR / "bottom_slamming_light_iterations.csv"
 MAP_CSV = RESULTS_DIR / "bottom_slamming_light_map.csv"
+#: task H3 (after the crest): every iteration / every window of a stretch (``--record-to``)
+CREST_ITER_CSV = RESULTS_DIR / "bottom_slamming_light_crest_iterations.csv"
+CREST_CSV = RESULTS_DIR / "bottom_slamming_light_crest_windows.csv"
 COMMENT = (
     "validation/bottom_slamming_light_iterations.py: per-iteration histories / the MPS "
     "window's force map of the light plate (issue 21, task H1)"
@@ -64,8 +67,12 @@ def build(args):
     case = Case(0.3, 0.06)
     spacing = spacing_for(float(args.l0), DEPTH)
     ft = args.force_tolerance
-    overrides = case_overrides("elastic", case, spacing) + light_overrides(
-        args.mf, 1e-3, "displacement", 30, ft, None, args.mf_model, args.wet_pressure
+    overrides = (
+        case_overrides("elastic", case, spacing)
+        + light_overrides(
+            args.mf, 1e-3, "displacement", 30, ft, None, args.mf_model, args.wet_pressure
+        )
+        + list(getattr(args, "set", None) or [])
     )
     loaded = load_scenario(SCENARIOS["elastic"], overrides)
     sc = loaded.scenario
@@ -129,6 +136,107 @@ def instrument(scheme, st, rows, window_index):
     scheme._fluid_window, scheme._structure_window = fluid_window, structure_window
     st.set_iterate = set_iterate
     return state
+
+
+def record_stretch(scheme, st, mesh, t_to: float, tag: str) -> tuple[list[dict], list[dict]]:
+    """Step the windows to ``t_to`` recording every iteration (task H3): the relative
+    displacement residual, the force error / load (the coupler's ratio), Aitken's factor the
+    iterate was made with, the wet set (nodes, separate runs of nodes; nodes the iterate's own
+    forces wet above the threshold), the interface load split into push (up) and suction (down)
+    and the mid-span; per window the iterations, acceptance, the accepted iterate's wet-set
+    nodes that its forces leave dry (they hold M_f without water), and the geometric mean
+    contraction of the force ratio over the window's iterations."""
+    pts = np.asarray(mesh.points)
+    mid = int(np.argmin(np.abs(pts[:, 0] - 0.5 * (pts[0, 0] + pts[-1, 0]))))
+    thr = st._fm_threshold  # N per node (wet pressure x tributary length); None: any load
+    orig_s, orig_it = scheme._structure_window, st.set_iterate
+    it_rows: list[dict] = []
+    state = {"x": None, "k": 0, "window": scheme.index}
+
+    def set_iterate(x, T):
+        state["x"] = np.array(x)
+        orig_it(x, T)
+
+    def structure_window(t0, t1, F1):
+        d, v, n = orig_s(t0, t1, F1)
+        state["k"] += 1
+        x = state["x"]
+        got = st.fictitious_force_error()
+        ratio = (
+            math.nan
+            if got is None
+            else scheme.force_criterion.measure(*got, peak=scheme.force_scale_peak)
+        )
+        wet = st.fictitious_nodes
+        mag = np.linalg.norm(F1, axis=1)
+        own = mag > (0.0 if thr is None else thr)
+        fy = F1[:, 1]
+        it_rows.append(
+            {
+                "run": tag,
+                "window": state["window"],
+                "t_end": t1,
+                "iteration": state["k"],
+                "residual_rel": scheme.criterion.measure(x, d, scheme.d)[0],
+                "force_ratio": ratio,
+                "omega": float(getattr(scheme.acceleration, "omega", math.nan)),
+                "wet_nodes": int(wet.sum()),
+                "wet_runs": len(node_runs(pts, wet)),
+                "iterate_wet_nodes": int(own.sum()),
+                "iterate_wet_runs": len(node_runs(pts, own)),
+                "push_n_per_m": float(fy[fy > 0].sum()),
+                "suction_n_per_m": float(fy[fy < 0].sum()),
+                "mid_mm": float(d[mid, 1]) * 1e3,
+            }
+        )
+        return d, v, n
+
+    scheme._structure_window, st.set_iterate = structure_window, set_iterate
+    win_rows: list[dict] = []
+    tic = time.perf_counter()
+    while scheme.t < t_to - 1e-9:
+        state["window"], state["k"] = scheme.index, 0
+        first = len(it_rows)
+        rec = scheme.advance_window()
+        mine = it_rows[first:]
+        last = mine[-1]
+        r = np.array([m["force_ratio"] for m in mine])
+        ok = np.isfinite(r) & (r > 0)
+        contraction = (
+            float(np.exp(np.mean(np.diff(np.log(r[ok])))))
+            if ok.sum() >= 2 and ok.all()
+            else math.nan
+        )
+        win_rows.append(
+            {
+                "run": tag,
+                "window": rec.index,
+                "t_end": rec.time,
+                "iterations": rec.iterations,
+                "converged": int(rec.converged),
+                "force_ratio": rec.force_error,
+                "force_ratio_first": float(r[0]) if r.size else math.nan,
+                "force_contraction": contraction,
+                "residual_rel": rec.residual,
+                "omega_last": last["omega"],
+                "wet_nodes": last["wet_nodes"],
+                "wet_runs": last["wet_runs"],
+                "accepted_wet_nodes": last["iterate_wet_nodes"],
+                "accepted_wet_runs": last["iterate_wet_runs"],
+                "set_nodes_dry_at_acceptance": int(
+                    last["wet_nodes"] - min(last["wet_nodes"], last["iterate_wet_nodes"])
+                ),
+                "push_n_per_m": last["push_n_per_m"],
+                "suction_n_per_m": last["suction_n_per_m"],
+                "mid_mm": last["mid_mm"],
+            }
+        )
+        if rec.index % 10 == 0:
+            print(f"{tag}: window {rec.index} to {rec.time:.3f} s: {rec.iterations} it., "
+                  f"converged {rec.converged}, force ratio {rec.force_error:.3g}, wet "
+                  f"{last['wet_nodes']} nodes in {last['wet_runs']} runs, "
+                  f"{time.perf_counter() - tic:.0f} s", flush=True)  # fmt: skip
+    return it_rows, win_rows
 
 
 def probe_map(scheme, fluid, st, mesh, rho, out, wet_pressure=0.0):
@@ -230,8 +338,33 @@ def main(argv=None) -> int:
     ap.add_argument("--wet-pressure", type=float, default=0.0, help="fictitious_wet_pressure, Pa")
     ap.add_argument("--to", type=float, default=1.64, help="step windows to this time, s")
     ap.add_argument("--windows", type=int, default=2, help="windows recorded from there")
+    ap.add_argument(
+        "--record-to",
+        type=float,
+        default=None,
+        help="task H3: instead of the probe, record every iteration and window from the "
+        "checkpoint (after --to) to this time into bottom_slamming_light_crest_*.csv",
+    )
+    ap.add_argument("--tag", default=None, help="the run's label in the CSVs (--record-to)")
+    ap.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        help="extra scenario override KEY=VALUE (repeatable; the in-process branch may change "
+        "any key, e.g. fluid.surface.freeze_in_coupling_window=true)",
+    )
+    ap.add_argument(
+        "--patch",
+        default=None,
+        choices=("hull",),
+        help="in-process probe of a structure_fem idea (a proposal, not the code): hull = "
+        "the potential-flow M_f over the hull of a split wet patch (merged_runs)",
+    )
     args = ap.parse_args(argv)
+    apply_patch(args.patch)
     scheme, fluid, st, mesh, sc = build(args)
+    if args.record_to is not None:
+        return crest(args, scheme, st, mesh)
     print(f"restarted at t = {scheme.t:.4f} s")
     tic = time.perf_counter()
     stepped = []
@@ -271,6 +404,58 @@ def main(argv=None) -> int:
             old + new, path, columns=["run", *(k for k in new[0] if k != "run")], comment=COMMENT
         )
     print(f"wrote {ITER_CSV.name}, {MAP_CSV.name}")
+    return 0
+
+
+def merged_runs(points: np.ndarray, carrying: np.ndarray) -> list[np.ndarray]:
+    """Probe ``--patch hull`` (a proposal for structure_fem, not the code's rule): the wet runs
+    of a member merged into one run from its first to its last carrying node, so that the
+    potential-flow M_f of a patch split by a dry gap is one operator over the hull (with the
+    cross terms between the parts and M_f on the gap's nodes) instead of one per part."""
+    runs = node_runs(points, carrying)
+    if len(runs) < 2:
+        return runs
+    p = np.asarray(points, dtype=float)
+    order = np.argsort((p - p[0]) @ (p[np.argmax(np.linalg.norm(p - p[0], axis=1))] - p[0]))
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    lo = min(int(rank[r].min()) for r in runs)
+    hi = max(int(rank[r].max()) for r in runs)
+    return [order[lo : hi + 1]]
+
+
+def apply_patch(name: str | None) -> None:
+    """In-process probes of ideas outside validation/ (reported as proposals, task H3)."""
+    if name is None:
+        return
+    if name == "hull":
+        import mpsfem.structure_fem.fictitious_mass as fm
+
+        fm.node_runs = merged_runs
+        return
+    raise ValueError(f"--patch {name!r}: allowed: hull")
+
+
+def crest(args, scheme, st, mesh) -> int:
+    """The ``--record-to`` mode (task H3): step to ``--to`` unrecorded, record to
+    ``--record-to``, merge the rows into the crest CSVs (rows of other runs stay)."""
+    print(f"restarted at t = {scheme.t:.4f} s")
+    while scheme.t < args.to - 1e-9:
+        scheme.advance_window()
+    tag = args.tag or f"{args.mf_model}_mf{args.mf:g}_wp{args.wet_pressure:g}"
+    it_rows, win_rows = record_stretch(scheme, st, mesh, args.record_to, tag)
+    for new, path in ((it_rows, CREST_ITER_CSV), (win_rows, CREST_CSV)):
+        old = [r for r in (read_csv(path) if path.is_file() else []) if r["run"] != tag]
+        write_csv(old + new, path, columns=list(new[0]), comment=COMMENT + "; task H3 (crest)")
+    w = np.array([r["iterations"] for r in win_rows])
+    c = np.array([r["converged"] for r in win_rows])
+    t = np.array([r["t_end"] for r in win_rows])
+    for a, b in ((1.85, 1.95), (1.95, 2.0), (2.0, 2.05), (2.05, 2.1)):
+        sel = (t > a + 1e-9) & (t <= b + 1e-9)
+        if sel.any():
+            print(f"{a:.2f}-{b:.2f} s: {w[sel].mean():.1f} it./window, "
+                  f"{int((c[sel] == 0).sum())} of {int(sel.sum())} unconverged")  # fmt: skip
+    print(f"wrote {CREST_ITER_CSV.name}, {CREST_CSV.name}")
     return 0
 
 

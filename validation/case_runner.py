@@ -70,6 +70,54 @@ def resumable(status: str | None) -> bool:
     )
 
 
+#: ``python -c`` text of an ``mpsfem run`` whose restart may change any scenario key (a study's
+#: branch from another run's state, :func:`physics_branch`): the check is replaced by one that
+#: prints every changed key instead of refusing it
+PHYSICS_BRANCH_CLI = """
+import sys
+import mpsfem.simulation as sim
+from mpsfem.scenario.compare import restart_differences
+
+
+def check(loaded, restart, log):
+    resolved, _, _ = sim.read_checkpoint_scenario(restart)
+    now = loaded.scenario.model_dump(mode="json")
+    for key, a, b in restart_differences(resolved or {}, now):
+        log(f"physics branch: {key}: checkpoint {a!r}, now {b!r}")
+
+
+sim.check_restart_scenario = check
+import mpsfem.coupler.coupling_scheme as cs
+
+_load = cs.CouplingScheme.load_state_dict
+
+
+def load(self, state):
+    # another acceleration kind than the checkpoint's: its saved history does not fit; it
+    # starts without one (as in a run's first window)
+    acc = getattr(self, "acceleration", None)
+    if acc is not None:
+        inner = acc.load_state_dict
+
+        def tolerant(saved):
+            try:
+                inner(saved)
+            except (KeyError, ValueError) as exc:
+                print(f"physics branch: the checkpoint's acceleration state does not fit "
+                      f"({type(exc).__name__}: {exc}); the acceleration starts without history",
+                      flush=True)
+
+        acc.load_state_dict = tolerant
+    _load(self, state)
+
+
+cs.CouplingScheme.load_state_dict = load
+from mpsfem.cli import main
+
+sys.exit(main(sys.argv[1:]))
+"""
+
+
 def run_scenario(
     scenario: Path,
     out: Path,
@@ -77,10 +125,12 @@ def run_scenario(
     threads: int,
     restart: Path | None = None,
     tag: str = "",
+    physics_branch: bool = False,
 ) -> int:
     """``mpsfem run`` of ``scenario`` in a subprocess on ``threads`` numba threads; its exit
-    code."""
-    cmd = [sys.executable, "-m", "mpsfem.cli", "run", str(scenario), "--out", str(out)]
+    code. ``physics_branch``: the restart may change any key (:data:`PHYSICS_BRANCH_CLI`)."""
+    head = ["-c", PHYSICS_BRANCH_CLI] if physics_branch else ["-m", "mpsfem.cli"]
+    cmd = [sys.executable, *head, "run", str(scenario), "--out", str(out)]
     for item in overrides:
         cmd += ["--set", item]
     cmd.append("--no-progress")
@@ -92,7 +142,10 @@ def run_scenario(
         OMP_NUM_THREADS=str(threads),
         OPENBLAS_NUM_THREADS="1",
     )
-    print(f"{tag} {' '.join(cmd[2:])}".strip(), flush=True)
+    shown = cmd[3:] if physics_branch else cmd[2:]
+    print(
+        f"{tag} {'physics branch: ' if physics_branch else ''}{' '.join(shown)}".strip(), flush=True
+    )
     return subprocess.run(cmd, env=env, cwd=ROOT, check=False).returncode
 
 
@@ -195,3 +248,43 @@ def branch_case(
         shutil.copyfile(base, out)
         shutil.copyfile(ckpt, default_checkpoint_path(out))
     run_scenario(scenario, out, overrides, threads, default_checkpoint_path(out), tag)
+
+
+def physics_branch(
+    scenario: Path,
+    source: Path,
+    out: Path,
+    overrides: Sequence[str],
+    threads: int,
+    retry: bool,
+    tag: str = "",
+) -> str:
+    """Continue ``source`` (a finished run with a checkpoint at its end) into ``out`` under
+    ``overrides`` that may change any scenario key, physics included: a study's what-if from a
+    shared state (e.g. frozen surface flags or another wet threshold from the same 1.55 s or
+    1.85 s state), which an ``mpsfem run --restart`` refuses. Every changed key is printed into
+    the run's log. ``out`` holds ``source``'s record up to the branch time, then the branch's.
+    A finished ``out`` is skipped, one stopped by a signal resumes (then as an ordinary restart
+    of itself: its own checkpoint carries the branch's scenario). Returns ``out``'s status."""
+    import shutil
+
+    status = read_status(out)
+    if status == "finished":
+        print(f"{tag} {out.name}: finished, skipped".strip())
+        return status
+    if status is not None and not resumable(status) and not retry:
+        print(f"{tag} {out.name}: {status} (rerun with --retry-failed)".strip())
+        return status
+    ckpt = default_checkpoint_path(out)
+    if resumable(status) and ckpt.is_file():
+        print(f"{tag} {out.name}: resuming from {ckpt.name}".strip())
+        run_scenario(scenario, out, overrides, threads, ckpt, tag)
+        return read_status(out) or "missing"
+    src_ckpt = default_checkpoint_path(source)
+    if read_status(source) != "finished" or not src_ckpt.is_file():
+        print(f"{tag}: {source.name} is {read_status(source)} or has no checkpoint; no branch")
+        return "missing"
+    shutil.copyfile(source, out)
+    shutil.copyfile(src_ckpt, ckpt)
+    run_scenario(scenario, out, overrides, threads, ckpt, tag, physics_branch=True)
+    return read_status(out) or "missing"
