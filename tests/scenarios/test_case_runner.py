@@ -2,6 +2,8 @@
 
 import argparse
 
+import h5py
+import numpy as np
 import pytest
 from validation_script import load
 
@@ -17,3 +19,31 @@ def test_thread_count_accepts_whole_numbers_from_one():
 def test_thread_count_refuses_with_the_key_and_the_allowed_values(bad):
     with pytest.raises(argparse.ArgumentTypeError, match=rf"--threads = '{bad}': must be a whole"):
         cr.thread_count(bad)
+
+
+def test_physics_branch_continues_a_finished_run_under_a_changed_physics_key(tmp_path, capfd):
+    """A restart refuses a changed physics key; ``physics_branch`` continues the same state
+    under it, logs the change, and the branch's record carries the base's history."""
+    from mpsfem.cli import main as mpsfem_main
+
+    scenario = cr.ROOT / "scenarios" / "hydrostatic_2d.toml"
+    common = ["fluid.spacing=0.05", "output.snapshot_interval=0"]
+    base = tmp_path / "base.h5"
+    args = ["run", str(scenario), "--out", str(base), "--no-progress"]
+    for item in [*common, "run.end_time=0.01", "output.checkpoint_interval=0.01"]:
+        args += ["--set", item]
+    assert mpsfem_main(args) == 0
+    assert cr.read_status(base) == "finished"
+    branch = [*common, "run.end_time=0.02", "fluid.viscosity=2e-6"]
+    ckpt = cr.default_checkpoint_path(base)
+    refused = cr.run_scenario(scenario, tmp_path / "plain.h5", branch, 1, ckpt)
+    assert refused != 0  # the ordinary restart refuses the new viscosity
+    out = tmp_path / "branch.h5"
+    assert cr.physics_branch(scenario, base, out, branch, 1, retry=False) == "finished"
+    cap = capfd.readouterr()
+    assert "physics branch: fluid.viscosity: checkpoint 1e-06, now 2e-06" in cap.out + cap.err
+    with h5py.File(base) as a, h5py.File(out) as b:
+        t0 = a["probes"][next(iter(a["probes"]))]["time"][:]
+        t1 = b["probes"][next(iter(b["probes"]))]["time"][:]
+    assert t1[-1] == pytest.approx(0.02) and t0[-1] == pytest.approx(0.01)
+    assert np.array_equal(t1[: t0.size], t0)  # the base's record, then the branch's
