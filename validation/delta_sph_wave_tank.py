@@ -100,8 +100,10 @@ WIDE_KERNEL = [
     'fluid.sph.viscosity_form="antuono"',
     "fluid.sph.viscosity_alpha=0.02",
 ]
-#: "15_h2.0_nu1.3": the wide kernel with alpha scaled by 1.3 / 2.0, so that nu = alpha h c0 / 8
-#: is the h = 1.3 dx cases' (15_a0.0025): the kernel's width alone, at equal viscosity
+#: "15_h2.0_nu1.3", "30_h2.0_nu1.3": the wide kernel with alpha scaled by 1.3 / 2.0, so that
+#: nu = alpha h c0 / 8 is the h = 1.3 dx cases' (15_a0.0025, 30_a0.0025): the kernel's width
+#: alone, at equal viscosity
+EQUAL_NU = [*WIDE_KERNEL, f"fluid.sph.viscosity_alpha={0.02 * 1.3 / 2.0!r}"]
 VARIANTS = {
     "15_a0.0025": (15, 19.5, [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"]),
     "30_short": (30, 6.8, SHORT_TANK),
@@ -109,11 +111,8 @@ VARIANTS = {
     "30_a0.0025": (30, END_TIME[30], [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"]),
     "15_h2.0": (15, END_TIME[15], WIDE_KERNEL),
     "30_h2.0": (30, END_TIME[30], WIDE_KERNEL),
-    "15_h2.0_nu1.3": (
-        15,
-        END_TIME[15],
-        [*WIDE_KERNEL, f"fluid.sph.viscosity_alpha={0.02 * 1.3 / 2.0!r}"],
-    ),
+    "15_h2.0_nu1.3": (15, END_TIME[15], EQUAL_NU),
+    "30_h2.0_nu1.3": (30, END_TIME[30], EQUAL_NU),
 }
 
 

@@ -77,10 +77,12 @@ def test_wide_kernel_cases_are_the_seeds_alpha_s_2():
     seed's alpha = 0.02 under viscosity_form 'antuono'; at both resolutions the paddle (0.08 m)
     is thicker than the support 2h, the time-step cap stays above the acoustic step 0.8 h / c0
     (it scales with h), and the top-particle gauges look one spacing wide. The equal-viscosity
-    diagnostic has nu = alpha h c0 / 8 equal to case 15_a0.0025's (seed form, h = 1.3 dx)."""
+    diagnostics have nu = alpha h c0 / 8 equal to cases 15_a0.0025's and 30_a0.0025's (seed
+    form, h = 1.3 dx)."""
     all_cases = wt.cases()
     resolved = {}
-    for label in ("15_h2.0", "30_h2.0", "15_h2.0_nu1.3", "15_a0.0025"):
+    labels = ("15_h2.0", "30_h2.0", "15_h2.0_nu1.3", "30_h2.0_nu1.3", "15_a0.0025", "30_a0.0025")
+    for label in labels:
         ratio, overrides = all_cases[label]
         sc = load_scenario(SCENARIO, overrides).scenario
         sph, dx = sc.fluid.sph, sc.fluid.spacing
@@ -97,6 +99,7 @@ def test_wide_kernel_cases_are_the_seeds_alpha_s_2():
         assert resolved[label][:3] == (2.0, "antuono", 0.02)
     nu = {k: r * a * s for k, (r, _, a, s) in resolved.items()}  # nu / (dx c0)
     assert nu["15_h2.0_nu1.3"] == pytest.approx(nu["15_a0.0025"], rel=1e-12)
+    assert nu["30_h2.0_nu1.3"] == pytest.approx(nu["30_a0.0025"], rel=1e-12)
     assert nu["15_h2.0"] == pytest.approx(nu["15_a0.0025"] * 2.0 / 1.3, rel=1e-12)
 
 
