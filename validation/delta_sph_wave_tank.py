@@ -91,11 +91,28 @@ SHORT_TANK = [
     "fluid.sponges.0.end=6.3",
     SHORT_PROBES,
 ]
+#: "15_h2.0", "30_h2.0": the seed's wider kernel, h = 2.0 dx (alpha_s = 2.0, its Table 2's
+#: better δ-SPHC column), with the seed's alpha = 0.02 in the usual normalisation
+#: (viscosity_form "antuono", nu = alpha h c0 / 8, as the alpha / 8 cases at h = 1.3 dx); the
+#: time step (0.8 h / c0) and the neighbour radius (2h) follow h, the dummy-wall layers fill 2h
+WIDE_KERNEL = [
+    "fluid.sph.smoothing_ratio=2.0",
+    'fluid.sph.viscosity_form="antuono"',
+    "fluid.sph.viscosity_alpha=0.02",
+]
+#: "15_h2.0_nu1.3", "30_h2.0_nu1.3": the wide kernel with alpha scaled by 1.3 / 2.0, so that
+#: nu = alpha h c0 / 8 is the h = 1.3 dx cases' (15_a0.0025, 30_a0.0025): the kernel's width
+#: alone, at equal viscosity
+EQUAL_NU = [*WIDE_KERNEL, f"fluid.sph.viscosity_alpha={0.02 * 1.3 / 2.0!r}"]
 VARIANTS = {
     "15_a0.0025": (15, 19.5, [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"]),
     "30_short": (30, 6.8, SHORT_TANK),
     "30_short_a0.0025": (30, 6.8, [*SHORT_TANK, f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"]),
     "30_a0.0025": (30, END_TIME[30], [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"]),
+    "15_h2.0": (15, END_TIME[15], WIDE_KERNEL),
+    "30_h2.0": (30, END_TIME[30], WIDE_KERNEL),
+    "15_h2.0_nu1.3": (15, END_TIME[15], EQUAL_NU),
+    "30_h2.0_nu1.3": (30, END_TIME[30], EQUAL_NU),
 }
 
 
@@ -165,7 +182,9 @@ class GaugeRow:
 
     case: str  # "15", "30" (d/dx) or a diagnostic variant (VARIANTS)
     d_over_dx: int
-    viscosity_alpha: float  # alpha of seed eq. 3 outside the sponge
+    viscosity_alpha: float  # alpha outside the sponge, in viscosity_form's normalisation
+    viscosity_form: str  # "seed" (seed eq. 3 as printed) or "antuono" (alpha / (2 (n + 2)))
+    smoothing_ratio: float  # alpha_s = h / dx
     spacing: float
     x: float
     gauge: str  # "kernel" (half fluid fraction) or "top" (the seed's highest particle)
@@ -191,18 +210,21 @@ class Summary:
     case: str
     d_over_dx: int
     viscosity_alpha: float
+    viscosity_form: str
+    smoothing_ratio: float
     spacing: float
     status: str
     particles: int
     steps: int
     simulated_s: float
     wall_time_s: float
+    us_per_particle_rhs: float  # wall time / (particles x steps x 4 RK4 right-hand sides), us
     height_2_37: float  # first harmonic, kernel gauge, m
     height_6_37: float
     decay_2_37_to_6_37_pct: float  # 100 (H(6.37) / H(2.37) - 1)
     decay_per_m: float  # delta of H ~ exp(-delta x) over the incident gauges 1-6.37 m, 1/m
     ratio_at_paddle: float  # that exponential fit at x = 0 over H_design (generation)
-    nu_artificial: float  # alpha h c0, m^2/s: seed eq. 3's viscosity (phi holds 2 (n + 2))
+    nu_artificial: float  # alpha h c0 ("seed": phi holds 2 (n + 2)), / 8 ("antuono"), m^2/s
     decay_lamb_per_m: float  # 2 nu k^2 / cg (Lamb 1932, art. 348), 1/m
     k_theory: float
     k_measured: float
@@ -260,7 +282,10 @@ def analyse(label: str) -> tuple[list[GaugeRow], Summary]:
     resolved = meta["scenario_resolved"]
     tank = rw.tank_from_resolved(resolved)
     ratio = round(DEPTH / tank.spacing)
-    alpha = float(resolved["fluid"]["sph"]["viscosity_alpha"])
+    sph = resolved["fluid"]["sph"]
+    alpha = float(sph["viscosity_alpha"])
+    form = sph.get("viscosity_form", "seed")  # runs before the key existed: the seed's form
+    ratio_s = float(sph["smoothing_ratio"])
     wave = tank.wave
     h_design = tank.theory_height
     t_last = min(float(t[-1]) for t, _ in records.values())
@@ -286,6 +311,8 @@ def analyse(label: str) -> tuple[list[GaugeRow], Summary]:
                 case=label,
                 d_over_dx=ratio,
                 viscosity_alpha=alpha,
+                viscosity_form=form,
+                smoothing_ratio=ratio_s,
                 spacing=tank.spacing,
                 x=x,
                 gauge="kernel" if gauge == "gauge" else "top",
@@ -310,10 +337,11 @@ def analyse(label: str) -> tuple[list[GaugeRow], Summary]:
     zx = np.array([z_inc[x] for x in xs])
     k_meas, delta = fit_wave_number(xs, zx, wave.k) if xs.size >= 2 else (math.nan, math.nan)
     at_paddle = 2.0 * math.exp(float(np.polyfit(xs, np.log(np.abs(zx)), 1)[1])) / h_design
-    sph = resolved["fluid"]["sph"]
     g = math.hypot(*resolved["fluid"]["gravity"])
     c0 = sph["sound_speed"] or 10.0 * max(sph["reference_speed"] or 0.0, math.sqrt(g * DEPTH))
-    nu = alpha * sph["smoothing_ratio"] * tank.spacing * c0  # seed eq. 3 with 2 (n + 2) in phi
+    # seed eq. 3 with 2 (n + 2) in phi: nu = alpha h c0; without it nu = alpha h c0 / (2 (n + 2))
+    # (Antuono et al. 2010; fluid.sph.viscosity_form = "antuono"), n = 2
+    nu = alpha * ratio_s * tank.spacing * c0 / (1.0 if form == "seed" else 8.0)
     refl = split_res = math.nan
     rwin = rw.reflection_window(tank, min(SPLIT_GAUGES), t_last)
     split = {x: records.get(f"gauge_{x:.2f}") for x in SPLIT_GAUGES}
@@ -330,12 +358,15 @@ def analyse(label: str) -> tuple[list[GaugeRow], Summary]:
         case=label,
         d_over_dx=ratio,
         viscosity_alpha=alpha,
+        viscosity_form=form,
+        smoothing_ratio=ratio_s,
         spacing=tank.spacing,
         status=meta["status"],
         particles=meta["particles"],
         steps=meta["steps"],
         simulated_s=t_last,
         wall_time_s=meta["wall_time"],
+        us_per_particle_rhs=1e6 * meta["wall_time"] / (meta["particles"] * meta["steps"] * 4),
         height_2_37=kernel.get(2.37, math.nan),
         height_6_37=kernel.get(6.37, math.nan),
         decay_2_37_to_6_37_pct=100.0
@@ -356,9 +387,11 @@ def analyse(label: str) -> tuple[list[GaugeRow], Summary]:
 
 
 def print_table(rows: list[GaugeRow], s: Summary) -> None:
-    print(f"\n{s.case}: d/dx = {s.d_over_dx} (dx = {s.spacing:.5f} m), alpha = {s.viscosity_alpha:g}, "
+    print(f"\n{s.case}: d/dx = {s.d_over_dx} (dx = {s.spacing:.5f} m), h = "
+          f"{s.smoothing_ratio:g} dx, alpha = {s.viscosity_alpha:g} ({s.viscosity_form}), "
           f"{s.particles} particles, {s.steps} steps to {s.simulated_s:.2f} s, "
-          f"{s.wall_time_s:.0f} s wall: {s.status}")  # fmt: skip
+          f"{s.wall_time_s:.0f} s wall ({s.us_per_particle_rhs:.2f} us per particle and "
+          f"right-hand side): {s.status}")  # fmt: skip
     print("   x m  gauge   window s      periods  H1 m     Hzc m    H1/H_design  vs 0.0428")
     for r in rows:
         err = f"{r.error_vs_measured_pct:+.1f} %" if math.isfinite(r.error_vs_measured_pct) else ""
