@@ -146,6 +146,7 @@ def light_overrides(
     wet_update: str = "window",
     freeze: bool = False,
     acceleration: str = "aitken",
+    kinematics: str = "linear",
 ) -> list[str]:
     """The light section, the fictitious mass (``mf_factor`` x the estimate), Aitken and the
     convergence measure (rtol relative to the whole displacement or to the window's motion);
@@ -155,8 +156,11 @@ def light_overrides(
     potential-flow added-mass operator, task H1 of issue 21); ``wet_update`` the member's
     fictitious_wet_update ("grow": the wet set grows inside a window, task H5); ``freeze``
     fluid.surface.freeze_in_coupling_window (its default rule "settled"); ``acceleration`` the
-    coupling.acceleration.kind (task H3: after the crest)."""
+    coupling.acceleration.kind (task H3: after the crest); ``kinematics`` the member's
+    ("corotational": large rotations, the runs past the crest rotate 0.5 rad)."""
     extra = []
+    if kinematics != "linear":
+        extra.append(f'structure.members.0.kinematics="{kinematics}"')
     if freeze:
         extra.append("fluid.surface.freeze_in_coupling_window=true")
     if wet_update != "window":
@@ -196,12 +200,14 @@ def run_path(
     wet_update: str = "window",
     freeze: bool = False,
     acceleration: str = "aitken",
+    kinematics: str = "linear",
 ) -> Path:
     """The results file of a run. Names without ``_ft``: runs of the code before the
     force-error criterion and the wetted-node M_f (issue 21, task H1); with ``_pf``: the
     potential-flow M_f (``mf`` its factor, not a multiple of the estimate); with ``_grow``: the
     wet set grown inside windows (fictitious_wet_update = "grow", task H5); with ``_frz``: surface
-    flags frozen in a window; with ``_acc<kind>``: an acceleration other than Aitken (task H3)."""
+    flags frozen in a window; with ``_acc<kind>``: an acceleration other than Aitken (task H3);
+    with ``_corot``: a co-rotational member."""
     wm = "wm" if relative_to == "window_motion" else ""
     if max_iterations != 30:  # the scenario's
         wm += f"it{max_iterations}"
@@ -215,6 +221,8 @@ def run_path(
         wm += "_frz"
     if acceleration != "aitken":
         wm += f"_acc{acceleration}"
+    if kinematics == "corotational":
+        wm += "_corot"
     if force_tolerance is not None:
         wm += f"_ft{force_tolerance if force_tolerance == 'off' else f'{float(force_tolerance):g}'}"
     if end_time is not None:
@@ -226,7 +234,7 @@ def run_path(
 
 NAME = re.compile(
     r"bottom_slamming_light_(?P<l0>[0-9.e-]+)_mf(?P<mf>[0-9.e-]+)_rtol(?P<rtol>[0-9.e-]+)(?P<wm>(wm)?)(?:it(?P<maxit>[0-9]+))?"
-    r"(?P<pf>_pf)?(?:_wp(?P<wp>[0-9.e-]+))?(?P<grow>_grow)?(?P<frz>_frz)?(?:_acc(?P<acc>[a-z-]+))?(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?_"
+    r"(?P<pf>_pf)?(?:_wp(?P<wp>[0-9.e-]+))?(?P<grow>_grow)?(?P<frz>_frz)?(?:_acc(?P<acc>[a-z-]+))?(?P<corot>_corot)?(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?_"
     r"AH(?P<a>[0-9.]+)_DH(?P<d>[0-9.]+)\.h5$"
 )
 
@@ -292,6 +300,7 @@ class LightResult:
     # after the crest): count, iterations mean, unconverged
     freeze_surface: bool = False
     acceleration: str = "aitken"
+    kinematics: str = "linear"  # the member's
     late_windows: int = 0
     late_it_mean: float = math.nan
     late_unconverged: int = 0
@@ -379,6 +388,7 @@ def analyse_light(path: Path) -> LightResult:
         wet_update="grow" if m["grow"] else "window",
         freeze_surface=bool(m["frz"]),
         acceleration=m["acc"] or "aitken",
+        kinematics="corotational" if m["corot"] else "linear",
         **wet,
     )
 
@@ -510,6 +520,7 @@ def report() -> int:
         r.setdefault("wet_set_growths", 0)
         r.setdefault("freeze_surface", False)
         r.setdefault("acceleration", "aitken")
+        r.setdefault("kinematics", "linear")
         r["results_file"] = _row_file(r)
     merged = [asdict(r) for r in rows] + kept
     merged.sort(key=lambda r: (-float(r["l0"]), float(r["a_over_h"]), float(r["d_over_h"]),
@@ -633,6 +644,12 @@ def main(argv: list[str] | None = None) -> int:
         help="coupling.acceleration.kind (default aitken; others: file name _acc<kind>)",
     )
     ap.add_argument(
+        "--kinematics",
+        default="linear",
+        choices=("linear", "corotational"),
+        help="the member's kinematics (default linear; corotational: file name _corot)",
+    )
+    ap.add_argument(
         "--branch-from",
         type=Path,
         default=None,
@@ -678,12 +695,13 @@ def main(argv: list[str] | None = None) -> int:
                         mm = args.mf_model
                         wp, wu = args.wet_pressure, args.wet_update
                         fz, acc = args.freeze_surface, args.acceleration
+                        kin = args.kinematics
                         out = run_path(
                             args.l0, case, f, rtol, rel, its, ft, args.end_time, mm, wp, wu, fz,
-                            acc,
+                            acc, kin,
                         )  # fmt: skip
                         overrides = case_overrides("elastic", case, spacing) + light_overrides(
-                            f, rtol, rel, its, ft, args.end_time, mm, wp, wu, fz, acc
+                            f, rtol, rel, its, ft, args.end_time, mm, wp, wu, fz, acc, kin
                         )
                         tag = f"[light {case.label()} mf {f:g} rtol {rtol:g} ft {ft}]"
                         if args.branch_from is not None:
@@ -695,10 +713,15 @@ def main(argv: list[str] | None = None) -> int:
                         if args.branch_at is not None and not out.exists():
                             ft0 = args.base_force_tolerance or fts[0]
                             at = args.branch_at
-                            base = run_path(args.l0, case, f, rtols[0], rel, its, ft0, at, mm, wp)
+                            base = run_path(
+                                args.l0, case, f, rtols[0], rel, its, ft0, at, mm, wp,
+                                kinematics=kin,
+                            )  # fmt: skip
                             base_overrides = case_overrides(
                                 "elastic", case, spacing
-                            ) + light_overrides(f, rtols[0], rel, its, ft0, at, mm, wp)
+                            ) + light_overrides(
+                                f, rtols[0], rel, its, ft0, at, mm, wp, kinematics=kin
+                            )
                             base_overrides.append(f"output.checkpoint_interval={args.branch_at!r}")
                             case_runner.branch_case(
                                 SCENARIOS["elastic"], base, base_overrides, out, overrides,
