@@ -371,6 +371,22 @@ def mock_sweep(out: Path) -> None:
     print(f"wrote {out}")
 
 
+def window_operator(forces, x0, s0, F0, nodes, nrm, T, eps=1e-7, beta=0.25, gamma=0.5):
+    """The added-mass matrix (kg/m per node) the fluid window presents on ``nodes``, one node
+    moved at a time by eps (m) along its normal ``nrm`` from the first iterate (x0, s0) whose
+    forces are F0 (the window-end velocity moved by gamma eps / (beta T)): column j is -dF_n /
+    delta_a, delta_a = gamma eps / (beta T^2) the change of the window's mean wall acceleration
+    (the map is linear there: the shapes' rows). Returns it and its relative asymmetry."""
+    Mw = np.zeros((nodes.size, nodes.size))
+    for j, node in enumerate(nodes):
+        x, sv = x0.copy(), s0.copy()
+        x[node] += eps * nrm[node]
+        sv[node] += (gamma / (beta * T)) * eps * nrm[node]
+        dFn = np.einsum("ij,ij->i", forces(x, sv) - F0, nrm)
+        Mw[:, j] = -dFn[nodes] / (gamma * eps / (beta * T * T))
+    return Mw, float(np.abs(Mw - Mw.T).max() / np.abs(Mw).max())
+
+
 def plate_map_probe(
     out: Path,
     ratio: float = 1e-3,
@@ -490,16 +506,8 @@ def plate_map_probe(
     # to the window's mean acceleration, gamma of the end acceleration's change), so it
     # contracts for c > gamma lambda / 2 and best at c = gamma lambda
     free = np.arange(1, xs.size - 1)
-    eps = 1e-7
-    Mw = np.zeros((free.size, free.size))
-    for j, node in enumerate(free):
-        x, sv = x0.copy(), s0.copy()
-        x[node] += eps * nrm[node]
-        sv[node] += (gamma / (beta * T)) * eps * nrm[node]
-        dFn = np.einsum("ij,ij->i", forces(x, sv) - F0, nrm)
-        Mw[:, j] = -dFn[free] / (gamma * eps / (beta * T * T))
+    Mw, asym = window_operator(forces, x0, s0, F0, free, nrm, T)
     fluid.restore()
-    asym = float(np.abs(Mw - Mw.T).max() / np.abs(Mw).max())
     Ms = 0.5 * (Mw + Mw.T)
     modes = []
     lam = {
@@ -561,16 +569,8 @@ def _obstacle_map(out, ratio, scheme, fluid, forces, x0, s0, F0, repeat, pts, nr
                    "repeat_diff_N_per_m": repeat}  # fmt: skip
             rows.append(row)
             print(row, flush=True)
-    eps = 1e-7
-    Mw = np.zeros((run.size, run.size))
-    for j, node in enumerate(run):
-        x, sv = x0.copy(), s0.copy()
-        x[node] += eps * nrm[node]
-        sv[node] += (gamma / (beta * T)) * eps * nrm[node]
-        dFn = np.einsum("ij,ij->i", forces(x, sv) - F0, nrm)
-        Mw[:, j] = -dFn[run] / (gamma * eps / (beta * T * T))
+    Mw, asym = window_operator(forces, x0, s0, F0, run, nrm, T)
     fluid.restore()
-    asym = float(np.abs(Mw - Mw.T).max() / np.abs(Mw).max())
     lam = np.sort(sla.eigh(0.5 * (Mw + Mw.T), Ma, eigvals_only=True))
     modes = [{"mass_ratio": ratio, "t_start_s": t0, "mode": k, "lambda_vs_impact": lam[k],
               "asymmetry_rel": asym} for k in range(run.size)]  # fmt: skip
