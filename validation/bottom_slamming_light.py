@@ -134,6 +134,18 @@ def added_mass_estimate(h: float = 0.002, wetted: float = 1.0, mode: str = "sin"
     return float(WATER_DENSITY * abs(np.sum(phi_surface * w)) / np.sum(w[wet] ** 2))
 
 
+def branch_time(source: Path) -> float:
+    """The time (s) of the state a ``--branch-from`` run continues: that of ``source``'s
+    checkpoint (the one :func:`case_runner.physics_branch` copies)."""
+    from mpsfem.results.checkpoint import default_checkpoint_path, read_checkpoint
+
+    ckpt = default_checkpoint_path(source)
+    if not ckpt.is_file():
+        raise SystemExit(f"--branch-from {source}: no checkpoint {ckpt.name} beside it")
+    _, meta, _ = read_checkpoint(ckpt)
+    return float(meta["scheme"]["t"])
+
+
 def light_overrides(
     mf_factor: float,
     rtol: float,
@@ -201,13 +213,15 @@ def run_path(
     freeze: bool = False,
     acceleration: str = "aitken",
     kinematics: str = "linear",
+    branched_from: float | None = None,
 ) -> Path:
     """The results file of a run. Names without ``_ft``: runs of the code before the
     force-error criterion and the wetted-node M_f (issue 21, task H1); with ``_pf``: the
     potential-flow M_f (``mf`` its factor, not a multiple of the estimate); with ``_grow``: the
     wet set grown inside windows (fictitious_wet_update = "grow", task H5); with ``_frz``: surface
     flags frozen in a window; with ``_acc<kind>``: an acceleration other than Aitken (task H3);
-    with ``_corot``: a co-rotational member."""
+    with ``_corot``: a co-rotational member; with ``_from<t>``: a ``--branch-from`` run, continued
+    from another run's state at t s (runs of task H3 before this token carry no such mark)."""
     wm = "wm" if relative_to == "window_motion" else ""
     if max_iterations != 30:  # the scenario's
         wm += f"it{max_iterations}"
@@ -227,6 +241,8 @@ def run_path(
         wm += f"_ft{force_tolerance if force_tolerance == 'off' else f'{float(force_tolerance):g}'}"
     if end_time is not None:
         wm += f"_end{end_time:g}"
+    if branched_from is not None:
+        wm += f"_from{branched_from:g}"
     return RESULTS_DIR / (
         f"bottom_slamming_light_{l0_label}_mf{mf_factor:g}_rtol{rtol:g}{wm}_{case.label()}.h5"
     )
@@ -234,7 +250,7 @@ def run_path(
 
 NAME = re.compile(
     r"bottom_slamming_light_(?P<l0>[0-9.e-]+)_mf(?P<mf>[0-9.e-]+)_rtol(?P<rtol>[0-9.e-]+)(?P<wm>(wm)?)(?:it(?P<maxit>[0-9]+))?"
-    r"(?P<pf>_pf)?(?:_wp(?P<wp>[0-9.e-]+))?(?P<grow>_grow)?(?P<frz>_frz)?(?:_acc(?P<acc>[a-z-]+))?(?P<corot>_corot)?(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?_"
+    r"(?P<pf>_pf)?(?:_wp(?P<wp>[0-9.e-]+))?(?P<grow>_grow)?(?P<frz>_frz)?(?:_acc(?P<acc>[a-z-]+))?(?P<corot>_corot)?(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?(?:_from(?P<frm>[0-9.e-]+))?_"
     r"AH(?P<a>[0-9.]+)_DH(?P<d>[0-9.]+)\.h5$"
 )
 
@@ -301,6 +317,7 @@ class LightResult:
     freeze_surface: bool = False
     acceleration: str = "aitken"
     kinematics: str = "linear"  # the member's
+    branched_from_s: float = math.nan  # --branch-from: the time of the state it continued
     late_windows: int = 0
     late_it_mean: float = math.nan
     late_unconverged: int = 0
@@ -389,6 +406,7 @@ def analyse_light(path: Path) -> LightResult:
         freeze_surface=bool(m["frz"]),
         acceleration=m["acc"] or "aitken",
         kinematics="corotational" if m["corot"] else "linear",
+        branched_from_s=float(m["frm"]) if m["frm"] else math.nan,
         **wet,
     )
 
@@ -521,6 +539,7 @@ def report() -> int:
         r.setdefault("freeze_surface", False)
         r.setdefault("acceleration", "aitken")
         r.setdefault("kinematics", "linear")
+        r.setdefault("branched_from_s", math.nan)
         r["results_file"] = _row_file(r)
     merged = [asdict(r) for r in rows] + kept
     merged.sort(key=lambda r: (-float(r["l0"]), float(r["a_over_h"]), float(r["d_over_h"]),
@@ -688,6 +707,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"l0 = {l0:g} m -> {spacing:.7g} m; M_f estimate {ADDED_MASS_ESTIMATE} kg/m^2")
     if not args.analyse_only:
         rel, its = args.relative_to, args.max_iterations
+        branched = None if args.branch_from is None else branch_time(args.branch_from)
         for case in cases:
             for rtol in rtols:
                 for ft in fts:
@@ -698,7 +718,7 @@ def main(argv: list[str] | None = None) -> int:
                         kin = args.kinematics
                         out = run_path(
                             args.l0, case, f, rtol, rel, its, ft, args.end_time, mm, wp, wu, fz,
-                            acc, kin,
+                            acc, kin, branched,
                         )  # fmt: skip
                         overrides = case_overrides("elastic", case, spacing) + light_overrides(
                             f, rtol, rel, its, ft, args.end_time, mm, wp, wu, fz, acc, kin

@@ -23,6 +23,11 @@ bsl = load("bottom_slamming_light")
             {"acceleration": "iqn-imvj", "kinematics": "corotational", "end_time": 2.1},
             {"acc": "iqn-imvj", "corot": "_corot", "end": "2.1"},
         ),
+        (
+            {"model": "potential_flow", "end_time": 2.4, "branched_from": 2.1},
+            {"pf": "_pf", "end": "2.4", "frm": "2.1"},
+        ),
+        ({"end_time": 2.1}, {"end": "2.1", "frm": None}),
     ],
 )
 def test_run_path_names_parse_back_to_their_settings(kw, expect):
