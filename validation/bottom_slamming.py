@@ -490,7 +490,7 @@ def collect(l0_label: str) -> list[CaseResult]:
         for case in all_cases():
             path = case_path(l0_label, kind, case)
             status = read_status(path)
-            if status is None or status == "locked" or status.startswith("unreadable"):
+            if not case_runner.analysable(status):
                 continue
             try:
                 rows.append(analyse(path))

@@ -511,13 +511,8 @@ def plot(paths: list[Path], out: Path, xlim: tuple[float, float] = (-0.4, 0.8)) 
 
 def report() -> int:
     rows, paths = [], []
-    for path in sorted(RESULTS_DIR.glob("bottom_slamming_light_*.h5")):
-        if path.name.endswith(".ckpt.h5"):
-            continue
-        status = case_runner.read_status(path)
-        if status is None or status == "locked" or status.startswith("unreadable"):
-            print(f"{path.name}: {status}, skipped")
-            continue
+    files = sorted(RESULTS_DIR.glob("bottom_slamming_light_*.h5"))
+    for path, _ in case_runner.readable_results(files):
         try:
             rows.append(analyse_light(path))
             paths.append(path)

@@ -170,13 +170,8 @@ def report() -> int:
     rows = []
     refs: dict[str, tuple[float, float]] = {}  # run -> (raw, 11 ms mean) rigid peak
     for run in ("rigid", "rigid_x"):
-        for path in sorted(RESULTS_DIR.glob(f"dsph_bottom_slamming_{run}_{L0}_end*.h5")):
-            if path.name.endswith(".ckpt.h5"):
-                continue
-            status = case_runner.read_status(path)
-            if status is None or status == "locked" or status.startswith("unreadable"):
-                print(f"{path.name}: {status}, skipped")
-                continue
+        files = sorted(RESULTS_DIR.glob(f"dsph_bottom_slamming_{run}_{L0}_end*.h5"))
+        for path, _ in case_runner.readable_results(files):
             r = analyse(path)
             refs[run] = (r.peak_uplift, r.peak_uplift_smooth)
             with h5py.File(path, "r") as h5:
@@ -203,11 +198,7 @@ def report() -> int:
     rigid_p, rigid_ps = refs.get("rigid", (math.nan, math.nan))
     for run in RUNS[2:]:
         pattern = run_path(run, 0).name.replace("end0", "end*")
-        for path in sorted(RESULTS_DIR.glob(pattern)):
-            status = case_runner.read_status(path)
-            if status is None or status == "locked" or status.startswith("unreadable"):
-                print(f"{path.name}: {status}, skipped")
-                continue
+        for path, _ in case_runner.readable_results(sorted(RESULTS_DIR.glob(pattern))):
             with h5py.File(path, "r") as h5:
                 t, fy = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:, 1]
             dry = (t > 0.5) & (t < 1.0)

@@ -12,7 +12,7 @@ import argparse
 import os
 import subprocess
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 
 import h5py
@@ -55,6 +55,25 @@ def read_status(path: Path) -> str | None:
         if "lock" in str(exc).lower():
             return "locked"
         return f"unreadable: {exc}"
+
+
+def analysable(status: str | None) -> bool:
+    """A results file that exists and can be read now (finished, stopped or still running),
+    not one another process holds locked or one h5py cannot open."""
+    return status is not None and status != "locked" and not status.startswith("unreadable")
+
+
+def readable_results(paths: Iterable[Path]) -> Iterator[tuple[Path, str]]:
+    """(path, status) of each results file of ``paths`` that :func:`analysable` admits,
+    checkpoints (``*.ckpt.h5``) left out; says which others it skipped and why."""
+    for path in paths:
+        if path.name.endswith(".ckpt.h5"):
+            continue
+        status = read_status(path)
+        if not analysable(status):
+            print(f"{path.name}: {status}, skipped")
+            continue
+        yield path, status
 
 
 #: status texts of a run stopped from outside (SIGTERM, Ctrl-C), which resume like a killed one

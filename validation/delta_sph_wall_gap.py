@@ -145,15 +145,8 @@ def report() -> int:
     rows = []
     for run in RUNS:
         for mode in MODES:
-            for path in sorted(
-                RESULTS_DIR.glob(run_path(run, mode, 0).name.replace("end0", "end*"))
-            ):
-                if path.name.endswith(".ckpt.h5"):
-                    continue
-                status = case_runner.read_status(path)
-                if status is None or status == "locked" or status.startswith("unreadable"):
-                    print(f"{path.name}: {status}, skipped")
-                    continue
+            pattern = run_path(run, mode, 0).name.replace("end0", "end*")
+            for path, status in case_runner.readable_results(sorted(RESULTS_DIR.glob(pattern))):
                 row = analyse(path, run, mode)
                 row["status"] = status
                 rows.append(row)

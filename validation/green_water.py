@@ -1120,7 +1120,7 @@ def main(argv: list[str] | None = None) -> int:
         for f in FREEBOARDS:
             p = case_path(args.l0, kind, f)
             st = read_status(p)
-            if st is not None and st not in ("locked",) and not st.startswith("unreadable"):
+            if case_runner.analysable(st):
                 paths[(kind, f)] = p
     cases, peaks = [], []
     for (kind, f), p in sorted(paths.items()):

@@ -670,7 +670,7 @@ def main(argv: list[str] | None = None) -> int:
             if args.analyse_only
             else ensure_case(r, spacing, out, args.threads, args.retry_failed)
         )
-        if status is not None and status != "locked" and not status.startswith("unreadable"):
+        if case_runner.analysable(status):
             paths[r] = out
     rows = []
     for r, p in paths.items():

@@ -47,3 +47,17 @@ def test_physics_branch_continues_a_finished_run_under_a_changed_physics_key(tmp
         t1 = b["probes"][next(iter(b["probes"]))]["time"][:]
     assert t1[-1] == pytest.approx(0.02) and t0[-1] == pytest.approx(0.01)
     assert np.array_equal(t1[: t0.size], t0)  # the base's record, then the branch's
+
+
+def test_readable_results_yields_readable_files_and_skips_checkpoints(tmp_path, capsys):
+    done, ckpt, gone = tmp_path / "a.h5", tmp_path / "a.ckpt.h5", tmp_path / "b.h5"
+    for path in (done, ckpt):
+        with h5py.File(path, "w") as h5:
+            h5.attrs["status"] = "finished"
+    broken = tmp_path / "c.h5"
+    broken.write_bytes(b"not an hdf5 file")
+    got = list(cr.readable_results([done, ckpt, gone, broken]))
+    assert got == [(done, "finished")]
+    out = capsys.readouterr().out
+    assert "b.h5: None, skipped" in out and "c.h5: unreadable" in out
+    assert cr.analysable("running") and not cr.analysable("locked")
