@@ -31,6 +31,10 @@ validation/results/delta_sph_obstacle.csv and prints the table.
         dsph40_pairs dsph20_wetted dsph40_wetted]
 
 ``--cases`` picks the cases to run; the CSV lists every case, reading the others' results files.
+Cases ``*_stiff`` give the plate E = 2e11 Pa (a member that does not move: the fluid's own load
+noise, issue 20), ``mps20_stiff_*`` with switches of the pressure equation, the surface and the
+step. ``--noise-map`` re-runs --cases in process and writes the ringing node by node
+(delta_sph_obstacle_noise.csv; ``noise_map``).
 """
 
 from __future__ import annotations
@@ -57,6 +61,8 @@ CENTROID_CSV = RESULTS / "delta_sph_obstacle_centroid.csv"
 CENTROID_SERIES_CSV = RESULTS / "delta_sph_obstacle_centroid_series.csv"
 CENTROID_SPANS = ((0.12, 0.25), (0.12, 0.17), (0.17, 0.25))  # s
 AXIAL_CSV = RESULTS / "delta_sph_obstacle_axial.csv"
+NOISE_CSV = RESULTS / "delta_sph_obstacle_noise.csv"
+NOISE_SPAN = (0.12, 0.25)  # s, the impact window of the ringing
 AXIAL_SPAN = (0.12, 0.17)  # s, the first impact, where the whole exchange pushed the plate up
 AXIAL_EVERY = 4  # windows between two samples of the pair split
 L = 0.146  # m, the column width
@@ -78,6 +84,9 @@ FACE = (
 WALLS = ("fluid.pressure.wall_acceleration=true", 'fluid.pressure.buried_walls="ghost"')
 #: MPS weakly compressible with shifting, c = 10 sqrt(g H) (validation/weakly_compressible_mps.py)
 WEAKLY = ("fluid.pressure.shifting=0.1", "fluid.pressure.compressibility=3.5e-6")
+#: a plate 2e5 times stiffer (E = 2e11 Pa: tip deflection ~0.2 um): the fluid's own noise on a
+#: member that does not move, to tell it from the plate's vibration (issue 20, the ringing)
+STIFF = ("structure.members.0.material.youngs_modulus=2e11",)
 #: key -> (fluid method, L / l0, end time in s[, extra --set overrides])
 CASES = {
     "dsph20": ("delta-sph", 20, 0.3),
@@ -97,6 +106,17 @@ CASES = {
     "mps20_walls": ("mps", 20, 0.3, WALLS),
     "mps40_walls": ("mps", 40, 0.3, WALLS),
     "mps40_weakly": ("mps", 40, 0.3, WEAKLY),
+    "mps20_stiff": ("mps", 20, 0.3, STIFF),
+    "mps40_stiff": ("mps", 40, 0.3, STIFF),
+    "dsph40_stiff": ("delta-sph", 40, 0.3, STIFF),
+    # the stiff plate at L/20 under switches that change the pressure equation's per-step
+    # source, the surface and the step count: does any of them take the noise away?
+    "mps20_stiff_c0.05": ("mps", 20, 0.3, (*STIFF, "fluid.time_step.courant=0.05")),
+    "mps20_stiff_c0.2": ("mps", 20, 0.3, (*STIFF, "fluid.time_step.courant=0.2")),
+    "mps20_stiff_g0.001": ("mps", 20, 0.3, (*STIFF, "fluid.pressure.gamma=0.001")),
+    "mps20_stiff_g0.05": ("mps", 20, 0.3, (*STIFF, "fluid.pressure.gamma=0.05")),
+    "mps20_stiff_density": ("mps", 20, 0.3, (*STIFF, 'fluid.surface.detector="density"')),
+    "mps20_stiff_pzero": ("mps", 20, 0.3, (*STIFF, 'fluid.surface.pressure="zero"')),
 }
 #: 0.1 s blocks after the first peak whose mean tip u_x is reported (the water piled up behind
 #: the plate; docs/validation.md gives MPS's of an earlier fluid)
@@ -515,6 +535,99 @@ def axial_split(key: str) -> list[dict]:
     return rows
 
 
+def noise_map(key: str) -> tuple[dict, list[dict]]:
+    """Where the ringing comes from: an in-process re-run of case ``key`` to the end of
+    NOISE_SPAN that books after each coupling window the last step's interface force on every
+    member node (``read("forces")``, N/m) and, under MPS, how many fluid particles within
+    2.1 l0 of a member particle there are and how many of them the detector flags as free
+    surface. Over NOISE_SPAN, from the per-window node forces F_x,k (window-to-window jumps J):
+    per node the mean and the RMS jump; for the sum, its peak and RMS jump / peak, the ratio
+    var(sum_k J_k) / sum_k var(J_k) (1 for nodes that jump independently, the node count for
+    a face that jumps as one), the mean correlation of neighbouring nodes' jumps, the lag-1
+    autocorrelation of the sum's jumps' source (the sum minus a 41-window cubic
+    Savitzky-Golay fit: 0 for white noise), the share of that residual's power above 500 Hz,
+    and the correlation of |J| with the change in the number of surface-flagged fluid
+    particles next to the member. A diagnostic (issue 20, the ringing), not a results-file
+    quantity."""
+    from scipy.signal import savgol_filter
+
+    from mpsfem.coupler.coupling_scheme import create_scheme
+    from mpsfem.fluid_methods import create_fluid_participant
+    from mpsfem.scenario.loader import load_scenario
+    from mpsfem.simulation import member_nodes
+    from mpsfem.structure_fem.participant import StructureParticipant
+
+    method, n, _, *extra = CASES[key]
+    scenario = SPH_SCENARIO if method == "delta-sph" else MPS_SCENARIO
+    t0, t1 = NOISE_SPAN
+    sc = load_scenario(scenario, overrides(n, t1, *extra)).scenario
+    st = StructureParticipant(sc.structure, base_dir=scenario.parent)
+    names = [m for m, _ in member_nodes(sc)]
+    fl = create_fluid_participant(
+        sc.fluid, st.interface(), base_dir=scenario.parent, member_names=names
+    )
+    scheme = create_scheme(fl, st, sc.coupling, log=lambda m: None)
+    scheme.initialize()
+    solver = fl.solver
+    flags = getattr(solver, "free_surface", None) if method == "mps" else None
+    heights = np.asarray(fl.interface().points)[:, 1]
+    t, fx, near, surf = [], [], [], []
+    while scheme.t < t1 - 1e-9:
+        scheme.advance_window()
+        if scheme.t < t0 - 1e-9:
+            continue
+        t.append(scheme.t)
+        fx.append(fl.read("forces")[:, 0].copy())
+        if flags is not None:
+            fluid = solver.kind == 0
+            member = (solver.kind == 3) | (solver.kind == 4)
+            d = np.linalg.norm(
+                solver.pos[fluid][:, None, :] - solver.pos[member][None, :, :], axis=2
+            ).min(axis=1)
+            close = d < 2.1 * solver.l0
+            near.append(int(close.sum()))
+            surf.append(int((flags[fluid].astype(bool) & close).sum()))
+    t, fx = np.array(t), np.array(fx)
+    wet = np.abs(fx).max(axis=0) > 0.0  # nodes the fluid reaches (the member's other face
+    fx = fx[:, wet]  # and dry nodes carry no load)
+    total = fx.sum(axis=1)
+    jumps = np.diff(fx, axis=0)
+    jt = np.diff(total)
+    peak = float(np.abs(total).max())
+    adjacent = [np.corrcoef(jumps[:, k], jumps[:, k + 1])[0, 1] for k in range(fx.shape[1] - 1)]
+    resid = total - savgol_filter(total, 41, 3)
+    power = np.abs(np.fft.rfft(resid)) ** 2
+    freq = np.fft.rfftfreq(resid.size, float(np.mean(np.diff(t))))
+    summary = {
+        "case": key,
+        "method": method,
+        "L_over_l0": n,
+        "windows": int(t.size),
+        "wet_nodes": int(wet.sum()),
+        "force_peak": peak,
+        "jump_rms_over_peak": float(np.sqrt(np.mean(jt**2)) / peak),
+        "variance_ratio": float(np.var(jt) / np.var(jumps, axis=0).sum()),
+        "adjacent_jump_correlation": float(np.nanmean(adjacent)),
+        "residual_lag1_autocorrelation": float(np.corrcoef(resid[:-1], resid[1:])[0, 1]),
+        "residual_power_above_500Hz": float(power[freq >= 500.0].sum() / power.sum()),
+        "near_fluid_mean": float(np.mean(near)) if near else np.nan,
+        "near_surface_flagged_mean": float(np.mean(surf)) if surf else np.nan,
+        "jump_vs_flag_change_correlation": (
+            float(np.corrcoef(np.abs(jt), np.abs(np.diff(surf)))[0, 1]) if surf else np.nan
+        ),
+    }
+    nodes = [
+        {
+            "case": key,
+            "node_height_m": float(h),
+            "mean_fx": float(fx[:, k].mean()),
+            "jump_rms": float(np.sqrt(np.mean(jumps[:, k] ** 2))),
+        }
+        for k, h in enumerate(heights[wet])
+    ]
+    return summary, nodes
+
+
 def _read(path: Path) -> list[dict]:
     return read_csv(path) if path.is_file() else []
 
@@ -535,7 +648,34 @@ def main() -> int:
         help="only the split of δ-SPH's vertical load on the plate over 0.12-0.17 s (in-process "
         f"re-runs with the whole pair exchange) of --cases -> {AXIAL_CSV.name}",
     )
+    ap.add_argument(
+        "--noise-map",
+        action="store_true",
+        help="only the ringing's node-by-node diagnostic of --cases (in-process re-runs to "
+        f"{NOISE_SPAN[1]} s) -> {NOISE_CSV.name}",
+    )
     args = ap.parse_args()
+    if args.noise_map:
+        write_scenarios()
+        rows = [r for r in _read(NOISE_CSV) if r["case"] not in args.cases]
+        for key in args.cases:
+            summary, nodes = noise_map(key)
+            rows += [summary, *nodes]
+            print(
+                ", ".join(
+                    f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
+                    for k, v in summary.items()
+                )
+            )
+        write_csv(
+            rows,
+            NOISE_CSV,
+            list(dict.fromkeys(k for r in rows for k in r)),
+            comment="elastic obstacle: the ringing node by node, per coupling window over "
+            f"{NOISE_SPAN[0]}-{NOISE_SPAN[1]} s (validation/delta_sph_obstacle.py --noise-map; "
+            "one summary row per case, then its wetted nodes)",
+        )
+        return 0
     if args.axial:
         write_scenarios()
         rows = [r for r in _read(AXIAL_CSV) if r["case"] not in args.cases]
