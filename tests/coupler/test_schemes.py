@@ -445,3 +445,34 @@ def test_iqn_ils_learns_from_every_iteration_of_an_accepted_window():
     assert len(acc.V) + acc.filtered == rec.iterations - 1
     assert len(acc.Ws["velocity"]) == len(acc.V)
     assert acc.tags == [0] * len(acc.V) and acc.window == 1
+
+
+def test_accept_unconverged_best_takes_the_nearest_iterate_and_re_runs_it():
+    """accept_unconverged = "best": unrelaxed iterations at added / structure mass 3 diverge
+    (the mock's residual grows 1.6-1.8 times per iteration), so of 5 iterations the first (the
+    predictor) is nearest the criterion and the last the farthest. "best" accepts the first,
+    re-run by both participants: the window ends bit for bit as a run that stops after one
+    iteration; "last" (the default) accepts the fifth, with its about 9 times larger residual."""
+    conv = {"relative_tolerance": 1e-12, "absolute_tolerance": 1e-16, "on_divergence": "continue"}
+    acc = {"kind": "constant", "relaxation": 1.0}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", CouplingWarning)
+        one, tr_one, _ = run(
+            3.0, end=0.002, acceleration=acc, convergence=conv | {"max_iterations": 1}
+        )
+        last, tr_last, _ = run(
+            3.0, end=0.002, acceleration=acc, convergence=conv | {"max_iterations": 5}
+        )
+        best, tr_best, _ = run(
+            3.0,
+            end=0.002,
+            acceleration=acc,
+            convergence=conv | {"max_iterations": 5, "accept_unconverged": "best"},
+        )
+    np.testing.assert_array_equal(tr_best, tr_one)  # the accepted pair is iteration 1's own
+    np.testing.assert_array_equal(best.history.column("residual"), one.history.column("residual"))
+    assert (best.history.column("iterations") == 6).all()  # 5 + the re-run
+    assert "accepted iteration 1" in best.history[0].warning
+    assert (last.history.column("iterations") == 5).all()
+    assert last.history[0].residual_abs > 5.0 * best.history[0].residual_abs
+    assert not np.array_equal(tr_last, tr_one)

@@ -312,6 +312,12 @@ class CouplingScheme:
         # optional structure hook: how often its wet set (its fixed-point map) grew in the window
         growths = getattr(self.structure, "fictitious_set_growths", None) if self.implicit else None
         grown = float("nan")
+        # accept_unconverged = "best": (merit, iteration, residual, x, s) of the iterate nearest
+        # the criteria so far (merit max(residual / rtol, force ratio / force tolerance))
+        keep_best = (
+            getattr(cv, "accept_unconverged", "last") == "best" and cv.on_divergence == "continue"
+        )
+        best = None
         f_ratio = float("nan")
         f_scale = 0.0
         for k in range(1, max_it + 1):
@@ -320,27 +326,10 @@ class CouplingScheme:
                 self.structure.restore()
             retreats = 0
             while True:
-                tic = time.perf_counter()
-                d_f1 = self.mapping.displacement_to_fluid(x)
-                v_f1 = self.mapping.velocity_to_fluid(s, x)
-                timings["mapping"] += time.perf_counter() - tic
                 try:
-                    tic = time.perf_counter()
-                    try:
-                        F_f1, n_f = self._fluid_window(t0, t1, d_f0, v_f0, d_f1, v_f1)
-                    finally:
-                        timings["fluid"] += time.perf_counter() - tic
-                    tic = time.perf_counter()
-                    # the fluid saw the structure at x
-                    F_s1 = self.mapping.forces_to_structure(F_f1, x)
-                    timings["mapping"] += time.perf_counter() - tic
-                    tic = time.perf_counter()
-                    if set_iterate is not None:  # the x the fluid saw (fictitious mass)
-                        set_iterate(x, T)
-                    try:
-                        x_t, s_t, n_s = self._structure_window(t0, t1, F_s1)
-                    finally:
-                        timings["structure"] += time.perf_counter() - tic
+                    d_f1, F_f1, n_f, F_s1, x_t, s_t, n_s = self._evaluate(
+                        t0, t1, d_f0, v_f0, x, s, set_iterate, timings
+                    )
                     break
                 except rejects as exc:
                     # the accelerated iterate was one a participant cannot take (e.g. an
@@ -391,6 +380,12 @@ class CouplingScheme:
                 else self.force_criterion.measure(*got, peak=self.force_scale_peak)
             )
             f_ok = got is None or self.force_criterion.converged(f_ratio)
+            if keep_best:  # how far this iterate is from both criteria (1: just meets them)
+                merit = residual / cv.relative_tolerance
+                if got is not None and self.force_criterion.tolerance is not None:
+                    merit = max(merit, f_ratio / self.force_criterion.tolerance)
+                if best is None or merit < best[0]:
+                    best = (merit, k, residual, x.copy(), s.copy())
             if (
                 f_ok
                 and self.criterion.converged(residual, k)
@@ -417,6 +412,40 @@ class CouplingScheme:
                 )
                 if cv.on_divergence == "stop":
                     raise CouplingNotConvergedError(msg)
+                if keep_best and best[1] != k:
+                    # accept_unconverged = "best": the iterate nearest the criteria, not the
+                    # last (an accelerator cycling across a discontinuity of the fluid's map,
+                    # e.g. a wall that is dry at one iterate and wet at the next, may end on
+                    # its worst one); both participants re-run it, so the accepted pair is
+                    # that iterate's own
+                    self.fluid.restore()
+                    self.structure.restore()
+                    x, s = best[3], best[4]
+                    d_f1, F_f1, n_f, F_s1, x_t, s_t, n_s = self._evaluate(
+                        t0, t1, d_f0, v_f0, x, s, set_iterate, timings
+                    )
+                    check_finite(
+                        where,
+                        **{
+                            "fluid forces": F_f1,
+                            "structure displacement": x_t,
+                            "structure velocity": s_t,
+                        },
+                    )
+                    residual, r_abs = self.criterion.measure(x, x_t, self.d)
+                    got = force_error() if force_error is not None else None
+                    f_scale = 0.0 if got is None else got[1]
+                    f_ratio = (
+                        float("nan")
+                        if got is None
+                        else self.force_criterion.measure(*got, peak=self.force_scale_peak)
+                    )
+                    msg += (
+                        f"; accepted iteration {best[1]} (residual {best[2]:.3g}), the nearest "
+                        f"the criteria, re-evaluated: residual {residual:.3g}"
+                        + ("" if got is None else f", fictitious force error {f_ratio:.3g}")
+                    )
+                    k += 1  # the re-evaluation is one more iteration of both participants
                 warning = msg
                 self._warn(msg)
                 break
@@ -520,6 +549,35 @@ class CouplingScheme:
         if abs(T - self.window) <= TIME_EPS * self.window:
             return float(self.window)
         return T
+
+    def _evaluate(self, t0, t1, d_f0, v_f0, x, s, set_iterate, timings) -> tuple:
+        """One iteration of both participants from the window's start: the fluid over [t0, t1]
+        given the interface iterate (x, s) at t1, its forces mapped, the structure under them.
+        Returns (d_f1, F_f1, n_f, F_s1, x_t, s_t, n_s): the iterate on the fluid's points, the
+        fluid's window force and sub-steps, the force on the structure, the structure's answer
+        (displacement, velocity) and its sub-steps. ``timings`` is added to."""
+        T = self.window_length(t0, t1)
+        tic = time.perf_counter()
+        d_f1 = self.mapping.displacement_to_fluid(x)
+        v_f1 = self.mapping.velocity_to_fluid(s, x)
+        timings["mapping"] += time.perf_counter() - tic
+        tic = time.perf_counter()
+        try:
+            F_f1, n_f = self._fluid_window(t0, t1, d_f0, v_f0, d_f1, v_f1)
+        finally:
+            timings["fluid"] += time.perf_counter() - tic
+        tic = time.perf_counter()
+        # the fluid saw the structure at x
+        F_s1 = self.mapping.forces_to_structure(F_f1, x)
+        timings["mapping"] += time.perf_counter() - tic
+        tic = time.perf_counter()
+        if set_iterate is not None:  # the x the fluid saw (fictitious mass)
+            set_iterate(x, T)
+        try:
+            x_t, s_t, n_s = self._structure_window(t0, t1, F_s1)
+        finally:
+            timings["structure"] += time.perf_counter() - tic
+        return d_f1, F_f1, n_f, F_s1, x_t, s_t, n_s
 
     def _fluid_window(self, t0, t1, d0, v0, d1, v1) -> tuple[np.ndarray, int]:
         """Sub-cycle the fluid over [t0, t1] (in local time 0 .. T, T = window_length); returns
