@@ -302,6 +302,9 @@ class CouplingScheme:
             getattr(self.structure, "iterate_errors", ())
         )
         last = None  # (x, s) of the last iterate the fluid completed in this window
+        # retreat_predictor: a rejected first iterate (the predictor) retreats towards the
+        # window's start (d_n, v_n) instead of ending the run
+        start = (self.d, self.v) if getattr(cv, "retreat_predictor", False) else None
         # optional structure hook: the interface iterate its forces answer to (the fictitious
         # mass of structure_fem needs it under acceleration; docs/coupler.md)
         set_iterate = getattr(self.structure, "set_iterate", None) if self.implicit else None
@@ -336,19 +339,21 @@ class CouplingScheme:
                     # interface jump far beyond the fluid's Courant limit, or the forces it
                     # raised beyond the structure's Newton): step back towards the last iterate
                     # both completed, along the same direction (a backtracking line search)
-                    if last is None or retreats >= MAX_RETREATS:
+                    anchor = last if last is not None else start
+                    if anchor is None or retreats >= MAX_RETREATS:
                         raise
                     retreats += 1
                     self.retreats += 1
                     self.fluid.restore()
                     self.structure.restore()
-                    x = last[0] + RETREAT * (x - last[0])
-                    s = last[1] + RETREAT * (s - last[1])
+                    x = anchor[0] + RETREAT * (x - anchor[0])
+                    s = anchor[1] + RETREAT * (s - anchor[1])
                     self._warn(
                         f"coupling window {self.index} ending at t = {t1:.9g} s, iteration {k}: "
                         f"the accelerated iterate was rejected ({type(exc).__name__}: "
-                        f"{str(exc)[:200]}); retrying {RETREAT:g} of the step from the last "
-                        f"completed iterate (retreat {retreats} of {MAX_RETREATS})"
+                        f"{str(exc)[:200]}); retrying {RETREAT:g} of the step from the "
+                        + ("last completed iterate" if last is not None else "window's start")
+                        + f" (retreat {retreats} of {MAX_RETREATS})"
                     )
             last = (x.copy(), s.copy())
             g = growths() if growths is not None else None
@@ -358,6 +363,7 @@ class CouplingScheme:
                     # earlier ones belong to another map (preCICE: an accelerator's history
                     # holds for one fixed-point map)
                     self.acceleration.restart_window()
+                    best = None  # and the best iterate so far another map: this one is first
                 grown = float(g)
             where = f"coupling window {self.index} ending at t = {t1:.9g} s, iteration {k}"
             check_finite(
@@ -386,13 +392,11 @@ class CouplingScheme:
                     merit = max(merit, f_ratio / self.force_criterion.tolerance)
                 if best is None or merit < best[0]:
                     best = (merit, k, residual, x.copy(), s.copy())
-            if (
-                f_ok
-                and self.criterion.converged(residual, k)
-                and not (k < max_it and self._redecide_flags())
-            ):
-                converged = True
-                break
+            if f_ok and self.criterion.converged(residual, k):
+                if not (k < max_it and self._redecide_flags()):
+                    converged = True
+                    break
+                best = None  # the fluid's flags were re-decided: the iterates so far had others
             if k == max_it:
                 converged = False
                 why = (

@@ -142,6 +142,16 @@ class ConvergenceSection(Section):
             'end on its worst iterate; docs/coupler.md, "Unconverged windows".'
         ),
     )
+    retreat_predictor: bool = Field(
+        False,
+        description=(
+            "A first iterate of an implicit window (the predictor d_n + T v_n) that a "
+            "participant rejects (a structure's Newton failing, a fluid particle thrown out) is "
+            "retried at 1/4 of its step from the window's start (d_n, v_n), at most 4 times, "
+            "as later rejected iterates are from the last completed one; false (the behaviour "
+            'before this key): the error ends the run. docs/coupler.md, "Rejected iterates".'
+        ),
+    )
     max_displacement: float | None = Field(
         None,
         gt=0,
