@@ -601,6 +601,135 @@ def _probe_tank_operator(depth: float) -> None:
     fictitious_mass.patch_added_mass = operator
 
 
+def _install_trace(path: Path, t_from: float) -> None:
+    """A probe, not a scenario setting (task H2): trace every iteration of the coupling windows
+    starting at or after ``t_from`` s into ``path`` (JSON lines, one per iteration): the window
+    index and start, the normal nodal load on the structure (N/m, positive pushing along +x, the
+    obstacle's downstream side), the interface iterate x and the structure's answer x~ (x
+    components, m), the fictitious mass's wet nodes, the force-error triple (e, S, A) of
+    ``fictitious_force_error``, Aitken's relaxation factor, and the residual-norm history of
+    every Newton solve of the structure's window; and the scheme's warnings. Monkeypatches
+    the coupler and structure in this process (:func:`summarize_trace` reads the file)."""
+    import json
+
+    from mpsfem.coupler import coupling_scheme as cs
+    from mpsfem.structure_fem import alpha_method as am
+    from mpsfem.structure_fem import newton as nw
+    from mpsfem.structure_fem import participant as sp
+
+    log = path.open("w")
+    state: dict = {"solves": [], "x": None}
+    newton_solve = am.newton_solve
+
+    def traced_newton(residual, jacobian, x0, **kw):
+        hist: list[float] = []
+
+        def res(x):
+            r, scale, floor = residual(x)
+            hist.append(float(np.sqrt(r @ r)))
+            return r, scale, floor
+
+        state["solves"].append(hist)
+        return newton_solve(res, jacobian, x0, **kw)
+
+    am.newton_solve = traced_newton
+    structure_window = cs.CouplingScheme._structure_window
+
+    def traced_window(self, t0, t1, F1):
+        state["solves"] = []
+        out = None
+        try:
+            out = structure_window(self, t0, t1, F1)
+            return out
+        finally:
+            if t0 >= t_from:
+                st = self.structure
+                fe = st.fictitious_force_error() if st.fictitious is not None else None
+                rec = {
+                    "index": self.index,
+                    "t0": t0,
+                    "F_normal": (-F1[:, 0]).round(4).tolist(),
+                    "x_dx": state["x"][:, 0].round(8).tolist(),
+                    "xt_dx": None if out is None else out[0][:, 0].round(8).tolist(),
+                    "wet": np.flatnonzero(st.fictitious_nodes).tolist()
+                    if st.fictitious is not None
+                    else [],
+                    "force_err": None if fe is None else [float(v) for v in fe],
+                    "omega": getattr(self.acceleration, "omega", None),
+                    "newton": [[round(v, 4) for v in h] for h in state["solves"]],
+                }
+                log.write(json.dumps(rec) + "\n")
+                log.flush()
+
+    cs.CouplingScheme._structure_window = traced_window
+    set_iterate = sp.StructureParticipant.set_iterate
+
+    def traced_iterate(self, x, window):
+        state["x"] = np.array(x)
+        return set_iterate(self, x, window)
+
+    sp.StructureParticipant.set_iterate = traced_iterate
+    warn = cs.CouplingScheme._warn
+
+    def traced_warn(self, msg):
+        if self.t >= t_from:
+            log.write(json.dumps({"warn": msg[:400]}) + "\n")
+            log.flush()
+        return warn(self, msg)
+
+    cs.CouplingScheme._warn = traced_warn
+    assert nw.NewtonFailure  # the failing solve's history is the last one in the record
+
+
+def summarize_trace(path: Path) -> dict:
+    """Counts over a :func:`_install_trace` file (task H2): windows traced, not converged (30
+    iterations), and of those not converged: "dry_stall" (every iterate's load below 1 N/m
+    while M_f acts: the fictitious mass alone holds the member), "redecided_dry" (a wet iterate
+    met both criteria, then the load fell below 0.01 N/m in every later iterate: the fluid's
+    flags re-decided at convergence leave the wall dry), "flip" (iterates alternate between a
+    dry load, below 1 N/m, and a wet one, above 100 N/m, in the last ten: a jump of the fluid's
+    map), and "slow" (the rest). Approximate: S_peak is the largest S of the traced windows."""
+    import json
+    from collections import defaultdict
+
+    wins = defaultdict(list)
+    for line in path.open():
+        r = json.loads(line)
+        if "x_dx" in r and r.get("xt_dx") is not None:
+            wins[r["index"]].append(r)
+    out = {"windows": 0, "not_converged": 0, "dry_stall": 0, "redecided_dry": 0, "flip": 0,
+           "slow": 0, "iterations": 0}  # fmt: skip
+    s_peak = 0.0
+    for _, its in sorted(wins.items()):
+        out["windows"] += 1
+        out["iterations"] += len(its)
+        load = [abs(sum(r["F_normal"])) for r in its]
+        rel = []
+        ok = []
+        for r in its:
+            x, xt = np.array(r["x_dx"]), np.array(r["xt_dx"])
+            rel.append(float(np.sqrt(np.mean((xt - x) ** 2)) / max(np.sqrt(np.mean(xt**2)), 1e-30)))
+            fe = r["force_err"]
+            f_ok = fe is None or fe[0] <= max(1e-2 * max(fe[1], s_peak), 1e-2 * fe[2] / 1e-2)
+            ok.append(rel[-1] <= 1e-3 and f_ok)
+        if its[-1]["force_err"] is not None:
+            s_peak = max(s_peak, its[-1]["force_err"][1])
+        if len(its) < 30:
+            continue
+        out["not_converged"] += 1
+        k0 = next((k for k in range(len(its)) if ok[k] and load[k] > 1.0), None)
+        tail = load[-10:]
+        if its[0]["wet"] and max(load) < 1.0:
+            out["dry_stall"] += 1
+        elif k0 is not None and all(v < 0.01 for v in load[k0 + 1 :]):
+            out["redecided_dry"] += 1
+        elif min(tail) < 1.0 and max(tail) > 100.0:
+            out["flip"] += 1
+        else:
+            out["slow"] += 1
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default=None, help="comma-separated sweeps (default: the first four)")
@@ -652,7 +781,24 @@ def main(argv=None) -> int:
         default=560,
         help="obstacle_map: windows stepped before the probe (default 560: t = 0.14 s)",
     )
+    ap.add_argument(
+        "--trace",
+        type=Path,
+        default=None,
+        help="a probe (task H2): trace every coupling iteration from --trace-from s on into "
+        "this JSON-lines file (one run: use with --values / --ratios selecting one), and print "
+        "its summary",
+    )
+    ap.add_argument("--trace-from", type=float, default=0.118, help="--trace start (s)")
+    ap.add_argument(
+        "--summarize-trace", type=Path, default=None, help="print the summary of a --trace file"
+    )
     args = ap.parse_args(argv)
+    if args.summarize_trace is not None:
+        print(summarize_trace(args.summarize_trace))
+        return 0
+    if args.trace is not None:
+        _install_trace(args.trace, args.trace_from)
     if args.probe_tank_depth is not None:
         _probe_tank_operator(args.probe_tank_depth)
     if args.only == "obstacle_map":
@@ -745,6 +891,8 @@ def main(argv=None) -> int:
             fh.flush()
             print(row, flush=True)
     print(f"wrote {args.out}")
+    if args.trace is not None:
+        print(f"trace {args.trace}: {summarize_trace(args.trace)}")
     return 0
 
 
