@@ -42,15 +42,20 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
   5e-2 rows). ``--append`` refuses a CSV with other columns.
 * ``plate_shaped`` / ``obstacle_shaped`` (task H1; not in the default set): the plate at mass
   ratio 1e-3 and 1e-4 with ``fictitious_mass_model = "potential_flow"`` and ``fictitious_mass``
-  (then a factor c) 0.25, 0.5, 1; the obstacle at 1e-2 and 1e-4 with c = 0 (no M_f), 0.25,
-  0.5, 1. Their own CSV, benchmarks/results/coupling_stress_shaped.csv, with the extra columns
+  (then a factor c) 0.25, 0.5, 1; the obstacle at 1e-2, 1e-3 (task H2) and 1e-4 with c = 0
+  (no M_f), 0.25, 0.5, 1. Their own CSV, benchmarks/results/coupling_stress_shaped.csv, with the extra columns
   iterations_mean_wet / not_converged_wet (the windows in which M_f acted). ``--wet-pressure
   Pa`` sets ``fictitious_wet_pressure``, ``--force-tolerance`` the coupling's
   ``fictitious_force_tolerance``, ``--keep-h5 DIR`` keeps each run's results file, and
   ``--probe-tank-depth H`` (a probe, :func:`_probe_tank_operator`) replaces the potential-flow
   model's operator in process by the tank-bottom one (structure_fem/added_mass_tank.py).
   Rows: docs/validation_coupling_stress.md, "The shaped fictitious mass on the plate and the
-  obstacle".
+  obstacle". Task H2's rows add ``--set coupling.convergence.accept_unconverged="best"`` and
+  ``--set coupling.convergence.retreat_predictor=true`` (the "settings" column), and
+  ``--trace FILE`` (a probe, :func:`_install_trace`) records every coupling iteration from
+  ``--trace-from`` s on; ``--summarize-trace FILE`` sorts a trace's unconverged windows by
+  cause (:func:`summarize_trace`; docs/validation_coupling_stress.md, "Mass ratio 1e-4 on the
+  obstacle: what the iterations do").
 * ``plate_map`` (``--only plate_map``; :func:`plate_map_probe`): the added mass the MPS window
   presents to the plate along interface shapes and as a whole matrix, against the impact and
   tank operators (benchmarks/results/coupling_stress_shaped_plate_map.csv, ..._modes.csv;
@@ -171,7 +176,7 @@ def sweeps() -> list[tuple[str, str, str, float, list[str], float | None]]:
     # (structure_fem/added_mass_potential.py); c = 0 on the obstacle: the same run without M_f
     for scene, H, h, ratios, factors in (
         ("plate", 2.0, 0.05, (1e-3, 1e-4), (0.25, 0.5, 1.0)),
-        ("obstacle", 0.292, 0.012, (1e-2, 1e-4), (0.0, 0.25, 0.5, 1.0)),
+        ("obstacle", 0.292, 0.012, (1e-2, 1e-3, 1e-4), (0.0, 0.25, 0.5, 1.0)),
     ):
         for r in ratios:
             rho = r * RHO_W * H / h
@@ -698,7 +703,8 @@ def summarize_trace(path: Path) -> dict:
         if "x_dx" in r and r.get("xt_dx") is not None:
             wins[r["index"]].append(r)
     out = {"windows": 0, "not_converged": 0, "dry_stall": 0, "redecided_dry": 0, "flip": 0,
-           "slow": 0, "iterations": 0}  # fmt: skip
+           "slow": 0, "iterations": 0, "force_limited": 0}  # fmt: skip
+    accepted = []  # (load, tip dx) of each window's last traced iteration (the accepted one)
     s_peak = 0.0
     for _, its in sorted(wins.items()):
         out["windows"] += 1
@@ -714,9 +720,12 @@ def summarize_trace(path: Path) -> dict:
             ok.append(rel[-1] <= 1e-3 and f_ok)
         if its[-1]["force_err"] is not None:
             s_peak = max(s_peak, its[-1]["force_err"][1])
+        accepted.append((load[-1], its[-1]["xt_dx"][-1]))
         if len(its) < 30:
             continue
         out["not_converged"] += 1
+        # the displacement residual met in one of the last ten iterates: the force error limits
+        out["force_limited"] += int(min(rel[-10:]) <= 1e-3)
         k0 = next((k for k in range(len(its)) if ok[k] and load[k] > 1.0), None)
         tail = load[-10:]
         if its[0]["wet"] and max(load) < 1.0:
@@ -727,6 +736,16 @@ def summarize_trace(path: Path) -> dict:
             out["flip"] += 1
         else:
             out["slow"] += 1
+    # contact events: accepted windows switching between wet (load > 1 N/m) and dry (< 0.1);
+    # the tip's local maxima above 2 mm and their spacing in windows (the member's bounces)
+    load = np.array([a[0] for a in accepted])
+    tip = np.array([a[1] for a in accepted])
+    wet, dry = load > 1.0, load < 0.1
+    out["wet_dry_switches"] = int(np.sum(wet[1:] & dry[:-1]) + np.sum(dry[1:] & wet[:-1]))
+    d = np.diff(tip)
+    peaks = [k for k in range(1, d.size) if d[k - 1] > 0 >= d[k] and tip[k] > 2e-3]
+    out["tip_peaks"] = len(peaks)
+    out["tip_peak_spacing_median"] = float(np.median(np.diff(peaks))) if len(peaks) > 1 else ""
     return out
 
 
@@ -795,7 +814,17 @@ def main(argv=None) -> int:
     )
     args = ap.parse_args(argv)
     if args.summarize_trace is not None:
-        print(summarize_trace(args.summarize_trace))
+        got = summarize_trace(args.summarize_trace)
+        print(got)
+        if args.out != ROOT / "benchmarks/results/coupling_stress.csv":  # a row per trace
+            row = {"trace": args.summarize_trace.name, "settings": " ".join(args.set)} | got
+            new = not (args.append and args.out.exists())
+            with args.out.open("w" if new else "a", newline="") as fh:
+                wr = csv.DictWriter(fh, fieldnames=list(row))
+                if new:
+                    wr.writeheader()
+                wr.writerow(row)
+            print(f"wrote {args.out}")
         return 0
     if args.trace is not None:
         _install_trace(args.trace, args.trace_from)
