@@ -476,3 +476,56 @@ def test_accept_unconverged_best_takes_the_nearest_iterate_and_re_runs_it():
     assert (last.history.column("iterations") == 5).all()
     assert last.history[0].residual_abs > 5.0 * best.history[0].residual_abs
     assert not np.array_equal(tr_last, tr_one)
+
+
+class _SwitchingFluid(mock.AddedMassFluid):
+    """Added-mass fluid with a frozen-flag hook: at its first converged iterate it asks for a
+    re-decision and its added mass grows 30-fold (a new fixed-point map under which unrelaxed
+    iterations diverge)."""
+
+    def __init__(self, structure) -> None:
+        super().__init__(structure, mass_ratio=0.1)
+        self.freeze = self
+        self.k = 0  # iteration of the current window
+        self.k_switch = None
+
+    def checkpoint(self) -> None:
+        super().checkpoint()
+        self.k = 1
+
+    def restore(self) -> None:
+        super().restore()
+        self.k += 1
+
+    def request_redecision(self) -> bool:
+        if self.k_switch is not None:
+            return False
+        self.k_switch = self.k
+        self.m = 30.0 * self.m
+        return True
+
+
+def test_accept_unconverged_best_forgets_the_iterates_of_an_earlier_map():
+    """A re-decision of the fluid's flags changes the map: "best" must choose among the
+    iterates after it (the converged iterate before it cannot be re-run under the old map)."""
+    fluid_st = mock.SpringMassStructure()
+    fluid = _SwitchingFluid(fluid_st)
+    cfg = config(
+        acceleration={"kind": "constant", "relaxation": 1.0},
+        convergence={
+            "relative_tolerance": 1e-6,
+            "max_iterations": 20,
+            "on_divergence": "continue",
+            "accept_unconverged": "best",
+        },
+    )
+    sch = create_scheme(fluid, fluid_st, cfg)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", CouplingWarning)
+        sch.run(1e-3)
+    rec = sch.history[0]
+    assert fluid.k_switch is not None and fluid.k_switch < 20
+    assert not rec.converged and rec.iterations == 21
+    chosen = int(rec.warning.split("accepted iteration ")[1].split(" ")[0])
+    assert chosen > fluid.k_switch, (chosen, fluid.k_switch)
+    print(f"re-decided at iteration {fluid.k_switch}, accepted iteration {chosen}")
