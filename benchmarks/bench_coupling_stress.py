@@ -42,15 +42,20 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
   5e-2 rows). ``--append`` refuses a CSV with other columns.
 * ``plate_shaped`` / ``obstacle_shaped`` (task H1; not in the default set): the plate at mass
   ratio 1e-3 and 1e-4 with ``fictitious_mass_model = "potential_flow"`` and ``fictitious_mass``
-  (then a factor c) 0.25, 0.5, 1; the obstacle at 1e-2 and 1e-4 with c = 0 (no M_f), 0.25,
-  0.5, 1. Their own CSV, benchmarks/results/coupling_stress_shaped.csv, with the extra columns
+  (then a factor c) 0.25, 0.5, 1; the obstacle at 1e-2, 1e-3 (task H2) and 1e-4 with c = 0
+  (no M_f), 0.25, 0.5, 1. Their own CSV, benchmarks/results/coupling_stress_shaped.csv, with the extra columns
   iterations_mean_wet / not_converged_wet (the windows in which M_f acted). ``--wet-pressure
   Pa`` sets ``fictitious_wet_pressure``, ``--force-tolerance`` the coupling's
   ``fictitious_force_tolerance``, ``--keep-h5 DIR`` keeps each run's results file, and
   ``--probe-tank-depth H`` (a probe, :func:`_probe_tank_operator`) replaces the potential-flow
   model's operator in process by the tank-bottom one (structure_fem/added_mass_tank.py).
   Rows: docs/validation_coupling_stress.md, "The shaped fictitious mass on the plate and the
-  obstacle".
+  obstacle". Task H2's rows add ``--set coupling.convergence.accept_unconverged="best"`` and
+  ``--set coupling.convergence.retreat_predictor=true`` (the "settings" column), and
+  ``--trace FILE`` (a probe, :func:`_install_trace`) records every coupling iteration from
+  ``--trace-from`` s on; ``--summarize-trace FILE`` sorts a trace's unconverged windows by
+  cause (:func:`summarize_trace`; docs/validation_coupling_stress.md, "Mass ratio 1e-4 on the
+  obstacle: what the iterations do").
 * ``plate_map`` (``--only plate_map``; :func:`plate_map_probe`): the added mass the MPS window
   presents to the plate along interface shapes and as a whole matrix, against the impact and
   tank operators (benchmarks/results/coupling_stress_shaped_plate_map.csv, ..._modes.csv;
@@ -171,7 +176,7 @@ def sweeps() -> list[tuple[str, str, str, float, list[str], float | None]]:
     # (structure_fem/added_mass_potential.py); c = 0 on the obstacle: the same run without M_f
     for scene, H, h, ratios, factors in (
         ("plate", 2.0, 0.05, (1e-3, 1e-4), (0.25, 0.5, 1.0)),
-        ("obstacle", 0.292, 0.012, (1e-2, 1e-4), (0.0, 0.25, 0.5, 1.0)),
+        ("obstacle", 0.292, 0.012, (1e-2, 1e-3, 1e-4), (0.0, 0.25, 0.5, 1.0)),
     ):
         for r in ratios:
             rho = r * RHO_W * H / h
@@ -601,6 +606,149 @@ def _probe_tank_operator(depth: float) -> None:
     fictitious_mass.patch_added_mass = operator
 
 
+def _install_trace(path: Path, t_from: float) -> None:
+    """A probe, not a scenario setting (task H2): trace every iteration of the coupling windows
+    starting at or after ``t_from`` s into ``path`` (JSON lines, one per iteration): the window
+    index and start, the normal nodal load on the structure (N/m, positive pushing along +x, the
+    obstacle's downstream side), the interface iterate x and the structure's answer x~ (x
+    components, m), the fictitious mass's wet nodes, the force-error triple (e, S, A) of
+    ``fictitious_force_error``, Aitken's relaxation factor, and the residual-norm history of
+    every Newton solve of the structure's window; and the scheme's warnings. Monkeypatches
+    the coupler and structure in this process (:func:`summarize_trace` reads the file)."""
+    import json
+
+    from mpsfem.coupler import coupling_scheme as cs
+    from mpsfem.structure_fem import alpha_method as am
+    from mpsfem.structure_fem import newton as nw
+    from mpsfem.structure_fem import participant as sp
+
+    log = path.open("w")
+    state: dict = {"solves": [], "x": None}
+    newton_solve = am.newton_solve
+
+    def traced_newton(residual, jacobian, x0, **kw):
+        hist: list[float] = []
+
+        def res(x):
+            r, scale, floor = residual(x)
+            hist.append(float(np.sqrt(r @ r)))
+            return r, scale, floor
+
+        state["solves"].append(hist)
+        return newton_solve(res, jacobian, x0, **kw)
+
+    am.newton_solve = traced_newton
+    structure_window = cs.CouplingScheme._structure_window
+
+    def traced_window(self, t0, t1, F1):
+        state["solves"] = []
+        out = None
+        try:
+            out = structure_window(self, t0, t1, F1)
+            return out
+        finally:
+            if t0 >= t_from:
+                st = self.structure
+                fe = st.fictitious_force_error() if st.fictitious is not None else None
+                rec = {
+                    "index": self.index,
+                    "t0": t0,
+                    "F_normal": (-F1[:, 0]).round(4).tolist(),
+                    "x_dx": state["x"][:, 0].round(8).tolist(),
+                    "xt_dx": None if out is None else out[0][:, 0].round(8).tolist(),
+                    "wet": np.flatnonzero(st.fictitious_nodes).tolist()
+                    if st.fictitious is not None
+                    else [],
+                    "force_err": None if fe is None else [float(v) for v in fe],
+                    "omega": getattr(self.acceleration, "omega", None),
+                    "newton": [[round(v, 4) for v in h] for h in state["solves"]],
+                }
+                log.write(json.dumps(rec) + "\n")
+                log.flush()
+
+    cs.CouplingScheme._structure_window = traced_window
+    set_iterate = sp.StructureParticipant.set_iterate
+
+    def traced_iterate(self, x, window):
+        state["x"] = np.array(x)
+        return set_iterate(self, x, window)
+
+    sp.StructureParticipant.set_iterate = traced_iterate
+    warn = cs.CouplingScheme._warn
+
+    def traced_warn(self, msg):
+        if self.t >= t_from:
+            log.write(json.dumps({"warn": msg[:400]}) + "\n")
+            log.flush()
+        return warn(self, msg)
+
+    cs.CouplingScheme._warn = traced_warn
+    assert nw.NewtonFailure  # the failing solve's history is the last one in the record
+
+
+def summarize_trace(path: Path) -> dict:
+    """Counts over a :func:`_install_trace` file (task H2): windows traced, not converged (30
+    iterations), and of those not converged: "dry_stall" (every iterate's load below 1 N/m
+    while M_f acts: the fictitious mass alone holds the member), "redecided_dry" (a wet iterate
+    met both criteria, then the load fell below 0.01 N/m in every later iterate: the fluid's
+    flags re-decided at convergence leave the wall dry), "flip" (iterates alternate between a
+    dry load, below 1 N/m, and a wet one, above 100 N/m, in the last ten: a jump of the fluid's
+    map), and "slow" (the rest). Approximate: S_peak is the largest S of the traced windows."""
+    import json
+    from collections import defaultdict
+
+    wins = defaultdict(list)
+    for line in path.open():
+        r = json.loads(line)
+        if "x_dx" in r and r.get("xt_dx") is not None:
+            wins[r["index"]].append(r)
+    out = {"windows": 0, "not_converged": 0, "dry_stall": 0, "redecided_dry": 0, "flip": 0,
+           "slow": 0, "iterations": 0, "force_limited": 0}  # fmt: skip
+    accepted = []  # (load, tip dx) of each window's last traced iteration (the accepted one)
+    s_peak = 0.0
+    for _, its in sorted(wins.items()):
+        out["windows"] += 1
+        out["iterations"] += len(its)
+        load = [abs(sum(r["F_normal"])) for r in its]
+        rel = []
+        ok = []
+        for r in its:
+            x, xt = np.array(r["x_dx"]), np.array(r["xt_dx"])
+            rel.append(float(np.sqrt(np.mean((xt - x) ** 2)) / max(np.sqrt(np.mean(xt**2)), 1e-30)))
+            fe = r["force_err"]
+            f_ok = fe is None or fe[0] <= max(1e-2 * max(fe[1], s_peak), 1e-2 * fe[2] / 1e-2)
+            ok.append(rel[-1] <= 1e-3 and f_ok)
+        if its[-1]["force_err"] is not None:
+            s_peak = max(s_peak, its[-1]["force_err"][1])
+        accepted.append((load[-1], its[-1]["xt_dx"][-1]))
+        if len(its) < 30:
+            continue
+        out["not_converged"] += 1
+        # the displacement residual met in one of the last ten iterates: the force error limits
+        out["force_limited"] += int(min(rel[-10:]) <= 1e-3)
+        k0 = next((k for k in range(len(its)) if ok[k] and load[k] > 1.0), None)
+        tail = load[-10:]
+        if its[0]["wet"] and max(load) < 1.0:
+            out["dry_stall"] += 1
+        elif k0 is not None and all(v < 0.01 for v in load[k0 + 1 :]):
+            out["redecided_dry"] += 1
+        elif min(tail) < 1.0 and max(tail) > 100.0:
+            out["flip"] += 1
+        else:
+            out["slow"] += 1
+    # contact events: accepted windows switching between wet (load > 1 N/m) and dry (< 0.1);
+    # the tip's local maxima above 2 mm and their spacing in windows (the member's bounces)
+    load = np.array([a[0] for a in accepted])
+    tip = np.array([a[1] for a in accepted])
+    wet, dry = load > 1.0, load < 0.1
+    out["wet_dry_switches"] = int(np.sum(wet[1:] & dry[:-1]) + np.sum(dry[1:] & wet[:-1]))
+    d = np.diff(tip)
+    peaks = [k for k in range(1, d.size) if d[k - 1] > 0 >= d[k] and tip[k] > 2e-3]
+    out["tip_peaks"] = len(peaks)
+    out["tip_peak_spacing_median"] = float(np.median(np.diff(peaks))) if len(peaks) > 1 else ""
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default=None, help="comma-separated sweeps (default: the first four)")
@@ -652,7 +800,34 @@ def main(argv=None) -> int:
         default=560,
         help="obstacle_map: windows stepped before the probe (default 560: t = 0.14 s)",
     )
+    ap.add_argument(
+        "--trace",
+        type=Path,
+        default=None,
+        help="a probe (task H2): trace every coupling iteration from --trace-from s on into "
+        "this JSON-lines file (one run: use with --values / --ratios selecting one), and print "
+        "its summary",
+    )
+    ap.add_argument("--trace-from", type=float, default=0.118, help="--trace start (s)")
+    ap.add_argument(
+        "--summarize-trace", type=Path, default=None, help="print the summary of a --trace file"
+    )
     args = ap.parse_args(argv)
+    if args.summarize_trace is not None:
+        got = summarize_trace(args.summarize_trace)
+        print(got)
+        if args.out != ROOT / "benchmarks/results/coupling_stress.csv":  # a row per trace
+            row = {"trace": args.summarize_trace.name, "settings": " ".join(args.set)} | got
+            new = not (args.append and args.out.exists())
+            with args.out.open("w" if new else "a", newline="") as fh:
+                wr = csv.DictWriter(fh, fieldnames=list(row))
+                if new:
+                    wr.writeheader()
+                wr.writerow(row)
+            print(f"wrote {args.out}")
+        return 0
+    if args.trace is not None:
+        _install_trace(args.trace, args.trace_from)
     if args.probe_tank_depth is not None:
         _probe_tank_operator(args.probe_tank_depth)
     if args.only == "obstacle_map":
@@ -745,6 +920,8 @@ def main(argv=None) -> int:
             fh.flush()
             print(row, flush=True)
     print(f"wrote {args.out}")
+    if args.trace is not None:
+        print(f"trace {args.trace}: {summarize_trace(args.trace)}")
     return 0
 
 

@@ -445,3 +445,87 @@ def test_iqn_ils_learns_from_every_iteration_of_an_accepted_window():
     assert len(acc.V) + acc.filtered == rec.iterations - 1
     assert len(acc.Ws["velocity"]) == len(acc.V)
     assert acc.tags == [0] * len(acc.V) and acc.window == 1
+
+
+def test_accept_unconverged_best_takes_the_nearest_iterate_and_re_runs_it():
+    """accept_unconverged = "best": unrelaxed iterations at added / structure mass 3 diverge
+    (the mock's residual grows 1.6-1.8 times per iteration), so of 5 iterations the first (the
+    predictor) is nearest the criterion and the last the farthest. "best" accepts the first,
+    re-run by both participants: the window ends bit for bit as a run that stops after one
+    iteration; "last" (the default) accepts the fifth, with its about 9 times larger residual."""
+    conv = {"relative_tolerance": 1e-12, "absolute_tolerance": 1e-16, "on_divergence": "continue"}
+    acc = {"kind": "constant", "relaxation": 1.0}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", CouplingWarning)
+        one, tr_one, _ = run(
+            3.0, end=0.002, acceleration=acc, convergence=conv | {"max_iterations": 1}
+        )
+        last, tr_last, _ = run(
+            3.0, end=0.002, acceleration=acc, convergence=conv | {"max_iterations": 5}
+        )
+        best, tr_best, _ = run(
+            3.0,
+            end=0.002,
+            acceleration=acc,
+            convergence=conv | {"max_iterations": 5, "accept_unconverged": "best"},
+        )
+    np.testing.assert_array_equal(tr_best, tr_one)  # the accepted pair is iteration 1's own
+    np.testing.assert_array_equal(best.history.column("residual"), one.history.column("residual"))
+    assert (best.history.column("iterations") == 6).all()  # 5 + the re-run
+    assert "accepted iteration 1" in best.history[0].warning
+    assert (last.history.column("iterations") == 5).all()
+    assert last.history[0].residual_abs > 5.0 * best.history[0].residual_abs
+    assert not np.array_equal(tr_last, tr_one)
+
+
+class _SwitchingFluid(mock.AddedMassFluid):
+    """Added-mass fluid with a frozen-flag hook: at its first converged iterate it asks for a
+    re-decision and its added mass grows 30-fold (a new fixed-point map under which unrelaxed
+    iterations diverge)."""
+
+    def __init__(self, structure) -> None:
+        super().__init__(structure, mass_ratio=0.1)
+        self.freeze = self
+        self.k = 0  # iteration of the current window
+        self.k_switch = None
+
+    def checkpoint(self) -> None:
+        super().checkpoint()
+        self.k = 1
+
+    def restore(self) -> None:
+        super().restore()
+        self.k += 1
+
+    def request_redecision(self) -> bool:
+        if self.k_switch is not None:
+            return False
+        self.k_switch = self.k
+        self.m = 30.0 * self.m
+        return True
+
+
+def test_accept_unconverged_best_forgets_the_iterates_of_an_earlier_map():
+    """A re-decision of the fluid's flags changes the map: "best" must choose among the
+    iterates after it (the converged iterate before it cannot be re-run under the old map)."""
+    fluid_st = mock.SpringMassStructure()
+    fluid = _SwitchingFluid(fluid_st)
+    cfg = config(
+        acceleration={"kind": "constant", "relaxation": 1.0},
+        convergence={
+            "relative_tolerance": 1e-6,
+            "max_iterations": 20,
+            "on_divergence": "continue",
+            "accept_unconverged": "best",
+        },
+    )
+    sch = create_scheme(fluid, fluid_st, cfg)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", CouplingWarning)
+        sch.run(1e-3)
+    rec = sch.history[0]
+    assert fluid.k_switch is not None and fluid.k_switch < 20
+    assert not rec.converged and rec.iterations == 21
+    chosen = int(rec.warning.split("accepted iteration ")[1].split(" ")[0])
+    assert chosen > fluid.k_switch, (chosen, fluid.k_switch)
+    print(f"re-decided at iteration {fluid.k_switch}, accepted iteration {chosen}")

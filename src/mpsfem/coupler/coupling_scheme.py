@@ -302,6 +302,9 @@ class CouplingScheme:
             getattr(self.structure, "iterate_errors", ())
         )
         last = None  # (x, s) of the last iterate the fluid completed in this window
+        # retreat_predictor: a rejected first iterate (the predictor) retreats towards the
+        # window's start (d_n, v_n) instead of ending the run
+        start = (self.d, self.v) if getattr(cv, "retreat_predictor", False) else None
         # optional structure hook: the interface iterate its forces answer to (the fictitious
         # mass of structure_fem needs it under acceleration; docs/coupler.md)
         set_iterate = getattr(self.structure, "set_iterate", None) if self.implicit else None
@@ -312,6 +315,12 @@ class CouplingScheme:
         # optional structure hook: how often its wet set (its fixed-point map) grew in the window
         growths = getattr(self.structure, "fictitious_set_growths", None) if self.implicit else None
         grown = float("nan")
+        # accept_unconverged = "best": (merit, iteration, residual, x, s) of the iterate nearest
+        # the criteria so far (merit max(residual / rtol, force ratio / force tolerance))
+        keep_best = (
+            getattr(cv, "accept_unconverged", "last") == "best" and cv.on_divergence == "continue"
+        )
+        best = None
         f_ratio = float("nan")
         f_scale = 0.0
         for k in range(1, max_it + 1):
@@ -320,46 +329,31 @@ class CouplingScheme:
                 self.structure.restore()
             retreats = 0
             while True:
-                tic = time.perf_counter()
-                d_f1 = self.mapping.displacement_to_fluid(x)
-                v_f1 = self.mapping.velocity_to_fluid(s, x)
-                timings["mapping"] += time.perf_counter() - tic
                 try:
-                    tic = time.perf_counter()
-                    try:
-                        F_f1, n_f = self._fluid_window(t0, t1, d_f0, v_f0, d_f1, v_f1)
-                    finally:
-                        timings["fluid"] += time.perf_counter() - tic
-                    tic = time.perf_counter()
-                    # the fluid saw the structure at x
-                    F_s1 = self.mapping.forces_to_structure(F_f1, x)
-                    timings["mapping"] += time.perf_counter() - tic
-                    tic = time.perf_counter()
-                    if set_iterate is not None:  # the x the fluid saw (fictitious mass)
-                        set_iterate(x, T)
-                    try:
-                        x_t, s_t, n_s = self._structure_window(t0, t1, F_s1)
-                    finally:
-                        timings["structure"] += time.perf_counter() - tic
+                    d_f1, F_f1, n_f, F_s1, x_t, s_t, n_s = self._evaluate(
+                        t0, t1, d_f0, v_f0, x, s, set_iterate, timings
+                    )
                     break
                 except rejects as exc:
                     # the accelerated iterate was one a participant cannot take (e.g. an
                     # interface jump far beyond the fluid's Courant limit, or the forces it
                     # raised beyond the structure's Newton): step back towards the last iterate
                     # both completed, along the same direction (a backtracking line search)
-                    if last is None or retreats >= MAX_RETREATS:
+                    anchor = last if last is not None else start
+                    if anchor is None or retreats >= MAX_RETREATS:
                         raise
                     retreats += 1
                     self.retreats += 1
                     self.fluid.restore()
                     self.structure.restore()
-                    x = last[0] + RETREAT * (x - last[0])
-                    s = last[1] + RETREAT * (s - last[1])
+                    x = anchor[0] + RETREAT * (x - anchor[0])
+                    s = anchor[1] + RETREAT * (s - anchor[1])
                     self._warn(
                         f"coupling window {self.index} ending at t = {t1:.9g} s, iteration {k}: "
                         f"the accelerated iterate was rejected ({type(exc).__name__}: "
-                        f"{str(exc)[:200]}); retrying {RETREAT:g} of the step from the last "
-                        f"completed iterate (retreat {retreats} of {MAX_RETREATS})"
+                        f"{str(exc)[:200]}); retrying {RETREAT:g} of the step from the "
+                        + ("last completed iterate" if last is not None else "window's start")
+                        + f" (retreat {retreats} of {MAX_RETREATS})"
                     )
             last = (x.copy(), s.copy())
             g = growths() if growths is not None else None
@@ -369,6 +363,7 @@ class CouplingScheme:
                     # earlier ones belong to another map (preCICE: an accelerator's history
                     # holds for one fixed-point map)
                     self.acceleration.restart_window()
+                    best = None  # and the best iterate so far another map: this one is first
                 grown = float(g)
             where = f"coupling window {self.index} ending at t = {t1:.9g} s, iteration {k}"
             check_finite(
@@ -391,13 +386,17 @@ class CouplingScheme:
                 else self.force_criterion.measure(*got, peak=self.force_scale_peak)
             )
             f_ok = got is None or self.force_criterion.converged(f_ratio)
-            if (
-                f_ok
-                and self.criterion.converged(residual, k)
-                and not (k < max_it and self._redecide_flags())
-            ):
-                converged = True
-                break
+            if keep_best:  # how far this iterate is from both criteria (1: just meets them)
+                merit = residual / cv.relative_tolerance
+                if got is not None and self.force_criterion.tolerance is not None:
+                    merit = max(merit, f_ratio / self.force_criterion.tolerance)
+                if best is None or merit < best[0]:
+                    best = (merit, k, residual, x.copy(), s.copy())
+            if f_ok and self.criterion.converged(residual, k):
+                if not (k < max_it and self._redecide_flags()):
+                    converged = True
+                    break
+                best = None  # the fluid's flags were re-decided: the iterates so far had others
             if k == max_it:
                 converged = False
                 why = (
@@ -417,6 +416,40 @@ class CouplingScheme:
                 )
                 if cv.on_divergence == "stop":
                     raise CouplingNotConvergedError(msg)
+                if keep_best and best[1] != k:
+                    # accept_unconverged = "best": the iterate nearest the criteria, not the
+                    # last (an accelerator cycling across a discontinuity of the fluid's map,
+                    # e.g. a wall that is dry at one iterate and wet at the next, may end on
+                    # its worst one); both participants re-run it, so the accepted pair is
+                    # that iterate's own
+                    self.fluid.restore()
+                    self.structure.restore()
+                    x, s = best[3], best[4]
+                    d_f1, F_f1, n_f, F_s1, x_t, s_t, n_s = self._evaluate(
+                        t0, t1, d_f0, v_f0, x, s, set_iterate, timings
+                    )
+                    check_finite(
+                        where,
+                        **{
+                            "fluid forces": F_f1,
+                            "structure displacement": x_t,
+                            "structure velocity": s_t,
+                        },
+                    )
+                    residual, r_abs = self.criterion.measure(x, x_t, self.d)
+                    got = force_error() if force_error is not None else None
+                    f_scale = 0.0 if got is None else got[1]
+                    f_ratio = (
+                        float("nan")
+                        if got is None
+                        else self.force_criterion.measure(*got, peak=self.force_scale_peak)
+                    )
+                    msg += (
+                        f"; accepted iteration {best[1]} (residual {best[2]:.3g}), the nearest "
+                        f"the criteria, re-evaluated: residual {residual:.3g}"
+                        + ("" if got is None else f", fictitious force error {f_ratio:.3g}")
+                    )
+                    k += 1  # the re-evaluation is one more iteration of both participants
                 warning = msg
                 self._warn(msg)
                 break
@@ -520,6 +553,35 @@ class CouplingScheme:
         if abs(T - self.window) <= TIME_EPS * self.window:
             return float(self.window)
         return T
+
+    def _evaluate(self, t0, t1, d_f0, v_f0, x, s, set_iterate, timings) -> tuple:
+        """One iteration of both participants from the window's start: the fluid over [t0, t1]
+        given the interface iterate (x, s) at t1, its forces mapped, the structure under them.
+        Returns (d_f1, F_f1, n_f, F_s1, x_t, s_t, n_s): the iterate on the fluid's points, the
+        fluid's window force and sub-steps, the force on the structure, the structure's answer
+        (displacement, velocity) and its sub-steps. ``timings`` is added to."""
+        T = self.window_length(t0, t1)
+        tic = time.perf_counter()
+        d_f1 = self.mapping.displacement_to_fluid(x)
+        v_f1 = self.mapping.velocity_to_fluid(s, x)
+        timings["mapping"] += time.perf_counter() - tic
+        tic = time.perf_counter()
+        try:
+            F_f1, n_f = self._fluid_window(t0, t1, d_f0, v_f0, d_f1, v_f1)
+        finally:
+            timings["fluid"] += time.perf_counter() - tic
+        tic = time.perf_counter()
+        # the fluid saw the structure at x
+        F_s1 = self.mapping.forces_to_structure(F_f1, x)
+        timings["mapping"] += time.perf_counter() - tic
+        tic = time.perf_counter()
+        if set_iterate is not None:  # the x the fluid saw (fictitious mass)
+            set_iterate(x, T)
+        try:
+            x_t, s_t, n_s = self._structure_window(t0, t1, F_s1)
+        finally:
+            timings["structure"] += time.perf_counter() - tic
+        return d_f1, F_f1, n_f, F_s1, x_t, s_t, n_s
 
     def _fluid_window(self, t0, t1, d0, v0, d1, v1) -> tuple[np.ndarray, int]:
         """Sub-cycle the fluid over [t0, t1] (in local time 0 .. T, T = window_length); returns

@@ -130,6 +130,28 @@ class ConvergenceSection(Section):
             "warning. Non-finite values and detected blow-up always stop."
         ),
     )
+    accept_unconverged: Literal["last", "best"] = Field(
+        "last",
+        description=(
+            'With on_divergence = "continue", which iterate of a window not converged after '
+            'max_iterations is accepted: "last" (the behaviour before this key) or "best", the '
+            "one nearest the criteria (smallest max(residual / relative_tolerance, fictitious "
+            "force error / fictitious_force_tolerance)), re-run by both participants (one more "
+            "iteration) so that the accepted pair is its own. An accelerator cycling across a "
+            "discontinuity of the fluid's map (a wall dry at one iterate, wet at the next) can "
+            'end on its worst iterate; docs/coupler.md, "Unconverged windows".'
+        ),
+    )
+    retreat_predictor: bool = Field(
+        False,
+        description=(
+            "A first iterate of an implicit window (the predictor d_n + T v_n) that a "
+            "participant rejects (a structure's Newton failing, a fluid particle thrown out) is "
+            "retried at 1/4 of its step from the window's start (d_n, v_n), at most 4 times, "
+            "as later rejected iterates are from the last completed one; false (the behaviour "
+            'before this key): the error ends the run. docs/coupler.md, "Rejected iterates".'
+        ),
+    )
     max_displacement: float | None = Field(
         None,
         gt=0,
