@@ -366,25 +366,12 @@ class CouplingScheme:
                     best = None  # and the best iterate so far another map: this one is first
                 grown = float(g)
             where = f"coupling window {self.index} ending at t = {t1:.9g} s, iteration {k}"
-            check_finite(
-                where,
-                **{
-                    "fluid forces": F_f1,
-                    "structure displacement": x_t,
-                    "structure velocity": s_t,
-                },
+            residual, r_abs, got, f_scale, f_ratio = self._measure(
+                where, F_f1, x, x_t, s_t, force_error
             )
-            residual, r_abs = self.criterion.measure(x, x_t, self.d)
             if not self.implicit:
                 converged = True
                 break
-            got = force_error() if force_error is not None else None
-            f_scale = 0.0 if got is None else got[1]
-            f_ratio = (
-                float("nan")
-                if got is None
-                else self.force_criterion.measure(*got, peak=self.force_scale_peak)
-            )
             f_ok = got is None or self.force_criterion.converged(f_ratio)
             if keep_best:  # how far this iterate is from both criteria (1: just meets them)
                 merit = residual / cv.relative_tolerance
@@ -428,21 +415,8 @@ class CouplingScheme:
                     d_f1, F_f1, n_f, F_s1, x_t, s_t, n_s = self._evaluate(
                         t0, t1, d_f0, v_f0, x, s, set_iterate, timings
                     )
-                    check_finite(
-                        where,
-                        **{
-                            "fluid forces": F_f1,
-                            "structure displacement": x_t,
-                            "structure velocity": s_t,
-                        },
-                    )
-                    residual, r_abs = self.criterion.measure(x, x_t, self.d)
-                    got = force_error() if force_error is not None else None
-                    f_scale = 0.0 if got is None else got[1]
-                    f_ratio = (
-                        float("nan")
-                        if got is None
-                        else self.force_criterion.measure(*got, peak=self.force_scale_peak)
+                    residual, r_abs, got, f_scale, f_ratio = self._measure(
+                        where, F_f1, x, x_t, s_t, force_error
                     )
                     msg += (
                         f"; accepted iteration {best[1]} (residual {best[2]:.3g}), the nearest "
@@ -553,6 +527,25 @@ class CouplingScheme:
         if abs(T - self.window) <= TIME_EPS * self.window:
             return float(self.window)
         return T
+
+    def _measure(self, where: str, F_f1, x, x_t, s_t, force_error) -> tuple:
+        """How far the iterate x is from its answer x_t: the finite check of what the
+        participants returned, then (residual, r_abs) of the displacement criterion and, where
+        the structure reports a fictitious force error (``force_error``, else None), its triple
+        ``got``, its scale (N) and its ratio to the load (nan without one)."""
+        check_finite(
+            where,
+            **{"fluid forces": F_f1, "structure displacement": x_t, "structure velocity": s_t},
+        )
+        residual, r_abs = self.criterion.measure(x, x_t, self.d)
+        got = force_error() if force_error is not None else None
+        f_scale = 0.0 if got is None else got[1]
+        f_ratio = (
+            float("nan")
+            if got is None
+            else self.force_criterion.measure(*got, peak=self.force_scale_peak)
+        )
+        return residual, r_abs, got, f_scale, f_ratio
 
     def _evaluate(self, t0, t1, d_f0, v_f0, x, s, set_iterate, timings) -> tuple:
         """One iteration of both participants from the window's start: the fluid over [t0, t1]
