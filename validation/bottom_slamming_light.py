@@ -39,6 +39,7 @@ from bottom_slamming import (  # noqa: E402 - the rigid/elastic study's set-up a
     PLATE_LENGTH,
     RESULTS_DIR,
     SCENARIOS,
+    SMOOTH_S,
     THESIS_MF,
     Case,
     analyse,
@@ -345,6 +346,14 @@ class LightResult:
     rigid_peak_smooth_same_l0: float = math.nan
     mf_raw_same_l0: float = math.nan
     mf_smooth_same_l0: float = math.nan
+    # the plate on its way back (issue 21's "second slam"): the largest uplift after the
+    # mid-span maximum up to the window end, raw and in 11 ms means, and when the mid-span first
+    # comes back to its rest level (uy <= 0) after that maximum (NaN: not within the record)
+    return_peak: float = math.nan
+    return_peak_time_s: float = math.nan
+    return_peak_smooth: float = math.nan
+    return_peak_smooth_time_s: float = math.nan
+    mid_back_at_rest_s: float = math.nan
     late_windows: int = 0
     late_it_mean: float = math.nan
     late_unconverged: int = 0
@@ -389,6 +398,7 @@ def analyse_light(path: Path) -> LightResult:
     mf = float(m["mf"])
     pf = bool(m["pf"])
     wet = wet_split(path, case)
+    back = return_load(path, case)
     last = td >= td[-1] - 0.1
     velocity = (uy[last][-1] - uy[last][0]) / max(td[last][-1] - td[last][0], 1e-12)
     return LightResult(
@@ -439,8 +449,39 @@ def analyse_light(path: Path) -> LightResult:
         rigid_peak_smooth_same_l0=same_s,
         mf_raw_same_l0=base.peak_uplift / same,
         mf_smooth_same_l0=base.peak_uplift_smooth / same_s,
+        **back,
         **wet,
     )
+
+
+def return_load(path: Path, case: Case) -> dict:
+    """The plate on its way back down: after the mid-span's largest upward displacement (to
+    the window end :attr:`Case.reflection_time`), the largest uplift (N/m) raw and in 11 ms
+    running means and their times (s), and the first time the mid-span is back at or below its
+    rest level. Empty where the record ends at that maximum."""
+    with h5py.File(path, "r") as h5:
+        t, fy = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:, 1]
+        td, uy = h5["probes"]["plate_mid"]["time"][:], h5["probes"]["plate_mid"]["value"][:, 1]
+    w_end = case.reflection_time
+    dsel = td <= w_end
+    if not dsel.any():
+        return {}
+    j = int(np.argmax(np.where(dsel, uy, -np.inf)))
+    after = (t > td[j]) & (t <= w_end)
+    if not after.any():
+        return {}
+    dt = float(np.median(np.diff(t)))
+    smooth = running_mean(fy, 2 * max(1, int(round(0.5 * SMOOTH_S / dt))) + 1)
+    i = int(np.argmax(np.where(after, fy, -np.inf)))
+    k = int(np.nanargmax(np.where(after, smooth, np.nan)))
+    down = np.flatnonzero(dsel & (np.arange(td.size) > j) & (uy <= 0.0))
+    return {
+        "return_peak": float(fy[i]),
+        "return_peak_time_s": float(t[i]),
+        "return_peak_smooth": float(smooth[k]),
+        "return_peak_smooth_time_s": float(t[k]),
+        "mid_back_at_rest_s": float(td[down[0]]) if down.size else math.nan,
+    }
 
 
 #: s: the first wet window's end at H/20 (dry, 1 iteration per window, before: the page's
@@ -590,6 +631,9 @@ def report() -> int:
         r.setdefault("acceleration", "aitken")
         r.setdefault("kinematics", "linear")
         r.setdefault("branched_from_s", math.nan)
+        for k in ("return_peak", "return_peak_time_s", "return_peak_smooth",
+                  "return_peak_smooth_time_s", "mid_back_at_rest_s"):  # fmt: skip
+            r.setdefault(k, math.nan)  # needs the results file
         r["results_file"] = _row_file(r)
         if not r.get("wet_from_s"):
             # rows before the column: every one is at D/H = 0.06, split at WET_FROM if at all

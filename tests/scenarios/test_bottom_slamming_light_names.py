@@ -84,3 +84,30 @@ def test_rigid_reference_at_the_rows_own_spacing(tmp_path, monkeypatch):
     assert bsl.rigid_reference(bsl.Case(0.3, 0.06), "0.0057") == (91.0, 67.6)
     assert all(np.isnan(bsl.rigid_reference(bsl.Case(0.3, 0.03), "0.0057")))
     assert all(np.isnan(bsl.rigid_reference(bsl.Case(0.3, 0.06), "0.004")))  # no such file
+
+
+def test_return_load_is_the_load_after_the_mid_span_maximum(tmp_path):
+    """A plate that rises to its largest displacement at 2.0 s and is back at rest at 2.3 s
+    under a load with a first pulse at 1.8 s and a smaller second one at 2.25 s: the return
+    peak is the second pulse (raw and in 11 ms means), at its time, and the rest time 2.3 s."""
+    import h5py
+
+    case = bsl.Case(0.3, 0.06)
+    t = np.round(np.arange(0, 2601) * 1e-3, 9)
+    fy = 50.0 * np.exp(-(((t - 1.8) / 0.01) ** 2)) + 20.0 * np.exp(-(((t - 2.25) / 0.01) ** 2))
+    uy = np.clip(0.02 * np.sin(np.pi * (t - 1.7) / 0.6), 0.0, None) * (t >= 1.7)
+    uy[t >= 2.3] = -1e-4
+    path = tmp_path / "run.h5"
+    with h5py.File(path, "w") as h5:
+        for name, v in (("uplift", fy), ("plate_mid", uy)):
+            g = h5.create_group(f"probes/{name}")
+            g["time"] = t
+            g["value"] = np.stack([np.zeros_like(v), v], axis=1)
+    out = bsl.return_load(path, case)
+    assert out["return_peak"] == pytest.approx(20.0, rel=1e-3)
+    assert out["return_peak_time_s"] == pytest.approx(2.25)
+    assert out["return_peak_smooth_time_s"] == pytest.approx(2.25)
+    # the 11 ms mean (samples -5 ... 5 ms) of a Gaussian pulse of 1/e half-width 10 ms at its top
+    mean = np.mean(np.exp(-((np.arange(-5, 6) / 10.0) ** 2)))  # 0.908
+    assert out["return_peak_smooth"] == pytest.approx(20.0 * mean, rel=1e-3)
+    assert out["mid_back_at_rest_s"] == pytest.approx(2.3)
