@@ -555,6 +555,7 @@ def plot(
     out: Path,
     xlim: tuple[float, float] = (-0.4, 0.8),
     title: str = "Light plate (0.026 kg/m^2), A/H = 0.3, D/H = 0.06, Aitken + fictitious mass",
+    ylim: tuple[float, float] = (-30.0, 80.0),
 ) -> None:
     """Uplift (11 ms running mean, every sample light) and mid-span displacement against
     t - t_c of every results file, one colour each (labelled with D/H where they differ)."""
@@ -589,8 +590,8 @@ def plot(
         ax_f.plot(t - case.crest_time, f, color=c, lw=0.3, alpha=0.3)
         ax_f.plot(t - case.crest_time, running_mean(f, 11), color=c, lw=1.0, label=label)
         ax_d.plot(td - case.crest_time, u * 1e3, color=c, lw=1.0, label=label)
-    ax_f.set_ylabel("uplift (N/m), clipped to -30 ... 80")
-    ax_f.set_ylim(-30.0, 80.0)  # a diverging window's spike would hide the rest
+    ax_f.set_ylabel(f"uplift (N/m), clipped to {ylim[0]:g} ... {ylim[1]:g}")
+    ax_f.set_ylim(*ylim)  # a diverging window's spike would hide the rest
     ax_d.set_ylabel("mid-span uy (mm)")
     ax_d.set_xlabel("t - t_c (s)")
     ax_f.set_xlim(*xlim)
@@ -665,7 +666,8 @@ def report() -> int:
         clear = [longest[d] for d in sorted(longest, key=float)]
         last = max(float(NAME.search(p.name)["end"]) for p in clear)
         plot(clear, FIGURE_CLEARANCES, xlim=(-0.4, last - Case(0.3, 0.06).crest_time + 0.01),
-             title="Light plate (0.026 kg/m^2), co-rotational, A/H = 0.3, three clearances")  # fmt: skip
+             title="Light plate (0.026 kg/m^2), co-rotational, A/H = 0.3, three clearances",
+             ylim=(-5.0, 10.0))  # fmt: skip
     paths = [p for p in paths if not _other_clearance(p)]  # the figures below are of D/H = 0.06
     shaped = [p for p in paths if _shaped_study(p)]
     crest = [p for p in paths if _crest_study(p, with_base=True)]
