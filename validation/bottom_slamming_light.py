@@ -39,6 +39,7 @@ from bottom_slamming import (  # noqa: E402 - the rigid/elastic study's set-up a
     PLATE_LENGTH,
     RESULTS_DIR,
     SCENARIOS,
+    SMOOTH_S,
     THESIS_MF,
     Case,
     analyse,
@@ -73,11 +74,29 @@ FIGURE_CREST = FIGURE.with_name("bottom_slamming_light_crest.png")
 
 def _crest_study(path: Path, with_base: bool = False) -> bool:
     m = NAME.search(path.name)
-    if not m["pf"] or m["end"] is None or float(m["end"]) < 2.1:
+    if not m["pf"] or m["end"] is None or float(m["end"]) < 2.1 or _other_clearance(path):
         return False
     base = float(m["mf"]) in (0.5, 1.0) and float(m["wp"] or 0) == 1.0
     base = base and float(m["end"]) == 2.1 and not (m["frz"] or m["acc"] or m["maxit"])
     return with_base and float(m["mf"]) == 0.5 if base else True
+
+
+#: the co-rotational runs of the best D/H = 0.06 setting at the other clearances, with that run
+#: (issue 21: "A/H = 0.3 at the three clearances first"), plotted to FIGURE_CLEARANCES
+FIGURE_CLEARANCES = FIGURE.with_name("bottom_slamming_light_clearances.png")
+
+
+def _other_clearance(path: Path) -> bool:
+    """A run at a clearance other than D/H = 0.06 (every study before issue 21's three
+    clearances ran 0.06 only)."""
+    return not math.isclose(float(NAME.search(path.name)["d"]), 0.06)
+
+
+def _clearance_study(path: Path) -> bool:
+    """The co-rotational, potential-flow runs from rest ending at 2.1 s or later, not branched
+    from another run's state, at every clearance (the D/H = 0.06 ones also in FIGURE_CREST)."""
+    m = NAME.search(path.name)
+    return bool(m["corot"] and m["pf"] and not m["frm"]) and float(m["end"] or 0.0) >= 2.1
 
 
 AREA = 2.5e-5  # m^2, thesis Tables 5-3, 5-7
@@ -318,6 +337,23 @@ class LightResult:
     acceleration: str = "aitken"
     kinematics: str = "linear"  # the member's
     branched_from_s: float = math.nan  # --branch-from: the time of the state it continued
+    # the start of the wet split (s): WET_FROM at D/H = 0.06, else the first wet set
+    # (:func:`wet_from`)
+    wet_from_s: float = math.nan
+    # the rigid run of the same case at the row's own spacing (bottom_slamming_<l0>.csv; NaN
+    # where none) and MF against it, raw and in 11 ms means
+    rigid_peak_same_l0: float = math.nan
+    rigid_peak_smooth_same_l0: float = math.nan
+    mf_raw_same_l0: float = math.nan
+    mf_smooth_same_l0: float = math.nan
+    # the plate on its way back (issue 21's "second slam"): the largest uplift after the
+    # mid-span maximum up to the window end, raw and in 11 ms means, and when the mid-span first
+    # comes back to its rest level (uy <= 0) after that maximum (NaN: not within the record)
+    return_peak: float = math.nan
+    return_peak_time_s: float = math.nan
+    return_peak_smooth: float = math.nan
+    return_peak_smooth_time_s: float = math.nan
+    mid_back_at_rest_s: float = math.nan
     late_windows: int = 0
     late_it_mean: float = math.nan
     late_unconverged: int = 0
@@ -331,10 +367,10 @@ class LightResult:
 RIGID_L0 = "0.004"
 
 
-def rigid_reference(case: Case) -> tuple[float, float]:
-    """(raw, 11 ms mean) rigid peak of the case from bottom_slamming_<RIGID_L0>.csv, NaN if
-    none."""
-    path = RESULTS_DIR / f"bottom_slamming_{RIGID_L0}.csv"
+def rigid_reference(case: Case, l0_label: str = RIGID_L0) -> tuple[float, float]:
+    """(raw, 11 ms mean) rigid peak (N/m) of the case from bottom_slamming_<l0_label>.csv, NaN
+    if none."""
+    path = RESULTS_DIR / f"bottom_slamming_{l0_label}.csv"
     if not path.is_file():
         return math.nan, math.nan
     for r in read_csv(path):
@@ -358,9 +394,11 @@ def analyse_light(path: Path) -> LightResult:
         uy = h5["probes"]["plate_mid"]["value"][:, 1]
     case = Case(base.a_over_h, base.d_over_h)
     rigid, rigid_s = rigid_reference(case)
+    same, same_s = rigid_reference(case, m["l0"])
     mf = float(m["mf"])
     pf = bool(m["pf"])
-    wet = wet_split(path)
+    wet = wet_split(path, case)
+    back = return_load(path, case)
     last = td >= td[-1] - 0.1
     velocity = (uy[last][-1] - uy[last][0]) / max(td[last][-1] - td[last][0], 1e-12)
     return LightResult(
@@ -407,8 +445,43 @@ def analyse_light(path: Path) -> LightResult:
         acceleration=m["acc"] or "aitken",
         kinematics="corotational" if m["corot"] else "linear",
         branched_from_s=float(m["frm"]) if m["frm"] else math.nan,
+        rigid_peak_same_l0=same,
+        rigid_peak_smooth_same_l0=same_s,
+        mf_raw_same_l0=base.peak_uplift / same,
+        mf_smooth_same_l0=base.peak_uplift_smooth / same_s,
+        **back,
         **wet,
     )
+
+
+def return_load(path: Path, case: Case) -> dict:
+    """The plate on its way back down: after the mid-span's largest upward displacement (to
+    the window end :attr:`Case.reflection_time`), the largest uplift (N/m) raw and in 11 ms
+    running means and their times (s), and the first time the mid-span is back at or below its
+    rest level. Empty where the record ends at that maximum."""
+    with h5py.File(path, "r") as h5:
+        t, fy = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:, 1]
+        td, uy = h5["probes"]["plate_mid"]["time"][:], h5["probes"]["plate_mid"]["value"][:, 1]
+    w_end = case.reflection_time
+    dsel = td <= w_end
+    if not dsel.any():
+        return {}
+    j = int(np.argmax(np.where(dsel, uy, -np.inf)))
+    after = (t > td[j]) & (t <= w_end)
+    if not after.any():
+        return {}
+    dt = float(np.median(np.diff(t)))
+    smooth = running_mean(fy, 2 * max(1, int(round(0.5 * SMOOTH_S / dt))) + 1)
+    i = int(np.argmax(np.where(after, fy, -np.inf)))
+    k = int(np.nanargmax(np.where(after, smooth, np.nan)))
+    down = np.flatnonzero(dsel & (np.arange(td.size) > j) & (uy <= 0.0))
+    return {
+        "return_peak": float(fy[i]),
+        "return_peak_time_s": float(t[i]),
+        "return_peak_smooth": float(smooth[k]),
+        "return_peak_smooth_time_s": float(t[k]),
+        "mid_back_at_rest_s": float(td[down[0]]) if down.size else math.nan,
+    }
 
 
 #: s: the first wet window's end at H/20 (dry, 1 iteration per window, before: the page's
@@ -420,8 +493,21 @@ LATE_FROM = 1.85
 CREST_FROM = 2.0
 
 
-def wet_split(path: Path) -> dict:
-    """Windows ending at or after WET_FROM: count, iterations mean, unconverged, and the
+def wet_from(case: Case, t: np.ndarray, ferr: np.ndarray | None) -> float:
+    """Start (s) of a run's wet windows: :data:`WET_FROM` at D/H = 0.06 (every row before the
+    other clearances, kept so they stay comparable); at another clearance contact comes earlier
+    or later, so the end of the first window ``t`` with a nonempty fictitious wet set (a
+    finite fictitious force error ``ferr``), NaN where there is none (no wet window, or a file
+    without the column)."""
+    if math.isclose(case.clearance, 0.06):
+        return WET_FROM
+    if ferr is None or ferr.size != t.size or not np.isfinite(ferr).any():
+        return math.nan
+    return float(t[np.argmax(np.isfinite(ferr))])
+
+
+def wet_split(path: Path, case: Case) -> dict:
+    """Windows ending at or after :func:`wet_from`: count, iterations mean, unconverged, and the
     fictitious force error / load scale of the accepted ones (median, 90th percentile)."""
     with h5py.File(path, "r") as h5:
         if "coupling" not in h5:
@@ -431,10 +517,12 @@ def wet_split(path: Path) -> dict:
         its, conv = c["iterations"][:], c["converged"][:]
         ferr = c["fictitious_force_error"][:] if "fictitious_force_error" in c else None
         grown = c["fictitious_set_growths"][:] if "fictitious_set_growths" in c else None
-    wet = t >= WET_FROM - 1e-9
+    start = wet_from(case, t, ferr)
+    wet = t >= start - 1e-9  # all False for NaN
     if not wet.any():
         return {}
     out = {
+        "wet_from_s": start,
         "wet_windows": int(wet.sum()),
         "wet_it_mean": float(its[wet].mean()),
         "wet_unconverged": int(np.count_nonzero(conv[wet] == 0)),
@@ -462,9 +550,16 @@ def wet_split(path: Path) -> dict:
     return out
 
 
-def plot(paths: list[Path], out: Path, xlim: tuple[float, float] = (-0.4, 0.8)) -> None:
+def plot(
+    paths: list[Path],
+    out: Path,
+    xlim: tuple[float, float] = (-0.4, 0.8),
+    title: str = "Light plate (0.026 kg/m^2), A/H = 0.3, D/H = 0.06, Aitken + fictitious mass",
+    ylim: tuple[float, float] = (-30.0, 80.0),
+) -> None:
     """Uplift (11 ms running mean, every sample light) and mid-span displacement against
-    t - t_c of every results file, one colour each."""
+    t - t_c of every results file, one colour each (labelled with D/H where they differ)."""
+    clearances = {NAME.search(p.name)["d"] for p in paths}
     import matplotlib
 
     matplotlib.use("Agg")
@@ -475,6 +570,8 @@ def plot(paths: list[Path], out: Path, xlim: tuple[float, float] = (-0.4, 0.8)) 
         r = NAME.search(path.name)
         case = Case(float(r["a"]), float(r["d"]))
         label = f"l0 {r['l0']}, M_f {float(r['mf']):g}x, rtol {float(r['rtol']):g}{r['wm']}"
+        if len(clearances) > 1:
+            label = f"D/H = {float(r['d']):g}, {label}"
         if r["maxit"]:
             label += f", {r['maxit']} it."
         label += f", force tol. {r['ft']}" if r["ft"] else ", old code"
@@ -493,8 +590,8 @@ def plot(paths: list[Path], out: Path, xlim: tuple[float, float] = (-0.4, 0.8)) 
         ax_f.plot(t - case.crest_time, f, color=c, lw=0.3, alpha=0.3)
         ax_f.plot(t - case.crest_time, running_mean(f, 11), color=c, lw=1.0, label=label)
         ax_d.plot(td - case.crest_time, u * 1e3, color=c, lw=1.0, label=label)
-    ax_f.set_ylabel("uplift (N/m), clipped to -30 ... 80")
-    ax_f.set_ylim(-30.0, 80.0)  # a diverging window's spike would hide the rest
+    ax_f.set_ylabel(f"uplift (N/m), clipped to {ylim[0]:g} ... {ylim[1]:g}")
+    ax_f.set_ylim(*ylim)  # a diverging window's spike would hide the rest
     ax_d.set_ylabel("mid-span uy (mm)")
     ax_d.set_xlabel("t - t_c (s)")
     ax_f.set_xlim(*xlim)
@@ -502,7 +599,7 @@ def plot(paths: list[Path], out: Path, xlim: tuple[float, float] = (-0.4, 0.8)) 
         ax.grid(alpha=0.3)
         ax.axhline(0.0, color="0.6", lw=0.4)
     ax_f.legend(fontsize=7)
-    fig.suptitle("Light plate (0.026 kg/m^2), A/H = 0.3, D/H = 0.06, Aitken + fictitious mass")
+    fig.suptitle(title)
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=80)
@@ -535,7 +632,20 @@ def report() -> int:
         r.setdefault("acceleration", "aitken")
         r.setdefault("kinematics", "linear")
         r.setdefault("branched_from_s", math.nan)
+        for k in ("return_peak", "return_peak_time_s", "return_peak_smooth",
+                  "return_peak_smooth_time_s", "mid_back_at_rest_s"):  # fmt: skip
+            r.setdefault(k, math.nan)  # needs the results file
         r["results_file"] = _row_file(r)
+        if not r.get("wet_from_s"):
+            # rows before the column: every one is at D/H = 0.06, split at WET_FROM if at all
+            r["wet_from_s"] = WET_FROM if r.get("wet_windows") not in ("", None, "0") else math.nan
+        # the same-spacing rigid run may have come since the row was written: looked up anew
+        same, same_s = rigid_reference(
+            Case(float(r["a_over_h"]), float(r["d_over_h"])), r["l0_label"]
+        )
+        r["rigid_peak_same_l0"], r["rigid_peak_smooth_same_l0"] = same, same_s
+        r["mf_raw_same_l0"] = float(r["peak_uplift"]) / same
+        r["mf_smooth_same_l0"] = float(r["peak_uplift_smooth"]) / same_s
     merged = [asdict(r) for r in rows] + kept
     merged.sort(key=lambda r: (-float(r["l0"]), float(r["a_over_h"]), float(r["d_over_h"]),
                                float(r["rtol"]), float(r["mf_factor"]), r["results_file"]))  # fmt: skip
@@ -545,6 +655,20 @@ def report() -> int:
         columns=list(LightResult.__dataclass_fields__),
         comment="validation/bottom_slamming_light.py: the light plate with the fictitious mass",
     )
+    clear = [p for p in paths if _clearance_study(p)]
+    if clear:
+        # per clearance its longest run only (a shorter one is its prefix: same base, same keys)
+        longest: dict[str, Path] = {}
+        for p in clear:
+            d, end = NAME.search(p.name)["d"], float(NAME.search(p.name)["end"])
+            if d not in longest or end > float(NAME.search(longest[d].name)["end"]):
+                longest[d] = p
+        clear = [longest[d] for d in sorted(longest, key=float)]
+        last = max(float(NAME.search(p.name)["end"]) for p in clear)
+        plot(clear, FIGURE_CLEARANCES, xlim=(-0.4, last - Case(0.3, 0.06).crest_time + 0.01),
+             title="Light plate (0.026 kg/m^2), co-rotational, A/H = 0.3, three clearances",
+             ylim=(-5.0, 10.0))  # fmt: skip
+    paths = [p for p in paths if not _other_clearance(p)]  # the figures below are of D/H = 0.06
     shaped = [p for p in paths if _shaped_study(p)]
     crest = [p for p in paths if _crest_study(p, with_base=True)]
     rest = [p for p in paths if not _shaped_study(p) and not _crest_study(p, with_base=True)]
