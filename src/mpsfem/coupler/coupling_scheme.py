@@ -304,7 +304,7 @@ class CouplingScheme:
         last = None  # (x, s) of the last iterate the fluid completed in this window
         # retreat_predictor: a rejected first iterate (the predictor) retreats towards the
         # window's start (d_n, v_n) instead of ending the run
-        start = (self.d, self.v) if getattr(cv, "retreat_predictor", False) else None
+        start = (self.d, self.v) if cv.retreat_predictor else None
         # optional structure hook: the interface iterate its forces answer to (the fictitious
         # mass of structure_fem needs it under acceleration; docs/coupler.md)
         set_iterate = getattr(self.structure, "set_iterate", None) if self.implicit else None
@@ -317,9 +317,7 @@ class CouplingScheme:
         grown = float("nan")
         # accept_unconverged = "best": (merit, iteration, residual, x, s) of the iterate nearest
         # the criteria so far (merit max(residual / rtol, force ratio / force tolerance))
-        keep_best = (
-            getattr(cv, "accept_unconverged", "last") == "best" and cv.on_divergence == "continue"
-        )
+        keep_best = cv.accept_unconverged == "best" and cv.on_divergence == "continue"
         best = None
         f_ratio = float("nan")
         f_scale = 0.0
