@@ -619,7 +619,6 @@ def _install_trace(path: Path, t_from: float) -> None:
 
     from mpsfem.coupler import coupling_scheme as cs
     from mpsfem.structure_fem import alpha_method as am
-    from mpsfem.structure_fem import newton as nw
     from mpsfem.structure_fem import participant as sp
 
     log = path.open("w")
@@ -682,8 +681,7 @@ def _install_trace(path: Path, t_from: float) -> None:
             log.flush()
         return warn(self, msg)
 
-    cs.CouplingScheme._warn = traced_warn
-    assert nw.NewtonFailure  # the failing solve's history is the last one in the record
+    cs.CouplingScheme._warn = traced_warn  # a failing solve's history: the record's last
 
 
 def summarize_trace(path: Path) -> dict:
@@ -716,7 +714,7 @@ def summarize_trace(path: Path) -> dict:
             x, xt = np.array(r["x_dx"]), np.array(r["xt_dx"])
             rel.append(float(np.sqrt(np.mean((xt - x) ** 2)) / max(np.sqrt(np.mean(xt**2)), 1e-30)))
             fe = r["force_err"]
-            f_ok = fe is None or fe[0] <= max(1e-2 * max(fe[1], s_peak), 1e-2 * fe[2] / 1e-2)
+            f_ok = fe is None or fe[0] <= max(1e-2 * max(fe[1], s_peak), fe[2])
             ok.append(rel[-1] <= 1e-3 and f_ok)
         if its[-1]["force_err"] is not None:
             s_peak = max(s_peak, its[-1]["force_err"][1])
