@@ -657,16 +657,22 @@ def report() -> int:
     )
     clear = [p for p in paths if _clearance_study(p)]
     if clear:
-        # per clearance its longest run only (a shorter one is its prefix: same base, same keys)
-        longest: dict[str, Path] = {}
+        # one spacing and factor, the one run at the most clearances (coarsest first on a tie:
+        # the study's H/20), and per clearance its longest run (a shorter one is its prefix)
+        groups: dict[tuple[str, str], dict[str, Path]] = {}
         for p in clear:
-            d, end = NAME.search(p.name)["d"], float(NAME.search(p.name)["end"])
-            if d not in longest or end > float(NAME.search(longest[d].name)["end"]):
-                longest[d] = p
+            m = NAME.search(p.name)
+            longest = groups.setdefault((m["l0"], m["mf"]), {})
+            if m["d"] not in longest or float(m["end"]) > float(
+                NAME.search(longest[m["d"]].name)["end"]
+            ):
+                longest[m["d"]] = p
+        (l0, mf), longest = max(groups.items(), key=lambda g: (len(g[1]), float(g[0][0])))
         clear = [longest[d] for d in sorted(longest, key=float)]
         last = max(float(NAME.search(p.name)["end"]) for p in clear)
         plot(clear, FIGURE_CLEARANCES, xlim=(-0.4, last - Case(0.3, 0.06).crest_time + 0.01),
-             title="Light plate (0.026 kg/m^2), co-rotational, A/H = 0.3, three clearances",
+             title=f"Light plate, co-rotational, A/H = 0.3, l0 = {l0} m, "
+             f"factor {mf}",
              ylim=(-5.0, 10.0))  # fmt: skip
     paths = [p for p in paths if not _other_clearance(p)]  # the figures below are of D/H = 0.06
     shaped = [p for p in paths if _shaped_study(p)]
