@@ -74,7 +74,7 @@ FIGURE_CREST = FIGURE.with_name("bottom_slamming_light_crest.png")
 
 def _crest_study(path: Path, with_base: bool = False) -> bool:
     m = NAME.search(path.name)
-    if not m["pf"] or m["end"] is None or float(m["end"]) < 2.1 or _other_clearance(path):
+    if not m["pf"] or m["end"] is None or float(m["end"]) < 2.1 or _other_case(path):
         return False
     base = float(m["mf"]) in (0.5, 1.0) and float(m["wp"] or 0) == 1.0
     base = base and float(m["end"]) == 2.1 and not (m["frz"] or m["acc"] or m["maxit"])
@@ -92,11 +92,24 @@ def _other_clearance(path: Path) -> bool:
     return not math.isclose(float(NAME.search(path.name)["d"]), 0.06)
 
 
+def _other_amplitude(path: Path) -> bool:
+    """A run at an amplitude other than A/H = 0.3 (the rest of the MF table, :data:`FIGURE_MF`;
+    every study before it ran A/H = 0.3 only)."""
+    return not math.isclose(float(NAME.search(path.name)["a"]), 0.3)
+
+
+def _other_case(path: Path) -> bool:
+    """Not A/H = 0.3, D/H = 0.06: kept out of the figures of that case's studies."""
+    return _other_clearance(path) or _other_amplitude(path)
+
+
 def _clearance_study(path: Path) -> bool:
     """The co-rotational, potential-flow runs from rest ending at 2.1 s or later, not branched
-    from another run's state, at every clearance (the D/H = 0.06 ones also in FIGURE_CREST)."""
+    from another run's state, at every clearance of A/H = 0.3 (the D/H = 0.06 ones also in
+    FIGURE_CREST)."""
     m = NAME.search(path.name)
-    return bool(m["corot"] and m["pf"] and not m["frm"]) and float(m["end"] or 0.0) >= 2.1
+    corot = bool(m["corot"] and m["pf"] and not m["frm"]) and not _other_amplitude(path)
+    return corot and float(m["end"] or 0.0) >= 2.1
 
 
 AREA = 2.5e-5  # m^2, thesis Tables 5-3, 5-7
@@ -494,12 +507,12 @@ CREST_FROM = 2.0
 
 
 def wet_from(case: Case, t: np.ndarray, ferr: np.ndarray | None) -> float:
-    """Start (s) of a run's wet windows: :data:`WET_FROM` at D/H = 0.06 (every row before the
-    other clearances, kept so they stay comparable); at another clearance contact comes earlier
-    or later, so the end of the first window ``t`` with a nonempty fictitious wet set (a
+    """Start (s) of a run's wet windows: :data:`WET_FROM` at A/H = 0.3, D/H = 0.06 (every row
+    before the other cases, kept so they stay comparable); in another case contact comes
+    earlier or later, so the end of the first window ``t`` with a nonempty fictitious wet set (a
     finite fictitious force error ``ferr``), NaN where there is none (no wet window, or a file
     without the column)."""
-    if math.isclose(case.clearance, 0.06):
+    if math.isclose(case.clearance, 0.06) and math.isclose(case.ratio, 0.3):
         return WET_FROM
     if ferr is None or ferr.size != t.size or not np.isfinite(ferr).any():
         return math.nan
@@ -674,7 +687,7 @@ def report() -> int:
              title=f"Light plate, co-rotational, A/H = 0.3, l0 = {l0} m, "
              f"factor {mf}",
              ylim=(-5.0, 10.0))  # fmt: skip
-    paths = [p for p in paths if not _other_clearance(p)]  # the figures below are of D/H = 0.06
+    paths = [p for p in paths if not _other_case(p)]  # the figures below: A/H 0.3, D/H 0.06
     shaped = [p for p in paths if _shaped_study(p)]
     crest = [p for p in paths if _crest_study(p, with_base=True)]
     rest = [p for p in paths if not _shaped_study(p) and not _crest_study(p, with_base=True)]
@@ -698,8 +711,176 @@ def report() -> int:
         print(
             "  ".join(f"{k}={d[k]:.4g}" if isinstance(d[k], float) else f"{k}={d[k]}" for k in keys)
         )
+    table = mf_table(merged)
+    if table:
+        write_csv(table, MF_TABLE_CSV, comment="validation/bottom_slamming_light.py: the light "
+                  f"plate's MF table at l0 = {MF_TABLE_L0} m (MF_TABLE_SETTING)")  # fmt: skip
+        plot_mf_table(table, FIGURE_MF)
+        print_mf_table(table)
     print(f"wrote {CSV.relative_to(RESULTS_DIR.parents[1])} and the figures of the runs found")
     return 0
+
+
+#: the 12-case MF table (issue 21: "the whole 12-case MF table at l0 = 0.004 m beside the
+#: thesis's"): the setting of the three clearances at A/H = 0.3 (co-rotational member,
+#: potential-flow M_f factor 0.35, wet threshold 3 Pa, force tolerance 5e-2, Aitken, rtol 1e-3
+#: of the displacement, at most 100 iterations), run from rest in every case at one spacing
+MF_TABLE_CSV = RESULTS_DIR / "bottom_slamming_light_mf_table.csv"
+FIGURE_MF = FIGURE.with_name("bottom_slamming_light_mf.png")
+MF_TABLE_L0 = "0.004"
+MF_TABLE_SETTING = {
+    "kinematics": "corotational",
+    "fictitious_mass_model": "potential_flow",
+    "mf_factor": 0.35,
+    "wet_pressure_pa": 3.0,
+    "force_tolerance": "0.05",
+    "max_iterations": 100,
+    "rtol": 1e-3,
+    "relative_to": "displacement",
+    "acceleration": "aitken",
+    "wet_update": "window",
+    "freeze_surface": False,
+}
+
+
+def _num(v: object) -> float:
+    """A CSV cell (or a value) as a float; blank -> NaN."""
+    return math.nan if v in ("", None) else float(v)  # type: ignore[arg-type]
+
+
+def _in_table_setting(row: dict) -> bool:
+    """A row of the MF table's setting at :data:`MF_TABLE_L0`, run from rest (not branched)."""
+    if row["l0_label"] != MF_TABLE_L0 or math.isfinite(_num(row.get("branched_from_s"))):
+        return False
+    for key, want in MF_TABLE_SETTING.items():
+        have = row.get(key, "")
+        if isinstance(want, bool):
+            if str(have).lower() not in (str(want).lower(), "1" if want else "0"):
+                return False
+        elif isinstance(want, float | int):
+            if not math.isclose(_num(have), float(want)):
+                return False
+        elif str(have) != want:
+            return False
+    return True
+
+
+def heavy_reference(case: Case, l0_label: str) -> tuple[float, float]:
+    """(raw, 11 ms mean) MF of the heavy elastic plate (the section the thesis's thickness
+    gives) against the rigid plate, both from bottom_slamming_<l0_label>.csv; NaN if absent."""
+    path = RESULTS_DIR / f"bottom_slamming_{l0_label}.csv"
+    if not path.is_file():
+        return math.nan, math.nan
+    peaks = {}
+    for r in read_csv(path):
+        if math.isclose(float(r["a_over_h"]), case.ratio) and math.isclose(
+            float(r["d_over_h"]), case.clearance
+        ):
+            peaks[r["kind"]] = (float(r["peak_uplift"]), float(r["peak_uplift_smooth"]))
+    if "rigid" not in peaks or "elastic" not in peaks:
+        return math.nan, math.nan
+    (e, es), (r, rs) = peaks["elastic"], peaks["rigid"]
+    return e / r, es / rs
+
+
+def mf_table(rows: list[dict]) -> list[dict]:
+    """The MF table's rows: per (A/H, D/H) the longest run of :data:`MF_TABLE_SETTING` at
+    :data:`MF_TABLE_L0` (a shorter one is its prefix), with MF against the rigid plate at the
+    same spacing, the heavy plate's MF and the thesis's. Loads N/m, times s, displacements mm."""
+    best: dict[tuple[float, float], dict] = {}
+    for r in rows:
+        if not _in_table_setting(r):
+            continue
+        key = (round(float(r["a_over_h"]), 3), round(float(r["d_over_h"]), 3))
+        if key not in best or _num(r["t_end_s"]) > _num(best[key]["t_end_s"]):
+            best[key] = r
+    out = []
+    for (a, d), r in sorted(best.items()):
+        case = Case(a, d)
+        wet, unconv = int(_num(r["wet_windows"] or 0)), int(_num(r["wet_unconverged"] or 0))
+        heavy, heavy_s = heavy_reference(case, MF_TABLE_L0)
+        out.append(
+            {
+                "a_over_h": a,
+                "d_over_h": d,
+                "l0_label": r["l0_label"],
+                "t_end_s": _num(r["t_end_s"]),
+                "window_end_s": case.reflection_time,
+                "reached_window_end": _num(r["t_end_s"]) >= case.reflection_time - 1e-3,
+                "wet_from_s": _num(r["wet_from_s"]),
+                "wet_windows": wet,
+                "wet_it_mean": _num(r["wet_it_mean"]),
+                "wet_unconverged": unconv,
+                "wet_unconverged_pct": 100.0 * unconv / wet if wet else math.nan,
+                "interface_work_error_pct": _num(r["interface_work_error_pct"]),
+                "peak_uplift": _num(r["peak_uplift"]),
+                "peak_time_s": _num(r["peak_time_s"]),
+                "peak_uplift_smooth": _num(r["peak_uplift_smooth"]),
+                "peak_smooth_time_s": _num(r["peak_smooth_time_s"]),
+                "rigid_peak": _num(r["rigid_peak_same_l0"]),
+                "rigid_peak_smooth": _num(r["rigid_peak_smooth_same_l0"]),
+                "mf_raw": _num(r["mf_raw_same_l0"]),
+                "mf_smooth": _num(r["mf_smooth_same_l0"]),
+                "heavy_mf_raw": heavy,
+                "heavy_mf_smooth": heavy_s,
+                "thesis_mf": THESIS_MF.get((a, d), math.nan),
+                "mid_disp_max_mm": _num(r["mid_disp_max_mm"]),
+                "mid_disp_max_time_s": _num(r["mid_disp_max_time_s"]),
+                "mid_back_at_rest_s": _num(r["mid_back_at_rest_s"]),
+                "return_peak_smooth": _num(r["return_peak_smooth"]),
+                "results_file": r["results_file"],
+            }
+        )
+    return out
+
+
+def plot_mf_table(table: list[dict], out: Path) -> None:
+    """MF (11 ms means filled, raw peaks open) against A/H per clearance: the light plate, the
+    heavy plate and the thesis, on a log axis."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    clearances = (0.03, 0.06, 0.1)
+    fig, axes = plt.subplots(1, 3, figsize=(10.0, 3.6), sharey=True)
+    for ax, d in zip(axes, clearances, strict=True):
+        rows = [r for r in table if math.isclose(r["d_over_h"], d)]
+        a = [r["a_over_h"] for r in rows]
+        ax.plot(a, [r["mf_smooth"] for r in rows], "o-", color="C0", label="light, 11 ms mean")
+        ax.plot(a, [r["mf_raw"] for r in rows], "o", mfc="none", color="C0", label="light, raw")
+        ah = (0.2, 0.3, 0.4, 0.5)
+        heavy = [heavy_reference(Case(x, d), MF_TABLE_L0) for x in ah]
+        ax.plot(ah, [h[1] for h in heavy], "s-", color="C1", label="heavy, 11 ms mean")
+        ax.plot(ah, [h[0] for h in heavy], "s", mfc="none", color="C1", label="heavy, raw")
+        th = sorted((k[0], v) for k, v in THESIS_MF.items() if math.isclose(k[1], d))
+        ax.plot([x for x, _ in th], [v for _, v in th], "^-", color="k", label="thesis")
+        ax.set_yscale("log")
+        ax.set_title(f"D/H = {d:g}")
+        ax.set_xlabel("A/H")
+        ax.grid(alpha=0.3, which="both")
+    axes[0].set_ylabel("MF = F_elastic,max / F_rigid,max")
+    axes[0].legend(fontsize=7)
+    fig.suptitle(f"Light plate (0.026 kg/m^2) MF at l0 = {MF_TABLE_L0} m against the thesis")
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=80)
+    plt.close(fig)
+
+
+def print_mf_table(table: list[dict]) -> None:
+    """The MF table as markdown (docs/validation_bottom_slamming_light.md)."""
+    print("| A/H | D/H | run to (s) | wet windows: it./window, unconverged | light MF raw "
+          "(11 ms mean) | heavy MF raw (11 ms mean) | thesis MF | mid-span max (mm) |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|---|")
+    for r in table:
+        print(
+            f"| {r['a_over_h']:g} | {r['d_over_h']:g} | {r['t_end_s']:.2f} | "
+            f"{r['wet_it_mean']:.1f}, {r['wet_unconverged']} of {r['wet_windows']} "
+            f"({r['wet_unconverged_pct']:.0f} %) | {r['mf_raw']:.3f} ({r['mf_smooth']:.3f}) | "
+            f"{r['heavy_mf_raw']:.2f} ({r['heavy_mf_smooth']:.2f}) | {r['thesis_mf']:.2f} | "
+            f"{r['mid_disp_max_mm']:.1f} |"
+        )
 
 
 def _row_file(row: dict[str, str]) -> str:

@@ -111,3 +111,67 @@ def test_return_load_is_the_load_after_the_mid_span_maximum(tmp_path):
     mean = np.mean(np.exp(-((np.arange(-5, 6) / 10.0) ** 2)))  # 0.908
     assert out["return_peak_smooth"] == pytest.approx(20.0 * mean, rel=1e-3)
     assert out["mid_back_at_rest_s"] == pytest.approx(2.3)
+
+
+def _table_row(a: float, d: float, t_end: float, **kw) -> dict:
+    """A CSV row (strings, as read back) of the MF table's setting, overridable per key."""
+    row = {
+        "l0_label": "0.004", "a_over_h": str(a), "d_over_h": str(d), "t_end_s": str(t_end),
+        "kinematics": "corotational", "fictitious_mass_model": "potential_flow",
+        "mf_factor": "0.35", "wet_pressure_pa": "3.0", "force_tolerance": "0.05",
+        "max_iterations": "100", "rtol": "0.001", "relative_to": "displacement",
+        "acceleration": "aitken", "wet_update": "window", "freeze_surface": "False",
+        "branched_from_s": "nan", "wet_from_s": "1.5", "wet_windows": "200",
+        "wet_it_mean": "12.0", "wet_unconverged": "10", "interface_work_error_pct": "2.0",
+        "peak_uplift": "5.0", "peak_time_s": "2.0", "peak_uplift_smooth": "2.0",
+        "peak_smooth_time_s": "2.0", "rigid_peak_same_l0": "100.0",
+        "rigid_peak_smooth_same_l0": "50.0", "mf_raw_same_l0": "0.05",
+        "mf_smooth_same_l0": "0.04", "mid_disp_max_mm": "30.0", "mid_disp_max_time_s": "2.1",
+        "mid_back_at_rest_s": "2.5", "return_peak_smooth": "1.0",
+        "results_file": f"run_{a}_{d}_{t_end}.h5",
+    }  # fmt: skip
+    return row | {k: str(v) for k, v in kw.items()}
+
+
+def test_mf_table_takes_each_cases_longest_run_of_its_setting(tmp_path, monkeypatch):
+    """Per case the longest run of MF_TABLE_SETTING at MF_TABLE_L0 (another factor, spacing, a
+    branch or a frozen-flags run is not the table's), with the heavy plate's MF against the
+    rigid one from bottom_slamming_<l0>.csv and the thesis's MF."""
+    (tmp_path / "bottom_slamming_0.004.csv").write_text(
+        "kind,a_over_h,d_over_h,peak_uplift,peak_uplift_smooth\n"
+        "rigid,0.2,0.06,200.0,50.0\nelastic,0.2,0.06,40.0,20.0\n"
+    )
+    monkeypatch.setattr(bsl, "RESULTS_DIR", tmp_path)
+    rows = [
+        _table_row(0.2, 0.06, 2.1),
+        _table_row(0.2, 0.06, 2.9, wet_windows=100, wet_unconverged=5),
+        _table_row(0.2, 0.06, 3.5, mf_factor=0.5),  # another factor
+        _table_row(0.2, 0.06, 3.5, freeze_surface=True),  # frozen flags
+        _table_row(0.2, 0.06, 3.5, branched_from_s=2.1),  # a branch
+        _table_row(0.3, 0.03, 3.5, l0_label="0.0057"),  # another spacing
+        _table_row(0.5, 0.1, 2.0),
+    ]
+    table = bsl.mf_table(rows)
+    assert [(r["a_over_h"], r["d_over_h"]) for r in table] == [(0.2, 0.06), (0.5, 0.1)]
+    first = table[0]
+    assert first["t_end_s"] == 2.9 and first["results_file"] == "run_0.2_0.06_2.9.h5"
+    assert first["wet_unconverged_pct"] == pytest.approx(5.0)
+    assert (first["heavy_mf_raw"], first["heavy_mf_smooth"]) == (0.2, 0.4)
+    assert first["thesis_mf"] == bsl.THESIS_MF[(0.2, 0.06)]
+    assert first["reached_window_end"] is (2.9 >= bsl.Case(0.2, 0.06).reflection_time - 1e-3)
+    assert np.isnan(table[1]["heavy_mf_raw"])  # no heavy run of that case in the CSV
+    assert table[1]["reached_window_end"] is False  # 2.0 s is before its window's end
+
+
+@pytest.mark.parametrize("a", [0.2, 0.4, 0.5])
+def test_other_amplitudes_stay_out_of_the_a03_figures(a):
+    """The MF table's runs at other amplitudes are in neither the A/H = 0.3 clearances figure
+    nor the D/H = 0.06 study figures, and their wet windows start at their own first wet set."""
+    kw = {"model": "potential_flow", "wet_pressure": 3.0, "kinematics": "corotational"}
+    path = bsl.run_path("0.004", bsl.Case(a, 0.06), 0.35, 1e-3, end_time=2.5, **kw)
+    assert not bsl._clearance_study(path)
+    assert not bsl._crest_study(path, with_base=True)
+    assert bsl._other_case(path)
+    t = np.arange(1, 11) * 0.1
+    ferr = np.where(t > 0.75, 0.02, np.nan)
+    assert bsl.wet_from(bsl.Case(a, 0.06), t, ferr) == pytest.approx(0.8)
