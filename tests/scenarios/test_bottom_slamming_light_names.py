@@ -175,3 +175,18 @@ def test_other_amplitudes_stay_out_of_the_a03_figures(a):
     t = np.arange(1, 11) * 0.1
     ferr = np.where(t > 0.75, 0.02, np.nan)
     assert bsl.wet_from(bsl.Case(a, 0.06), t, ferr) == pytest.approx(0.8)
+
+
+def test_static_capacity_is_the_linear_beam_then_the_pinned_string():
+    """The light plate at rest under a uniform uplift: at 1e-4 N/m (3.7e-5 m, far below the
+    section's radius of gyration sqrt(I / A) = 6.3 mm) the linear simply supported beam 5 q L^4 /
+    (384 EI) within 1e-3 (the nodal lumping of the line load, O(h^2) at 74 elements); at 1 N/m
+    (about 37 mm, six radii of gyration) the pinned string (3 q L^4 / (64 EA))^(1/3) within 5 %:
+    the bending stiffness 384 EI / (5 L^4) is a tenth of the string's secant stiffness there
+    (w ~ q^(1/3): at most 3.4 %), and the string's shallow-sag stretch (8 / 3) w^2 / L
+    overestimates the stretch by (12 / 5) (w / L)^2 = 3.6 % (1.2 % in w)."""
+    low, high = bsl.static_capacity((1e-4, 1.0))
+    assert low["mid_disp_mm"] == pytest.approx(low["linear_beam_mm"], rel=1e-3)
+    assert high["mid_disp_mm"] == pytest.approx(high["string_mm"], rel=0.05)
+    assert high["mid_disp_mm"] < 0.2 * high["linear_beam_mm"]  # held by its membrane force
+    assert 0.03 < high["max_axial_strain"] < 0.05  # (8 / 3) (w / L)^2 = 0.040
