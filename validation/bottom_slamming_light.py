@@ -784,6 +784,20 @@ def heavy_reference(case: Case, l0_label: str) -> tuple[float, float]:
     return e / r, es / rs
 
 
+#: the MF table's columns taken from the light CSV's row as they are, and under another name
+_TABLE_COPIED = (
+    "wet_from_s", "wet_it_mean", "interface_work_error_pct", "peak_uplift",
+    "peak_time_s", "peak_uplift_smooth", "peak_smooth_time_s", "mid_disp_max_mm",
+    "mid_disp_max_time_s", "mid_back_at_rest_s", "return_peak_smooth",
+)  # fmt: skip
+_TABLE_RENAMED = {
+    "rigid_peak": "rigid_peak_same_l0",
+    "rigid_peak_smooth": "rigid_peak_smooth_same_l0",
+    "mf_raw": "mf_raw_same_l0",
+    "mf_smooth": "mf_smooth_same_l0",
+}
+
+
 def mf_table(rows: list[dict]) -> list[dict]:
     """The MF table's rows: per (A/H, D/H) the longest run of :data:`MF_TABLE_SETTING` at
     :data:`MF_TABLE_L0` (a shorter one is its prefix), with MF against the rigid plate at the
@@ -800,38 +814,18 @@ def mf_table(rows: list[dict]) -> list[dict]:
         case = Case(a, d)
         wet, unconv = int(_num(r["wet_windows"] or 0)), int(_num(r["wet_unconverged"] or 0))
         heavy, heavy_s = heavy_reference(case, MF_TABLE_L0)
-        out.append(
-            {
-                "a_over_h": a,
-                "d_over_h": d,
-                "l0_label": r["l0_label"],
-                "t_end_s": _num(r["t_end_s"]),
-                "window_end_s": case.reflection_time,
-                "reached_window_end": _num(r["t_end_s"]) >= case.reflection_time - 1e-3,
-                "wet_from_s": _num(r["wet_from_s"]),
-                "wet_windows": wet,
-                "wet_it_mean": _num(r["wet_it_mean"]),
-                "wet_unconverged": unconv,
-                "wet_unconverged_pct": 100.0 * unconv / wet if wet else math.nan,
-                "interface_work_error_pct": _num(r["interface_work_error_pct"]),
-                "peak_uplift": _num(r["peak_uplift"]),
-                "peak_time_s": _num(r["peak_time_s"]),
-                "peak_uplift_smooth": _num(r["peak_uplift_smooth"]),
-                "peak_smooth_time_s": _num(r["peak_smooth_time_s"]),
-                "rigid_peak": _num(r["rigid_peak_same_l0"]),
-                "rigid_peak_smooth": _num(r["rigid_peak_smooth_same_l0"]),
-                "mf_raw": _num(r["mf_raw_same_l0"]),
-                "mf_smooth": _num(r["mf_smooth_same_l0"]),
-                "heavy_mf_raw": heavy,
-                "heavy_mf_smooth": heavy_s,
-                "thesis_mf": THESIS_MF.get((a, d), math.nan),
-                "mid_disp_max_mm": _num(r["mid_disp_max_mm"]),
-                "mid_disp_max_time_s": _num(r["mid_disp_max_time_s"]),
-                "mid_back_at_rest_s": _num(r["mid_back_at_rest_s"]),
-                "return_peak_smooth": _num(r["return_peak_smooth"]),
-                "results_file": r["results_file"],
-            }
-        )
+        row = {"a_over_h": a, "d_over_h": d, "l0_label": r["l0_label"]}
+        row["t_end_s"] = _num(r["t_end_s"])
+        row["window_end_s"] = case.reflection_time
+        row["reached_window_end"] = row["t_end_s"] >= case.reflection_time - 1e-3
+        row |= {"wet_windows": wet, "wet_unconverged": unconv}
+        row["wet_unconverged_pct"] = 100.0 * unconv / wet if wet else math.nan
+        row |= {k: _num(r[k]) for k in _TABLE_COPIED}
+        row |= {k: _num(r[source]) for k, source in _TABLE_RENAMED.items()}
+        row |= {"heavy_mf_raw": heavy, "heavy_mf_smooth": heavy_s}
+        row["thesis_mf"] = THESIS_MF.get((a, d), math.nan)
+        row["results_file"] = r["results_file"]
+        out.append(row)
     return out
 
 
