@@ -113,6 +113,8 @@ def _clearance_study(path: Path) -> bool:
 
 
 AREA = 2.5e-5  # m^2, thesis Tables 5-3, 5-7
+#: structure.time.hht_alpha of ``--safeguards`` (the obstacle's at mass ratio 1e-4)
+SAFEGUARD_HHT_ALPHA = -0.3
 SECOND_MOMENT = 1e-9  # m^4, thesis Tables 5-3, 5-7 read as 1e-9 (docs/validation.md item 3)
 MEMBER_DENSITY = 1040.0  # kg/m^3, thesis Tables 5-3, 5-7
 WATER_DENSITY = 1000.0  # kg/m^3, thesis Table 5-4
@@ -192,6 +194,7 @@ def light_overrides(
     freeze: bool = False,
     acceleration: str = "aitken",
     kinematics: str = "linear",
+    safeguards: bool = False,
 ) -> list[str]:
     """The light section, the fictitious mass (``mf_factor`` x the estimate), Aitken and the
     convergence measure (rtol relative to the whole displacement or to the window's motion);
@@ -202,8 +205,18 @@ def light_overrides(
     fictitious_wet_update ("grow": the wet set grows inside a window, task H5); ``freeze``
     fluid.surface.freeze_in_coupling_window (its default rule "settled"); ``acceleration`` the
     coupling.acceleration.kind (task H3: after the crest); ``kinematics`` the member's
-    ("corotational": large rotations, the runs past the crest rotate 0.5 rad)."""
+    ("corotational": large rotations, the runs past the crest rotate 0.5 rad); ``safeguards``
+    what took the obstacle at mass ratio 1e-4 to its end (docs/validation_coupling_stress.md):
+    coupling.convergence.accept_unconverged = "best", retreat_predictor = true and the HHT
+    integrator with alpha = -0.3."""
     extra = []
+    if safeguards:
+        extra += [
+            'coupling.convergence.accept_unconverged="best"',
+            "coupling.convergence.retreat_predictor=true",
+            'structure.time.scheme="hht"',
+            f"structure.time.hht_alpha={SAFEGUARD_HHT_ALPHA!r}",
+        ]
     if kinematics != "linear":
         extra.append(f'structure.members.0.kinematics="{kinematics}"')
     if freeze:
@@ -247,13 +260,15 @@ def run_path(
     acceleration: str = "aitken",
     kinematics: str = "linear",
     branched_from: float | None = None,
+    safeguards: bool = False,
 ) -> Path:
     """The results file of a run. Names without ``_ft``: runs of the code before the
     force-error criterion and the wetted-node M_f (issue 21, task H1); with ``_pf``: the
     potential-flow M_f (``mf`` its factor, not a multiple of the estimate); with ``_grow``: the
     wet set grown inside windows (fictitious_wet_update = "grow", task H5); with ``_frz``: surface
     flags frozen in a window; with ``_acc<kind>``: an acceleration other than Aitken (task H3);
-    with ``_corot``: a co-rotational member; with ``_from<t>``: a ``--branch-from`` run, continued
+    with ``_corot``: a co-rotational member; with ``_sg``: the obstacle's safeguards (best
+    iterate, retreating predictor, HHT -0.3; :func:`light_overrides`); with ``_from<t>``: a ``--branch-from`` run, continued
     from another run's state at t s (runs of task H3 before this token carry no such mark)."""
     wm = "wm" if relative_to == "window_motion" else ""
     if max_iterations != 30:  # the scenario's
@@ -270,6 +285,8 @@ def run_path(
         wm += f"_acc{acceleration}"
     if kinematics == "corotational":
         wm += "_corot"
+    if safeguards:
+        wm += "_sg"
     if force_tolerance is not None:
         wm += f"_ft{force_tolerance if force_tolerance == 'off' else f'{float(force_tolerance):g}'}"
     if end_time is not None:
@@ -283,7 +300,7 @@ def run_path(
 
 NAME = re.compile(
     r"bottom_slamming_light_(?P<l0>[0-9.e-]+)_mf(?P<mf>[0-9.e-]+)_rtol(?P<rtol>[0-9.e-]+)(?P<wm>(wm)?)(?:it(?P<maxit>[0-9]+))?"
-    r"(?P<pf>_pf)?(?:_wp(?P<wp>[0-9.e-]+))?(?P<grow>_grow)?(?P<frz>_frz)?(?:_acc(?P<acc>[a-z-]+))?(?P<corot>_corot)?(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?(?:_from(?P<frm>[0-9.e-]+))?_"
+    r"(?P<pf>_pf)?(?:_wp(?P<wp>[0-9.e-]+))?(?P<grow>_grow)?(?P<frz>_frz)?(?:_acc(?P<acc>[a-z-]+))?(?P<corot>_corot)?(?P<sg>_sg)?(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?(?:_from(?P<frm>[0-9.e-]+))?_"
     r"AH(?P<a>[0-9.]+)_DH(?P<d>[0-9.]+)\.h5$"
 )
 
@@ -350,6 +367,7 @@ class LightResult:
     freeze_surface: bool = False
     acceleration: str = "aitken"
     kinematics: str = "linear"  # the member's
+    safeguards: bool = False  # --safeguards (file name _sg)
     branched_from_s: float = math.nan  # --branch-from: the time of the state it continued
     # the start of the wet split (s): WET_FROM at D/H = 0.06, else the first wet set
     # (:func:`wet_from`)
@@ -458,6 +476,7 @@ def analyse_light(path: Path) -> LightResult:
         freeze_surface=bool(m["frz"]),
         acceleration=m["acc"] or "aitken",
         kinematics="corotational" if m["corot"] else "linear",
+        safeguards=bool(m["sg"]),
         branched_from_s=float(m["frm"]) if m["frm"] else math.nan,
         rigid_peak_same_l0=same,
         rigid_peak_smooth_same_l0=same_s,
@@ -645,6 +664,7 @@ def report() -> int:
         r.setdefault("freeze_surface", False)
         r.setdefault("acceleration", "aitken")
         r.setdefault("kinematics", "linear")
+        r.setdefault("safeguards", False)
         r.setdefault("branched_from_s", math.nan)
         for k in ("return_peak", "return_peak_time_s", "return_peak_smooth",
                   "return_peak_smooth_time_s", "mid_back_at_rest_s"):  # fmt: skip
@@ -741,6 +761,7 @@ MF_TABLE_SETTING = {
     "acceleration": "aitken",
     "wet_update": "window",
     "freeze_surface": False,
+    "safeguards": False,
 }
 
 
@@ -754,7 +775,7 @@ def _in_table_setting(row: dict) -> bool:
     if row["l0_label"] != MF_TABLE_L0 or math.isfinite(_num(row.get("branched_from_s"))):
         return False
     for key, want in MF_TABLE_SETTING.items():
-        have = row.get(key, "")
+        have = row.get(key, False if isinstance(want, bool) else "")  # a switch absent: off
         if isinstance(want, bool):
             if str(have).lower() not in (str(want).lower(), "1" if want else "0"):
                 return False
@@ -1030,6 +1051,13 @@ def main(argv: list[str] | None = None) -> int:
         help="the member's kinematics (default linear; corotational: file name _corot)",
     )
     ap.add_argument(
+        "--safeguards",
+        action="store_true",
+        help="coupling.convergence.accept_unconverged = best, retreat_predictor = true, "
+        f"structure.time.scheme = hht with alpha {SAFEGUARD_HHT_ALPHA} (file name _sg; CSV "
+        "column safeguards)",
+    )
+    ap.add_argument(
         "--branch-from",
         type=Path,
         default=None,
@@ -1090,13 +1118,25 @@ def main(argv: list[str] | None = None) -> int:
                         mm = args.mf_model
                         wp, wu = args.wet_pressure, args.wet_update
                         fz, acc = args.freeze_surface, args.acceleration
-                        kin = args.kinematics
+                        kin, sg = args.kinematics, args.safeguards
                         out = run_path(
                             args.l0, case, f, rtol, rel, its, ft, args.end_time, mm, wp, wu, fz,
-                            acc, kin, branched,
+                            acc, kin, branched, safeguards=sg,
                         )  # fmt: skip
                         overrides = case_overrides("elastic", case, spacing) + light_overrides(
-                            f, rtol, rel, its, ft, args.end_time, mm, wp, wu, fz, acc, kin
+                            f,
+                            rtol,
+                            rel,
+                            its,
+                            ft,
+                            args.end_time,
+                            mm,
+                            wp,
+                            wu,
+                            fz,
+                            acc,
+                            kin,
+                            safeguards=sg,
                         )
                         tag = f"[light {case.label()} mf {f:g} rtol {rtol:g} ft {ft}]"
                         if args.branch_from is not None:
@@ -1110,12 +1150,21 @@ def main(argv: list[str] | None = None) -> int:
                             at = args.branch_at
                             base = run_path(
                                 args.l0, case, f, rtols[0], rel, its, ft0, at, mm, wp,
-                                kinematics=kin,
+                                kinematics=kin, safeguards=sg,
                             )  # fmt: skip
                             base_overrides = case_overrides(
                                 "elastic", case, spacing
                             ) + light_overrides(
-                                f, rtols[0], rel, its, ft0, at, mm, wp, kinematics=kin
+                                f,
+                                rtols[0],
+                                rel,
+                                its,
+                                ft0,
+                                at,
+                                mm,
+                                wp,
+                                kinematics=kin,
+                                safeguards=sg,
                             )
                             base_overrides.append(f"output.checkpoint_interval={args.branch_at!r}")
                             case_runner.branch_case(

@@ -29,6 +29,11 @@ bsl = load("bottom_slamming_light")
             {"pf": "_pf", "end": "2.4", "frm": "2.1"},
         ),
         ({"end_time": 2.1}, {"end": "2.1", "frm": None}),
+        (
+            {"kinematics": "corotational", "safeguards": True, "force_tolerance": "0.05"},
+            {"corot": "_corot", "sg": "_sg", "ft": "0.05"},
+        ),
+        ({"kinematics": "corotational"}, {"corot": "_corot", "sg": None}),
     ],
 )
 def test_run_path_names_parse_back_to_their_settings(kw, expect):
@@ -190,3 +195,22 @@ def test_static_capacity_is_the_linear_beam_then_the_pinned_string():
     assert high["mid_disp_mm"] == pytest.approx(high["string_mm"], rel=0.05)
     assert high["mid_disp_mm"] < 0.2 * high["linear_beam_mm"]  # held by its membrane force
     assert 0.03 < high["max_axial_strain"] < 0.05  # (8 / 3) (w / L)^2 = 0.040
+
+
+def test_safeguards_are_keys_the_scenario_takes():
+    """--safeguards sets the obstacle's three keys (best iterate, retreating predictor, HHT
+    -0.3) and the scenario loads with them (a misspelt key would be refused by name)."""
+    from mpsfem.scenario.loader import load_scenario
+
+    case = bsl.Case(0.5, 0.06)
+    overrides = bsl.case_overrides("elastic", case, 0.004) + bsl.light_overrides(
+        0.35, 1e-3, max_iterations=100, force_tolerance="0.05", model="potential_flow",
+        wet_pressure=3.0, kinematics="corotational", safeguards=True,
+    )  # fmt: skip
+    sc = load_scenario(bsl.SCENARIOS["elastic"], overrides).scenario
+    assert sc.coupling.convergence.accept_unconverged == "best"
+    assert sc.coupling.convergence.retreat_predictor is True
+    assert sc.structure.time.scheme == "hht"
+    assert sc.structure.time.hht_alpha == bsl.SAFEGUARD_HHT_ALPHA
+    plain = bsl.light_overrides(0.35, 1e-3, kinematics="corotational")
+    assert not any("hht" in o or "accept_unconverged" in o for o in plain)
