@@ -865,6 +865,9 @@ def plot_mf_table(table: list[dict], out: Path) -> None:
         a = [r["a_over_h"] for r in rows]
         ax.plot(a, [r["mf_smooth"] for r in rows], "o-", color="C0", label="light, 11 ms mean")
         ax.plot(a, [r["mf_raw"] for r in rows], "o", mfc="none", color="C0", label="light, raw")
+        short = [r for r in rows if not r["reached_window_end"]]
+        ax.plot([r["a_over_h"] for r in short], [r["mf_smooth"] for r in short], "x", ms=10,
+                color="C3", label="light, stopped before the window's end")  # fmt: skip
         ah = (0.2, 0.3, 0.4, 0.5)
         heavy = [heavy_reference(Case(x, d), MF_TABLE_L0) for x in ah]
         ax.plot(ah, [h[1] for h in heavy], "s-", color="C1", label="heavy, 11 ms mean")
