@@ -22,9 +22,12 @@ docs/validation_bottom_slamming_light.md quotes it.
 from __future__ import annotations
 
 import argparse
+import fcntl
 import math
 import re
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -639,6 +642,20 @@ def plot(
     plt.close(fig)
 
 
+@contextmanager
+def _csv_lock() -> Iterator[None]:
+    """Hold an exclusive lock (``<CSV>.lock`` beside it) while reading, merging and writing the
+    CSV: runs finishing at once each merge their rows into it, and without the lock one read
+    the other's half-written file and dropped rows (2026-11-26)."""
+    CSV.parent.mkdir(parents=True, exist_ok=True)
+    with open(CSV.with_name(CSV.name + ".lock"), "w") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
 def report() -> int:
     rows, paths = [], []
     files = sorted(RESULTS_DIR.glob("bottom_slamming_light_*.h5"))
@@ -653,42 +670,45 @@ def report() -> int:
         return 1
     # the CSV's rows whose results files are not here stay as they are (merged by file name)
     found = {r.results_file for r in rows}
-    kept = [r for r in (read_csv(CSV) if CSV.is_file() else []) if _row_file(r) not in found]
-    for r in kept:
-        r.setdefault("force_tolerance", "none")
-        r.setdefault("fictitious_mass_model", "lumped")
-        r.setdefault("wet_pressure_pa", 0.0)
-        r.setdefault("wet_update", "window")
-        r.setdefault("wet_windows_grown", 0)
-        r.setdefault("wet_set_growths", 0)
-        r.setdefault("freeze_surface", False)
-        r.setdefault("acceleration", "aitken")
-        r.setdefault("kinematics", "linear")
-        r.setdefault("safeguards", False)
-        r.setdefault("branched_from_s", math.nan)
-        for k in ("return_peak", "return_peak_time_s", "return_peak_smooth",
-                  "return_peak_smooth_time_s", "mid_back_at_rest_s"):  # fmt: skip
-            r.setdefault(k, math.nan)  # needs the results file
-        r["results_file"] = _row_file(r)
-        if not r.get("wet_from_s"):
-            # rows before the column: every one is at D/H = 0.06, split at WET_FROM if at all
-            r["wet_from_s"] = WET_FROM if r.get("wet_windows") not in ("", None, "0") else math.nan
-        # the same-spacing rigid run may have come since the row was written: looked up anew
-        same, same_s = rigid_reference(
-            Case(float(r["a_over_h"]), float(r["d_over_h"])), r["l0_label"]
+    with _csv_lock():  # two runs finishing at once each merge into the CSV
+        kept = [r for r in (read_csv(CSV) if CSV.is_file() else []) if _row_file(r) not in found]
+        for r in kept:
+            r.setdefault("force_tolerance", "none")
+            r.setdefault("fictitious_mass_model", "lumped")
+            r.setdefault("wet_pressure_pa", 0.0)
+            r.setdefault("wet_update", "window")
+            r.setdefault("wet_windows_grown", 0)
+            r.setdefault("wet_set_growths", 0)
+            r.setdefault("freeze_surface", False)
+            r.setdefault("acceleration", "aitken")
+            r.setdefault("kinematics", "linear")
+            r.setdefault("safeguards", False)
+            r.setdefault("branched_from_s", math.nan)
+            for k in ("return_peak", "return_peak_time_s", "return_peak_smooth",
+                      "return_peak_smooth_time_s", "mid_back_at_rest_s"):  # fmt: skip
+                r.setdefault(k, math.nan)  # needs the results file
+            r["results_file"] = _row_file(r)
+            if not r.get("wet_from_s"):
+                # rows before the column: every one is at D/H = 0.06, split at WET_FROM if at all
+                r["wet_from_s"] = (
+                    WET_FROM if r.get("wet_windows") not in ("", None, "0") else math.nan
+                )
+            # the same-spacing rigid run may have come since the row was written: looked up anew
+            same, same_s = rigid_reference(
+                Case(float(r["a_over_h"]), float(r["d_over_h"])), r["l0_label"]
+            )
+            r["rigid_peak_same_l0"], r["rigid_peak_smooth_same_l0"] = same, same_s
+            r["mf_raw_same_l0"] = float(r["peak_uplift"]) / same
+            r["mf_smooth_same_l0"] = float(r["peak_uplift_smooth"]) / same_s
+        merged = [asdict(r) for r in rows] + kept
+        merged.sort(key=lambda r: (-float(r["l0"]), float(r["a_over_h"]), float(r["d_over_h"]),
+                                   float(r["rtol"]), float(r["mf_factor"]), r["results_file"]))  # fmt: skip
+        write_csv(
+            merged,
+            CSV,
+            columns=list(LightResult.__dataclass_fields__),
+            comment="validation/bottom_slamming_light.py: the light plate with the fictitious mass",
         )
-        r["rigid_peak_same_l0"], r["rigid_peak_smooth_same_l0"] = same, same_s
-        r["mf_raw_same_l0"] = float(r["peak_uplift"]) / same
-        r["mf_smooth_same_l0"] = float(r["peak_uplift_smooth"]) / same_s
-    merged = [asdict(r) for r in rows] + kept
-    merged.sort(key=lambda r: (-float(r["l0"]), float(r["a_over_h"]), float(r["d_over_h"]),
-                               float(r["rtol"]), float(r["mf_factor"]), r["results_file"]))  # fmt: skip
-    write_csv(
-        merged,
-        CSV,
-        columns=list(LightResult.__dataclass_fields__),
-        comment="validation/bottom_slamming_light.py: the light plate with the fictitious mass",
-    )
     clear = [p for p in paths if _clearance_study(p)]
     if clear:
         # one spacing and factor, the one run at the most clearances (coarsest first on a tie:

@@ -214,3 +214,17 @@ def test_safeguards_are_keys_the_scenario_takes():
     assert sc.structure.time.hht_alpha == bsl.SAFEGUARD_HHT_ALPHA
     plain = bsl.light_overrides(0.35, 1e-3, kinematics="corotational")
     assert not any("hht" in o or "accept_unconverged" in o for o in plain)
+
+
+def test_csv_lock_excludes_a_second_writer(tmp_path, monkeypatch):
+    """While one report merges into the CSV, another cannot take the lock (the lost update of
+    two runs finishing at once); once released it can."""
+    import fcntl
+
+    monkeypatch.setattr(bsl, "CSV", tmp_path / "light.csv")
+    lock = tmp_path / "light.csv.lock"
+    with bsl._csv_lock():
+        with open(lock, "w") as other, pytest.raises(BlockingIOError):
+            fcntl.flock(other, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    with open(lock, "w") as other:
+        fcntl.flock(other, fcntl.LOCK_EX | fcntl.LOCK_NB)  # free again
