@@ -121,7 +121,6 @@ SAFEGUARD_HHT_ALPHA = -0.3
 SECOND_MOMENT = 1e-9  # m^4, thesis Tables 5-3, 5-7 read as 1e-9 (docs/validation.md item 3)
 MEMBER_DENSITY = 1040.0  # kg/m^3, thesis Tables 5-3, 5-7
 WATER_DENSITY = 1000.0  # kg/m^3, thesis Table 5-4
-YOUNGS_MODULUS = 1e6  # Pa, thesis Tables 5-3, 5-7
 TANK_LENGTH = 2.5  # m, paddle face at rest to the end wall (scenario)
 #: kg/m^2: the added mass of the light plate's first mode, sin(pi s / L), fully wetted from
 #: below, free surface (p = 0) beside it, water depth H, tank walls at 0 and 2.5 m: the
@@ -929,15 +928,14 @@ STATIC_CSV = RESULTS_DIR / "bottom_slamming_light_static_capacity.csv"
 STATIC_LOADS = (1e-4, 0.01, 0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0)
 
 
-def static_capacity(
-    totals: tuple[float, ...] = STATIC_LOADS, kinematics: str = "corotational"
-) -> list[dict]:
-    """Static mid-span deflection (mm, up) of the light plate (the scenario's member, pinned at
-    both ends with the axial dof, at l0 = 0.004 m's 74 elements) under a uniform dead uplift of
-    each total (N/m; the line load is total / L), by load stepping and Newton from straight;
-    beside it the linear beam's 5 q L^4 / (384 EI) (Timoshenko & Gere, simply supported beam
-    under a uniform load) and the membrane (pinned string) limit (3 q L^4 / (64 EA))^(1/3) (a pinned string: sag w = q L^2 / (8 T), T = EA (8/3) (w / L)^2). A total
-    whose static solve fails is reported with NaN."""
+def static_capacity(totals: tuple[float, ...] = STATIC_LOADS) -> list[dict]:
+    """Static mid-span deflection (mm, up) of the light plate (the scenario's co-rotational
+    member, pinned at both ends with the axial dof, at l0 = 0.004 m's 74 elements) under a
+    uniform dead uplift of each total (N/m; the line load is total / L), by load stepping and
+    Newton from straight; beside it the linear beam's 5 q L^4 / (384 EI) (Timoshenko & Gere,
+    simply supported beam under a uniform load) and the membrane limit (3 q L^4 / (64 EA))^(1/3)
+    (a pinned string: sag w = q L^2 / (8 T), T = EA (8/3) (w / L)^2). A total whose static solve
+    fails is reported with NaN."""
     from mpsfem.scenario.loader import load_scenario
     from mpsfem.structure_fem.newton import NewtonFailure
     from mpsfem.structure_fem.participant import StructureParticipant
@@ -945,38 +943,33 @@ def static_capacity(
     case = Case(0.3, 0.06)
     overrides = case_overrides("elastic", case, spacing_for(0.004, DEPTH)) + light_overrides(
         0.35, 1e-3, "displacement", 100, "0.05", None, "potential_flow", 3.0,
-        kinematics=kinematics,
+        kinematics="corotational",
     )  # fmt: skip
     section = load_scenario(SCENARIOS["elastic"], overrides).scenario.structure
     rows = []
     for total in totals:
-        part = StructureParticipant(section, fluid_density=WATER_DENSITY)
-        system = part.system
-        member = system.models[0]
+        part = StructureParticipant(section, fluid_density=WATER_DENSITY)  # from straight
+        system, member = part.system, part.system.models[0]
         length = float(member.length)
         q = total / length  # N/m^2 on a 1 m wide plate
-        full = member._line_load(np.array([0.0, q]))
-        F = full[system.free_of(member.name)]
+        up = float(np.sign(member.normal[1]))  # the member's normal is (0, +-1)
+        F = member.pressure_load(up * q)[system.free_of(member.name)]
         mid = int(np.argmin(np.abs(member.nodes[:, 0] - member.nodes[:, 0].mean())))
+        segments = np.linalg.norm(np.diff(member.nodes, axis=0), axis=1)
         try:
-            u = part.integrator.solve_static(F, increments=16)
-            w = float(system.nodal(u)[mid, 1])
-            x = member.nodes + system.nodal(u)
-            chords = np.linalg.norm(np.diff(x, axis=0), axis=1)
-            strain = float(
-                np.max(chords / np.linalg.norm(np.diff(member.nodes, axis=0), axis=1)) - 1.0
-            )
+            moved = system.nodal(part.integrator.solve_static(F, increments=16))
+            w = float(moved[mid, 1])
+            chords = np.linalg.norm(np.diff(member.nodes + moved, axis=0), axis=1)
+            strain = float(np.max(chords / segments) - 1.0)
         except NewtonFailure:
             w = strain = math.nan
-        EI, EA = YOUNGS_MODULUS * SECOND_MOMENT, YOUNGS_MODULUS * AREA
         rows.append(
             {
                 "total_uplift": total,
-                "kinematics": kinematics,
                 "mid_disp_mm": w * 1e3,
                 "max_axial_strain": strain,  # chord stretch of the most stretched element
-                "linear_beam_mm": 5.0 * q * length**4 / (384.0 * EI) * 1e3,
-                "string_mm": (3.0 * q * length**4 / (64.0 * EA)) ** (1.0 / 3.0) * 1e3,
+                "linear_beam_mm": 5.0 * q * length**4 / (384.0 * member.EI) * 1e3,
+                "string_mm": (3.0 * q * length**4 / (64.0 * member.EA)) ** (1.0 / 3.0) * 1e3,
             }
         )
     return rows
