@@ -48,7 +48,7 @@ from mpsfem.results.checkpoint import (
 from mpsfem.results.results_file import ResultsFile
 from mpsfem.results.xdmf import xdmf_path
 from mpsfem.sampling import next_due, take_sample
-from mpsfem.scenario.compare import RESTART_FREE_TEXT, restart_differences
+from mpsfem.scenario.compare import ABSENT, RESTART_FREE_TEXT, flatten, restart_differences
 from mpsfem.scenario.loader import LoadedScenario
 
 
@@ -90,7 +90,24 @@ def check_restart_scenario(
                 "text differs from this one; continuing without checking the physics"
             )
         return
-    diffs = restart_differences(resolved, loaded.scenario.model_dump(mode="json"))
+    now = loaded.scenario.model_dump(mode="json")
+    diffs = restart_differences(resolved, now)
+    if any(a == ABSENT for _, a, _ in diffs):
+        # a checkpoint of an earlier version lacks the keys added since: read with this
+        # version's schema, they take their defaults (a new key's default keeps the earlier
+        # behaviour; docs/architecture.md, "Restart")
+        try:
+            upgraded = type(loaded.scenario).model_validate(resolved).model_dump(mode="json")
+        except Exception:  # noqa: BLE001 - not readable by this schema: compare as stored
+            upgraded = None
+        if upgraded is not None:
+            filled = [k for k, a, _ in diffs if a == ABSENT and k in flatten(upgraded)]
+            diffs = restart_differences(upgraded, now)
+            if filled and not diffs:
+                log(
+                    f"note: {restart} predates the keys {', '.join(filled)}; continuing with "
+                    "their defaults, which are this run's values"
+                )
     if not diffs:
         return
     shown = [f"{k}: checkpoint {a!r}, now {b!r}" for k, a, b in diffs[:12]]

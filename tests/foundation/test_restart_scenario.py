@@ -85,3 +85,40 @@ def test_old_checkpoint_without_resolved_scenario_is_accepted_with_a_warning(fir
     logged: list[str] = []
     run_fluid(load_scenario(SCENE, COARSE), out, 2 * END, ckpt, progress=False, log=logged.append)
     assert any("predates storing the resolved scenario" in m for m in logged)
+
+
+def _drop_keys_from_checkpoint(ckpt: Path, section: str, keys: list[str]) -> None:
+    """Make ``ckpt`` look like one written before ``keys`` of ``section`` existed."""
+    with h5py.File(ckpt, "a") as h5:
+        resolved = json.loads(bytes(h5["_text/scenario_resolved"][()]).decode())
+        table = resolved
+        for part in section.split("."):
+            table = table[part]
+        for key in keys:
+            del table[key]
+        del h5["_text/scenario_resolved"]
+        data = np.frombuffer(json.dumps(resolved).encode(), np.uint8)
+        h5["_text"].create_dataset("scenario_resolved", data=data)
+
+
+def test_a_checkpoint_predating_new_keys_continues_at_their_defaults(first_run, tmp_path):
+    """Keys added since the checkpoint was written take this version's defaults (which keep
+    the earlier behaviour); the restart goes on with a note naming them."""
+    out, ckpt = _copy(first_run, tmp_path)
+    _drop_keys_from_checkpoint(ckpt, "fluid.pressure", ["error_compensation", "source_term"])
+    logged: list[str] = []
+    run_fluid(load_scenario(SCENE, COARSE), out, 2 * END, ckpt, progress=False, log=logged.append)
+    (note,) = [m for m in logged if "predates the keys" in m]
+    assert "fluid.pressure.error_compensation" in note and "fluid.pressure.source_term" in note
+    with h5py.File(out, "r") as h5:
+        assert h5.attrs["status"] == "finished"
+
+
+def test_a_new_key_set_away_from_its_default_is_still_refused(first_run, tmp_path, capsys):
+    out, ckpt = _copy(first_run, tmp_path)
+    _drop_keys_from_checkpoint(ckpt, "fluid.pressure", ["error_compensation", "source_term"])
+    sets = [a for s in [*COARSE, "fluid.pressure.error_compensation=true"] for a in ("--set", s)]
+    argv = ["run", str(SCENE), "--out", str(out), "--restart", str(ckpt), "--end-time", "0.008"]
+    assert main([*argv, *sets]) == 2
+    err = capsys.readouterr().err
+    assert "fluid.pressure.error_compensation: checkpoint False, now True" in err
