@@ -234,6 +234,19 @@ def finished_cases(
     return finished
 
 
+def copy_for_branch(source: Path, source_ckpt: Path, out: Path) -> None:
+    """Copy a finished run and its checkpoint to ``out`` as the start of a branch, its status
+    set to ``running`` (a run interrupted at the branch time): should the continuation not start
+    (a restart refused before compute, a kill), a rerun resumes it from the copied checkpoint
+    instead of skipping a copy that says ``finished`` at the base's end."""
+    import shutil
+
+    shutil.copyfile(source, out)
+    shutil.copyfile(source_ckpt, default_checkpoint_path(out))
+    with h5py.File(out, "a") as h5:
+        h5.attrs["status"] = "running"
+
+
 def branch_case(
     scenario: Path,
     base: Path,
@@ -249,7 +262,6 @@ def branch_case(
     finished, copy it and its checkpoint to ``out`` and continue ``out`` from there with
     ``overrides`` (``mpsfem run --restart``: only the keys a restart may change may differ).
     Says why when the base did not finish or has no checkpoint at ``at``."""
-    import shutil
 
     from mpsfem.results.checkpoint import read_checkpoint
 
@@ -259,13 +271,12 @@ def branch_case(
         print(f"{tag}: base {base.name} is {status}; no branch")
         return
     _, meta, _ = read_checkpoint(ckpt)
-    t = float(meta["scheme"]["t"])
+    t = float((meta["scheme"] if "scheme" in meta else meta["fluid"])["t"])  # coupled / fluid
     if abs(t - at) > 1e-9:
         print(f"{tag}: the checkpoint of {base.name} is at t = {t:g} s, not {at:g}; no branch")
         return
     if base != out:
-        shutil.copyfile(base, out)
-        shutil.copyfile(ckpt, default_checkpoint_path(out))
+        copy_for_branch(base, ckpt, out)
     run_scenario(scenario, out, overrides, threads, default_checkpoint_path(out), tag)
 
 
@@ -285,7 +296,6 @@ def physics_branch(
     the run's log. ``out`` holds ``source``'s record up to the branch time, then the branch's.
     A finished ``out`` is skipped, one stopped by a signal resumes (then as an ordinary restart
     of itself: its own checkpoint carries the branch's scenario). Returns ``out``'s status."""
-    import shutil
 
     status = read_status(out)
     if status == "finished":
@@ -303,7 +313,6 @@ def physics_branch(
     if read_status(source) != "finished" or not src_ckpt.is_file():
         print(f"{tag}: {source.name} is {read_status(source)} or has no checkpoint; no branch")
         return "missing"
-    shutil.copyfile(source, out)
-    shutil.copyfile(src_ckpt, ckpt)
+    copy_for_branch(source, src_ckpt, out)
     run_scenario(scenario, out, overrides, threads, ckpt, tag, physics_branch=True)
     return read_status(out) or "missing"

@@ -49,6 +49,25 @@ def test_physics_branch_continues_a_finished_run_under_a_changed_physics_key(tmp
     assert np.array_equal(t1[: t0.size], t0)  # the base's record, then the branch's
 
 
+def test_a_branch_whose_restart_is_refused_is_resumed_not_skipped(tmp_path):
+    """branch_case copies the base and restarts the copy; when that restart is refused before
+    compute, the copy must not read ``finished`` (at the base's end time): a rerun resumes it."""
+    scenario = cr.ROOT / "scenarios" / "hydrostatic_2d.toml"
+    common = ["fluid.spacing=0.05", "output.snapshot_interval=0"]
+    base = tmp_path / "base.h5"
+    base_sets = [*common, "run.end_time=0.01", "output.checkpoint_interval=0.01"]
+    out = tmp_path / "branch.h5"
+    refused = [*common, "run.end_time=0.02", "fluid.viscosity=2e-6"]  # a physics key
+    cr.branch_case(scenario, base, base_sets, out, refused, 0.01, 1, retry=False)
+    assert cr.read_status(base) == "finished"
+    assert cr.read_status(out) == "running" and cr.resumable(cr.read_status(out))
+    ok = [*common, "run.end_time=0.02"]
+    assert cr.ensure_case(scenario, out, ok, 1, retry=False) == "finished"
+    with h5py.File(out) as h5:
+        t = h5["probes"][next(iter(h5["probes"]))]["time"][:]
+    assert t[-1] == pytest.approx(0.02)
+
+
 def test_readable_results_yields_readable_files_and_skips_checkpoints(tmp_path, capsys):
     done, ckpt, gone = tmp_path / "a.h5", tmp_path / "a.ckpt.h5", tmp_path / "b.h5"
     for path in (done, ckpt):
