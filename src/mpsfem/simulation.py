@@ -48,7 +48,12 @@ from mpsfem.results.checkpoint import (
 from mpsfem.results.results_file import ResultsFile
 from mpsfem.results.xdmf import xdmf_path
 from mpsfem.sampling import next_due, take_sample
-from mpsfem.scenario.compare import ABSENT, RESTART_FREE_TEXT, flatten, restart_differences
+from mpsfem.scenario.compare import (
+    ABSENT,
+    RESTART_FREE_TEXT,
+    at_schema_default,
+    restart_differences,
+)
 from mpsfem.scenario.loader import LoadedScenario
 
 
@@ -92,22 +97,16 @@ def check_restart_scenario(
         return
     now = loaded.scenario.model_dump(mode="json")
     diffs = restart_differences(resolved, now)
-    if any(a == ABSENT for _, a, _ in diffs):
-        # a checkpoint of an earlier version lacks the keys added since: read with this
-        # version's schema, they take their defaults (a new key's default keeps the earlier
-        # behaviour; docs/architecture.md, "Restart")
-        try:
-            upgraded = type(loaded.scenario).model_validate(resolved).model_dump(mode="json")
-        except Exception:  # noqa: BLE001 - not readable by this schema: compare as stored
-            upgraded = None
-        if upgraded is not None:
-            filled = [k for k, a, _ in diffs if a == ABSENT and k in flatten(upgraded)]
-            diffs = restart_differences(upgraded, now)
-            if filled and not diffs:
-                log(
-                    f"note: {restart} predates the keys {', '.join(filled)}; continuing with "
-                    "their defaults, which are this run's values"
-                )
+    # a checkpoint of an earlier version lacks the keys added since: such a key at its
+    # default (which keeps the earlier behaviour; docs/architecture.md) is no difference
+    filled = [k for k, a, b in diffs if a == ABSENT and at_schema_default(loaded.scenario, k, b)]
+    if filled:
+        diffs = [d for d in diffs if d[0] not in filled]
+        if not diffs:
+            log(
+                f"note: {restart} predates the keys {', '.join(filled)}; continuing with their "
+                "defaults, which are this run's values"
+            )
     if not diffs:
         return
     shown = [f"{k}: checkpoint {a!r}, now {b!r}" for k, a, b in diffs[:12]]

@@ -121,4 +121,19 @@ def test_a_new_key_set_away_from_its_default_is_still_refused(first_run, tmp_pat
     argv = ["run", str(SCENE), "--out", str(out), "--restart", str(ckpt), "--end-time", "0.008"]
     assert main([*argv, *sets]) == 2
     err = capsys.readouterr().err
-    assert "fluid.pressure.error_compensation: checkpoint False, now True" in err
+    assert "fluid.pressure.error_compensation: checkpoint '(absent)', now True" in err
+
+
+def test_at_schema_default_reads_the_field_default_through_tables_and_lists():
+    from mpsfem.scenario.compare import at_schema_default
+
+    m = load_scenario(
+        Path(__file__).resolve().parents[2] / "scenarios" / "bottom_slamming_elastic_2d.toml"
+    ).scenario
+    assert at_schema_default(m, "fluid.pressure.error_compensation", False)
+    assert not at_schema_default(m, "fluid.pressure.error_compensation", True)
+    assert at_schema_default(m, "fluid.pressure.gradient", "corrected_pmin")
+    assert at_schema_default(m, "structure.members[0].kinematics", "linear")
+    assert not at_schema_default(m, "structure.members[5].kinematics", "linear")  # no member 5
+    assert not at_schema_default(m, "fluid.no_such_key", 1)
+    assert not at_schema_default(m, "fluid.spacing", m.fluid.spacing)  # required: no default

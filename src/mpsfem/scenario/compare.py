@@ -12,6 +12,9 @@ from __future__ import annotations
 import re
 from typing import Any
 
+from pydantic import BaseModel, TypeAdapter
+from pydantic_core import PydanticUndefined
+
 #: dotted keys (regular expressions, matched from the start) a restart may change
 RESTART_FREE_KEYS = (
     r"title$",
@@ -67,3 +70,31 @@ def restart_differences(checkpoint: dict, now: dict) -> list[tuple[str, Any, Any
         if va != vb:
             out.append((key, va, vb))
     return out
+
+
+_PART = re.compile(r"([^.\[\]]+)((?:\[\d+\])*)")
+
+
+def at_schema_default(model: BaseModel, key: str, value: Any) -> bool:
+    """True if the dotted ``key`` (as :func:`flatten` writes it) names a field of the validated
+    ``model`` whose schema default, in JSON form, is ``value``: a key a checkpoint written
+    before the field existed lacks, and this run leaves at the default."""
+    parts = _PART.findall(key)
+    if not parts or ".".join(p + i for p, i in parts) != key:
+        return False
+    node: Any = model
+    for n, (name, index) in enumerate(parts):
+        if not isinstance(node, BaseModel) or name not in type(node).model_fields:
+            return False
+        if n == len(parts) - 1 and not index:
+            field = type(node).model_fields[name]
+            if field.default is PydanticUndefined:
+                return False
+            default = field.get_default(call_default_factory=True)
+            return TypeAdapter(field.annotation).dump_python(default, mode="json") == value
+        node = getattr(node, name)
+        for i in re.findall(r"\d+", index):
+            if not isinstance(node, list) or int(i) >= len(node):
+                return False
+            node = node[int(i)]
+    return False
