@@ -138,6 +138,7 @@ class FluidParticipant(InterfaceMotionInputs):
             s.gravity,
             s.wall_acc,
             s.n_fluid,
+            s.structure_floor,
         )
         idx = self.surface.index
         s.p[idx] = p[idx]

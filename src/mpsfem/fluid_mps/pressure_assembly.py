@@ -48,6 +48,44 @@ def clamp_negative(p, mask):
     return p
 
 
+@njit(cache=True, parallel=True)
+def clamp_negative_except_at_structures(pos, p, kind, free_surface, indptr, indices, re, floor):
+    """The clamp of ``fluid.pressure.structure_suction``: p_i = max(p_i, floor) (floor <= 0, Pa)
+    on STRUCTURE particles and on FLUID particles with a STRUCTURE or STRUCTURE_DUMMY particle
+    and no free-surface particle within ``re`` (m) in the pair list; p_i = max(p_i, 0) on every
+    other particle (a surface layer's negative pressures are the number density's deficit, not
+    suction)."""
+    n, dim = pos.shape
+    re2 = re * re
+    for i in prange(n):
+        k = kind[i]
+        lo = 0.0
+        if k == 3:
+            lo = floor
+        elif k == 0 and free_surface[i] == 0:
+            near_structure = False
+            near_surface = False
+            for kk in range(indptr[i], indptr[i + 1]):
+                j = indices[kk]
+                kj = kind[j]
+                if kj != 3 and kj != 4 and not (kj == 0 and free_surface[j] != 0):
+                    continue
+                r2 = 0.0
+                for a in range(dim):
+                    d = pos[j, a] - pos[i, a]
+                    r2 += d * d
+                if r2 < re2:
+                    if kj == 0:
+                        near_surface = True
+                        break
+                    near_structure = True
+            if near_structure and not near_surface:
+                lo = floor
+        if p[i] < lo:
+            p[i] = lo
+    return p
+
+
 # ----------------------------------------------------------------------------- assembly
 @njit(cache=True)
 def _row_map(kind, row_of):

@@ -53,6 +53,7 @@ from mpsfem.fluid_mps.momentum_budget import (
 from mpsfem.fluid_mps.neighbours import NeighbourSearch, build_neighbours
 from mpsfem.fluid_mps.operators import NO_WALL_ACCELERATION
 from mpsfem.fluid_mps.particle_kinds import dummy_mask
+from mpsfem.fluid_mps.pressure_assembly import clamp_negative_except_at_structures
 from mpsfem.fluid_mps.pressure_poisson import make_pressure_solver
 from mpsfem.fluid_mps.sponge import SpongeLayer
 from mpsfem.fluid_mps.surface import make_surface_detector
@@ -225,6 +226,10 @@ class FluidSolver:
             gravity=self.gravity,
         )
         self.neumann = spec.pressure.wall_model == "neumann"
+        # the structure particles' lowest pressure, Pa (fluid.pressure.structure_suction)
+        self.structure_floor = (
+            spec.pressure.suction_floor if spec.pressure.structure_suction else 0.0
+        )
         n0_ppe, lam_ppe = lattice_constants(self.dim, l0, self.re_ppe, k.weight)
         self.ppe_coef = operators.laplacian_coefficient(self.dim, n0_ppe, lam_ppe)
         self.ghost_rhs = np.zeros(n)
@@ -639,7 +644,14 @@ class FluidSolver:
             surface_pressure.write_surface_values(
                 self.kind, self.free_surface, self.p_surface, self.p
             )
-        if self.spec.pressure.clamp_negative:
+        pr = self.spec.pressure
+        if pr.clamp_negative and pr.structure_suction:
+            clamp_negative_except_at_structures(
+                self.pos, self.p, self.kind, self.free_surface, near.indptr, near.indices,
+                self.re_grad,
+                pr.suction_floor,
+            )  # fmt: skip
+        elif pr.clamp_negative:
             np.maximum(self.p, 0.0, out=self.p)
         if self.neumann:
             wall_boundary.pressure_gradient_ghost(
@@ -673,6 +685,7 @@ class FluidSolver:
                 self.gravity,
                 self.wall_acc,
                 self.n_fluid,
+                self.structure_floor,
             )
         else:
             extrapolate_dummy_pressure(self.pos, self.p, self.dummy_src, self.rho, self.gravity)

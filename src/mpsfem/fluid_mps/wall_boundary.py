@@ -143,11 +143,24 @@ def pressure_gradient_ghost(
 
 @njit(cache=True, parallel=True)
 def wall_pressure(
-    pos, p, kind, dry, indptr, indices, re, wcode, rho, gravity, wall_acc, acc_offset
+    pos,
+    p,
+    kind,
+    dry,
+    indptr,
+    indices,
+    re,
+    wcode,
+    rho,
+    gravity,
+    wall_acc,
+    acc_offset,
+    structure_floor=0.0,
 ):
     """Pressure of pressure-wall particles (Pa) rebuilt from their fluid neighbours:
-    p_w = sum_f w_fw (p_f + D_fw) / sum_f w_fw (0 where no fluid is within ``re``); dummies
-    carry none (particle_kinds.py), 0."""
+    p_w = sum_f w_fw (p_f + D_fw) / sum_f w_fw (0 where no fluid is within ``re``), at least 0
+    (at least ``structure_floor`` <= 0 on STRUCTURE particles: fluid.pressure.structure_suction);
+    dummies carry none (particle_kinds.py), 0."""
     n, dim = pos.shape
     re2 = re * re
     for j in prange(n):
@@ -171,7 +184,8 @@ def wall_pressure(
             w = weight(np.sqrt(r2), re, wcode)
             num += w * (p[i] + ghost_jump(i, j, pos, rho, gravity, wall_acc, acc_offset))
             den += w
-        p[j] = max(num / den, 0.0) if den > 0.0 else 0.0
+        lo = structure_floor if kind[j] == 3 else 0.0
+        p[j] = max(num / den, lo) if den > 0.0 else 0.0
 
 
 @njit(cache=True, parallel=True)

@@ -95,6 +95,20 @@ class PressureSection(Section):
     tol: float = Field(1e-6, gt=0.0, lt=1.0, description="relative residual ||r|| <= tol ||b||")
     max_iter: int = Field(2000, ge=1, description="CG iteration limit; exceeded = run stops")
     clamp_negative: bool = Field(True, description="set negative pressures to zero (stability aid)")
+    structure_suction: bool = Field(
+        False,
+        description="let the water pull on a structure member: fluid particles within the "
+        "gradient radius of a structure particle, and the structure particles' pressure (the "
+        "member's load), keep negative pressures down to suction_floor, while clamp_negative "
+        "holds elsewhere (an unclamped free surface is tensile-unstable; docs/fluid.md, "
+        "'Suction at structure members')",
+    )
+    suction_floor: float = Field(
+        -98986.0,
+        le=0.0,
+        description="lowest gauge pressure (Pa) structure_suction keeps: the cavitation limit, "
+        "vapour pressure (2339 Pa at 20 C) less the atmosphere's 101325 Pa",
+    )
     amg_rebuild_factor: float = Field(
         1.5,
         gt=1.0,
