@@ -62,6 +62,10 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
   ``--map-spacing`` another l0, its own CSV); ``obstacle_map`` the same on the obstacle's
   wetted run at t = 0.14 s (``--map-windows``) against the impact operator
   (..._obstacle_map.csv).
+* ``--set fluid.pressure.structure_suction=true`` (negative pressure next to the member away
+  from the free surface): ``--only obstacle_ratio --ratios 0.103,0.0001,0.01 --out
+  benchmarks/results/coupling_stress_suction.csv``, and the H2 setting's row appended to
+  coupling_stress_shaped.csv (docs/fluid.md, "Suction at structure members").
 * ``mock_fictitious`` (``--only mock_fictitious``, its own CSV
   benchmarks/results/coupling_stress_mock_fictitious.csv; see :func:`mock_sweep`): the FEM beam
   against the added-mass mock at added / structure mass 1e4, with and without fictitious mass.

@@ -33,7 +33,8 @@ validation/results/delta_sph_obstacle.csv and prints the table.
 ``--cases`` picks the cases to run; the CSV lists every case, reading the others' results files.
 Cases ``*_stiff`` give the plate E = 2e11 Pa (a member that does not move: the fluid's own load
 noise, issue 20), ``mps20_stiff_*`` with switches of the pressure equation, the surface and the
-step. ``--noise-map`` re-runs --cases in process and writes the ringing node by node
+step. Cases ``mps*_suction`` let the water pull on the plate (``fluid.pressure.structure_suction``,
+docs/fluid.md). ``--noise-map`` re-runs --cases in process and writes the ringing node by node
 (delta_sph_obstacle_noise.csv; ``noise_map``).
 """
 
@@ -87,6 +88,9 @@ WEAKLY = ("fluid.pressure.shifting=0.1", "fluid.pressure.compressibility=3.5e-6"
 #: a plate 2e5 times stiffer (E = 2e11 Pa: tip deflection ~0.2 um): the fluid's own noise on a
 #: member that does not move, to tell it from the plate's vibration (issue 20, the ringing)
 STIFF = ("structure.members.0.material.youngs_modulus=2e11",)
+#: negative pressure kept next to the member away from the free surface (issue 21: can the
+#: water pull on the plate?)
+SUCTION = ("fluid.pressure.structure_suction=true",)
 #: key -> (fluid method, L / l0, end time in s[, extra --set overrides])
 CASES = {
     "dsph20": ("delta-sph", 20, 0.3),
@@ -117,6 +121,8 @@ CASES = {
     "mps20_stiff_g0.05": ("mps", 20, 0.3, (*STIFF, "fluid.pressure.gamma=0.05")),
     "mps20_stiff_density": ("mps", 20, 0.3, (*STIFF, 'fluid.surface.detector="density"')),
     "mps20_stiff_pzero": ("mps", 20, 0.3, (*STIFF, 'fluid.surface.pressure="zero"')),
+    "mps20_suction": ("mps", 20, 0.3, SUCTION),
+    "mps40_suction": ("mps", 40, 0.3, SUCTION),
 }
 #: 0.1 s blocks after the first peak whose mean tip u_x is reported (the water piled up behind
 #: the plate; docs/validation.md gives MPS's of an earlier fluid)
