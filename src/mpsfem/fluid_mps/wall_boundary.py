@@ -143,20 +143,9 @@ def pressure_gradient_ghost(
 
 @njit(cache=True, parallel=True)
 def wall_pressure(
-    pos,
-    p,
-    kind,
-    dry,
-    indptr,
-    indices,
-    re,
-    wcode,
-    rho,
-    gravity,
-    wall_acc,
-    acc_offset,
+    pos, p, kind, dry, indptr, indices, re, wcode, rho, gravity, wall_acc, acc_offset,
     structure_floor=0.0,
-):
+):  # fmt: skip
     """Pressure of pressure-wall particles (Pa) rebuilt from their fluid neighbours:
     p_w = sum_f w_fw (p_f + D_fw) / sum_f w_fw (0 where no fluid is within ``re``), at least 0
     (at least ``structure_floor`` <= 0 on STRUCTURE particles: fluid.pressure.structure_suction);
