@@ -168,6 +168,30 @@ def test_mf_table_takes_each_cases_longest_run_of_its_setting(tmp_path, monkeypa
     assert table[1]["reached_window_end"] is False  # 2.0 s is before its window's end
 
 
+def test_mf_table_takes_the_safeguards_run_only_where_the_plain_one_stopped_short(
+    tmp_path, monkeypatch
+):
+    """A case whose run of the table's setting stopped before the window's end (or was not run)
+    is taken from the same setting with --safeguards if that got further, flagged; a case whose
+    plain run reached the end keeps it even beside a longer safeguards run."""
+    monkeypatch.setattr(bsl, "RESULTS_DIR", tmp_path)
+    end = {k: bsl.Case(*k).reflection_time for k in ((0.5, 0.06), (0.5, 0.03), (0.2, 0.1))}
+    rows = [
+        _table_row(0.5, 0.06, 1.74),  # stopped by name before the window's end
+        _table_row(0.5, 0.06, 2.5, safeguards=True),
+        _table_row(0.5, 0.03, 2.5, safeguards=True),  # no plain run
+        _table_row(0.2, 0.1, end[(0.2, 0.1)] + 0.1),  # reached the end
+        _table_row(0.2, 0.1, end[(0.2, 0.1)] + 0.5, safeguards=True),
+        _table_row(0.5, 0.1, 1.7),  # stopped, and its safeguards run stopped sooner
+        _table_row(0.5, 0.1, 1.5, safeguards=True),
+    ]
+    table = {(r["a_over_h"], r["d_over_h"]): r for r in bsl.mf_table(rows)}
+    assert table[(0.5, 0.06)]["safeguards"] and table[(0.5, 0.06)]["t_end_s"] == 2.5
+    assert table[(0.5, 0.03)]["safeguards"]
+    assert not table[(0.2, 0.1)]["safeguards"]
+    assert not table[(0.5, 0.1)]["safeguards"] and table[(0.5, 0.1)]["t_end_s"] == 1.7
+
+
 @pytest.mark.parametrize("a", [0.2, 0.4, 0.5])
 def test_other_amplitudes_stay_out_of_the_a03_figures(a):
     """The MF table's runs at other amplitudes are in neither the A/H = 0.3 clearances figure
