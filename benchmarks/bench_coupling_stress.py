@@ -66,6 +66,10 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
   from the free surface): ``--only obstacle_ratio --ratios 0.103,0.0001,0.01 --out
   benchmarks/results/coupling_stress_suction.csv``, and the H2 setting's row appended to
   coupling_stress_shaped.csv (docs/fluid.md, "Suction at structure members").
+* finer spacings at mass ratio 1e-4 / 1e-2: ``--set fluid.spacing=0.00365`` (L/40) or
+  ``0.001825`` (L/80) on ``--only obstacle_ratio`` (rows in
+  benchmarks/results/coupling_stress_fine.csv) and on H2's ``obstacle_shaped`` setting (rows
+  appended to coupling_stress_shaped.csv).
 * ``mock_fictitious`` (``--only mock_fictitious``, its own CSV
   benchmarks/results/coupling_stress_mock_fictitious.csv; see :func:`mock_sweep`): the FEM beam
   against the added-mass mock at added / structure mass 1e4, with and without fictitious mass.
