@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shutil
 import subprocess
 import sys
 from collections.abc import Iterable, Iterator, Sequence
@@ -239,8 +240,6 @@ def copy_for_branch(source: Path, source_ckpt: Path, out: Path) -> None:
     set to ``running`` (a run interrupted at the branch time): should the continuation not start
     (a restart refused before compute, a kill), a rerun resumes it from the copied checkpoint
     instead of skipping a copy that says ``finished`` at the base's end."""
-    import shutil
-
     shutil.copyfile(source, out)
     shutil.copyfile(source_ckpt, default_checkpoint_path(out))
     with h5py.File(out, "a") as h5:
@@ -262,7 +261,6 @@ def branch_case(
     finished, copy it and its checkpoint to ``out`` and continue ``out`` from there with
     ``overrides`` (``mpsfem run --restart``: only the keys a restart may change may differ).
     Says why when the base did not finish or has no checkpoint at ``at``."""
-
     from mpsfem.results.checkpoint import read_checkpoint
 
     status = ensure_case(scenario, base, base_overrides, threads, retry, f"{tag} base".strip())
@@ -296,7 +294,6 @@ def physics_branch(
     the run's log. ``out`` holds ``source``'s record up to the branch time, then the branch's.
     A finished ``out`` is skipped, one stopped by a signal resumes (then as an ordinary restart
     of itself: its own checkpoint carries the branch's scenario). Returns ``out``'s status."""
-
     status = read_status(out)
     if status == "finished":
         print(f"{tag} {out.name}: finished, skipped".strip())

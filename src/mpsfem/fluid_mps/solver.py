@@ -648,8 +648,7 @@ class FluidSolver:
         if pr.clamp_negative and pr.structure_suction:
             clamp_negative_except_at_structures(
                 self.pos, self.p, self.kind, self.free_surface, near.indptr, near.indices,
-                self.re_grad,
-                pr.suction_floor,
+                self.re_grad, self.structure_floor,
             )  # fmt: skip
         elif pr.clamp_negative:
             np.maximum(self.p, 0.0, out=self.p)
