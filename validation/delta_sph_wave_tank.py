@@ -49,6 +49,7 @@ CSV = RESULTS_DIR / "delta_sph_wave_tank.csv"
 SUMMARY_CSV = RESULTS_DIR / "delta_sph_wave_tank_summary.csv"
 
 DEPTH = 0.266  # d, m (seed Fig. 10)
+WAVE_PERIOD = 1.0  # T, s (seed: the regular wave)
 RATIOS = (15, 30)  # d / dx (seed Figs. 18-19: 15, 30, 60)
 PAPER_GAUGES = (2.37, 4.37, 5.37, 6.37)  # m from the paddle at rest (seed; 15 m lies beyond)
 TARGET_GAUGE = 6.37  # m
@@ -271,6 +272,27 @@ def read_series(label: str) -> tuple[dict, dict[str, tuple[np.ndarray, np.ndarra
     return meta, {n: (t, np.array([float(r[n]) for r in rows])) for n in names}
 
 
+#: kinematic viscosity of water at 20 C, m^2/s (the flume's, for its own boundary-layer loss)
+NU_WATER = 1.0e-6
+#: plausible widths of the seed's flume, m: the paper does not give it (seed Fig. 10 names a 16 m
+#: flume, 0.266 m deep); 0.5-1 m spans laboratory wave flumes of that length
+FLUME_WIDTHS = (0.5, 1.0)
+
+
+def flume_decay_per_m(
+    k: float, depth: float, omega: float, width: float, nu: float = NU_WATER
+) -> float:
+    """Amplitude decay rate (1/m) of a linear wave in a smooth flume from the laminar (Stokes)
+    boundary layers on its bottom and its two side walls; ``width = inf``: the bottom alone (a 2D
+    tank). Hunt (1952), J. Hydraul. Div. ASCE 78; Dean & Dalrymple (1991) sec. 5.4:
+    delta = 2 k sqrt(nu / (2 omega)) (k + sinh(2kd) / b) / (2kd + sinh(2kd)).
+    Laminar while the bottom's orbital Reynolds number U_b^2 / (omega nu) stays below about
+    1e4 (here about 1.1e3)."""
+    s2 = math.sinh(2.0 * k * depth)
+    walls = 0.0 if math.isinf(width) else s2 / width
+    return 2.0 * k * math.sqrt(nu / (2.0 * omega)) * (k + walls) / (2.0 * k * depth + s2)
+
+
 def fit_wave_number(xs: np.ndarray, zs: np.ndarray, k_theory: float) -> tuple[float, float]:
     """regular_wave.fit_wave_number on gauges more than half a wavelength apart: the phase
     k_theory x is taken out before unwrapping and put back (valid while |k - k_theory| times
@@ -439,6 +461,14 @@ def main(argv: list[str] | None = None) -> int:
         write_csv(all_rows, CSV, GAUGE_COLUMNS, comment)
         write_csv(summaries, SUMMARY_CSV, SUMMARY_COLUMNS, comment)
         print(f"\nwrote {CSV.relative_to(ROOT)}, {SUMMARY_CSV.relative_to(ROOT)}")
+    omega = 2.0 * math.pi / WAVE_PERIOD
+    k = wave_number(omega, DEPTH, rw.GRAVITY)
+    losses = ", ".join(
+        f"b = {b} m {100 * (1 - math.exp(-flume_decay_per_m(k, DEPTH, omega, b) * TARGET_GAUGE)):.1f} %"
+        for b in (math.inf, *FLUME_WIDTHS)
+    )
+    print(f"the flume's own boundary-layer loss from the paddle to {TARGET_GAUGE} m (Hunt 1952, "
+          f"T = {WAVE_PERIOD} s): {losses}")  # fmt: skip
     print("seed Table 2 (d/dx = 60), H at 6.37 m: experiment 0.0428 m; "
           + ", ".join(f"{k} {v}" for k, v in PAPER_TABLE2.items()))  # fmt: skip
     return 0 if all(s.status == "finished" for s in summaries) else 1

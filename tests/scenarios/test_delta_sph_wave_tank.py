@@ -20,6 +20,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
+from scipy.integrate import trapezoid
 from validation_script import load
 
 from mpsfem.fluid_mps.wavemaker import RegularPaddle
@@ -229,3 +230,36 @@ def test_decay_is_the_artificial_viscosity_and_generation_is_right():
     a = rows["15_a0.0025"]
     assert float(a["ratio_at_paddle"]) == pytest.approx(1.0, abs=0.05)
     assert float(a["k_measured"]) == pytest.approx(float(a["k_theory"]), rel=0.02)
+
+
+@pytest.mark.parametrize("width", [math.inf, 1.0, 0.5])
+def test_flume_decay_is_the_stokes_layers_energy_balance(width):
+    """Hunt's (1952) closed form for the flume's own loss against the energy balance it stands
+    for, evaluated numerically: a linear wave of amplitude a (u = a omega cosh k(z + d) /
+    sinh kd, w = a omega sinh k(z + d) / sinh kd) over a no-slip wall carries a Stokes layer
+    whose velocity defect is U (exp(-s) cos(omega t - s)), s = zeta / delta_s, delta_s =
+    sqrt(2 nu / omega); its dissipation per unit wall area, rho nu <(du/dzeta)^2> integrated
+    over zeta and averaged over a period, is summed over the bottom (u) and both side walls
+    (u and w, integrated over the depth); the amplitude decays at D / (2 E c_g b), E = rho g
+    a^2 / 2 per unit area. Quadrature to 1e-9, so the closed form must agree to 1e-6."""
+    rho, g, nu, d, a = 1000.0, 9.81, 1.0e-6, wt.DEPTH, 0.01
+    omega = 2.0 * math.pi / wt.WAVE_PERIOD
+    k = wt.wave_number(omega, d, g)
+    delta_s = math.sqrt(2.0 * nu / omega)
+    # dissipation per unit wall area for a wall velocity amplitude U: the Stokes layer's shear
+    # du/dzeta = (U / delta_s) e^{-s} (cos(wt - s) - sin(wt - s)) (amplitude sqrt 2 U e^-s /
+    # delta_s, mean square U^2 e^{-2s} / delta_s^2), integrated over zeta = delta_s s
+    s = np.linspace(0.0, 40.0, 400_001)
+    shear_ms = np.exp(-2.0 * s) / delta_s**2  # per U^2
+    per_u2 = rho * nu * trapezoid(shear_ms, s * delta_s)
+    z = np.linspace(-d, 0.0, 200_001)
+    scale = (a * omega / math.sinh(k * d)) ** 2
+    bottom = per_u2 * scale  # u at z = -d: cosh(0) = 1
+    side = per_u2 * scale * trapezoid(np.cosh(k * (z + d)) ** 2 + np.sinh(k * (z + d)) ** 2, z)
+    cg = 0.5 * omega / k * (1.0 + 2.0 * k * d / math.sinh(2.0 * k * d))
+    energy_flux = 0.5 * rho * g * a**2 * cg  # per unit width
+    if math.isinf(width):
+        delta = bottom / (2.0 * energy_flux)
+    else:
+        delta = (bottom * width + 2.0 * side) / (2.0 * energy_flux * width)
+    assert wt.flume_decay_per_m(k, d, omega, width, nu) == pytest.approx(delta, rel=1e-6)

@@ -10,6 +10,7 @@ k h = pi / 10)."""
 
 import numpy as np
 import pytest
+from scipy.integrate import trapezoid
 
 from mpsfem.structure_fem.added_mass_tank import tank_bottom_added_mass, tank_mode_projections
 
@@ -71,7 +72,7 @@ def test_projections_are_exact():
     k = np.array([0.0, 3.0, 17.0])
     xs = np.linspace(0.0, 1.0, 200001)
     hats = np.array([np.interp(xs, x, np.eye(x.size)[i]) for i in range(x.size)])
-    ref = np.trapezoid(hats[None] * np.cos(k[:, None, None] * xs), xs, axis=2)
+    ref = trapezoid(hats[None] * np.cos(k[:, None, None] * xs), xs, axis=2)
     assert np.allclose(tank_mode_projections(x, k), ref, rtol=0, atol=1e-9)
 
 
