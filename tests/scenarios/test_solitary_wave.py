@@ -163,26 +163,13 @@ def test_long_wave_model_predicts_the_mps_sponge_reflection():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    "ratio",
-    [
-        pytest.param(
-            r,
-            marks=pytest.mark.xfail(
-                strict=True,
-                reason="kernel gauge at H/28: crest at 1.2 m is 6.2 % low for A/H = 0.2 (+4.8 % at "
-                "0.6 m, +0.2 % at 1.0 m, -3.4 % at 1.6 m, samples scattering by 2 % of A: the "
-                "crest decays along the tank at this resolution; at l0 = 0.002 m it is -0.16 %, "
-                "docs/validation_wave_tank.md)",
-            ),
-        )
-        if r == 0.2
-        else r
-        for r in wt.RATIOS
-    ],
-)
+@pytest.mark.parametrize("ratio", wt.RATIOS)
 def test_full_resolution_amplitude_within_5_percent(ratio):
-    """l0 = H/28, the thesis tank: crest at x = 1.2 m within 5 % of A (issue 5 target)."""
+    """l0 = H/28, the thesis tank: crest at x = 1.2 m within 5 % of A (issue 5 target). Measured
+    on the current code -3.5 / -2.2 / -3.1 / -0.4 %; three realisations of A/H = 0.2 (pressure
+    tolerance 1e-6, 5e-7, 2e-6) read -3.5, +0.1 and -1.3 %, so a single run's crest moves by up
+    to 4 points of A (docs/validation_wave_tank.md): the target is met with less margin than
+    that spread at A/H = 0.2 and 0.4."""
     spacing = wt.spacing_for(0.004)
     out = wt.case_path("0.004", ratio)
     out.parent.mkdir(parents=True, exist_ok=True)
