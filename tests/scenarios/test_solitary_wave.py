@@ -8,8 +8,8 @@ the sponge takes it out. The analysis is validation/wave_tank.py's (crest fit, t
 
 Slow (-m slow): the full-resolution cases of validation/wave_tank.py (l0 = H/28, the 2.5 m tank,
 A/H = 0.2 ... 0.5) against the 5 % amplitude target at x = 1.2 m, and the same at the thesis's
-l0 = 0.002 m (H/57) with the convergence check that the crest's loss between 0.6 m and 1.6 m (the
-numerical dissipation) is smaller there. They reuse a finished results file in
+l0 = 0.002 m (H/57) with the convergence check that the profile's RMS deviation from Grimshaw's
+falls there by more than its spread between realisations. They reuse a finished results file in
 validation/results/ and run the case otherwise (10-22 min each on one thread at H/28, 17-27 min
 on two threads at 0.002 m).
 """
@@ -185,11 +185,20 @@ def test_full_resolution_amplitude_within_5_percent(ratio):
     assert abs(res.amplitude_error_pct) <= 100.0 * wt.AMPLITUDE_TARGET
 
 
+#: spread of the RMS deviation from Grimshaw's profile over three H/28 realisations of A/H = 0.2
+#: (pressure tolerance 1e-6 / 5e-7 / 2e-6: 4.63 / 5.35 / 4.47 %), % of A
+REALISATION_SPREAD_RMS_PCT = 0.9
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("ratio", wt.RATIOS)
 def test_thesis_resolution_amplitude_within_5_percent_and_converging(ratio):
-    """l0 = 0.002 m (H/57, thesis Table 3-1): crest at x = 1.2 m within 5 % of A, and the crest
-    decays less along the tank than at H/28 (the decay is numerical dissipation)."""
+    """l0 = 0.002 m (H/57, thesis Table 3-1): crest at x = 1.2 m within 5 % of A, and the
+    profile converges: its RMS deviation from Grimshaw's third-order profile at 1.2 m falls from
+    H/28 by more than 0.9 % of A, the spread of three H/28 realisations of A/H = 0.2 (4.5-5.4 %;
+    docs/validation_wave_tank.md). The crest's loss between 0.6 and 1.6 m, the check before,
+    is printed only: at H/28 it spreads by 4.7 points of A between realisations (-4.0 to +0.7
+    % at A/H = 0.2), more than the loss it was to measure."""
     res = {}
     for l0 in ("0.004", "0.002"):
         out = wt.case_path(l0, ratio)
@@ -204,5 +213,8 @@ def test_thesis_resolution_amplitude_within_5_percent_and_converging(ratio):
         f"{fine.rms_grimshaw_pct:.2f} %, crest speed {fine.speed_error_first_order_pct:+.2f} % of "
         f"c; crest loss 0.6 -> 1.6 m {decay['0.004']:.1f} % (H/28) -> {decay['0.002']:.1f} % of A"
     )
+    print(
+        f"RMS Grimshaw {res['0.004'].rms_grimshaw_pct:.2f} % (H/28) -> {fine.rms_grimshaw_pct:.2f} %"
+    )
     assert abs(fine.amplitude_error_pct) <= 100.0 * wt.AMPLITUDE_TARGET
-    assert decay["0.002"] < decay["0.004"]
+    assert fine.rms_grimshaw_pct < res["0.004"].rms_grimshaw_pct - REALISATION_SPREAD_RMS_PCT
