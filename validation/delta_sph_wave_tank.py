@@ -391,7 +391,12 @@ def analyse(label: str) -> tuple[list[GaugeRow], Summary]:
         steps=meta["steps"],
         simulated_s=t_last,
         wall_time_s=meta["wall_time"],
-        us_per_particle_rhs=1e6 * meta["wall_time"] / (meta["particles"] * meta["steps"] * 4),
+        # RK4: four right-hand sides a step; nan for a run still going (its file says 0 steps)
+        us_per_particle_rhs=(
+            1e6 * meta["wall_time"] / (meta["particles"] * meta["steps"] * 4)
+            if meta["steps"]
+            else math.nan
+        ),
         height_2_37=kernel.get(2.37, math.nan),
         height_6_37=kernel.get(6.37, math.nan),
         decay_2_37_to_6_37_pct=100.0
