@@ -110,8 +110,8 @@ VARIANTS = {
     "30_short": (30, 6.8, SHORT_TANK),
     "30_short_a0.0025": (30, 6.8, [*SHORT_TANK, f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"]),
     "30_a0.0025": (30, END_TIME[30], [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"]),
-    # the seed's finest resolution (Table 2's d/dx = 60), same numerics as 30_a0.0025: about
-    # 194 k particles, 8 times 30_a0.0025's cost (about 4 h of one thread here; resumable)
+    # the seed's finest resolution (Table 2's d/dx = 60), same numerics as 30_a0.0025: 160 600
+    # particles, 45 012 steps, 2.6 h of one thread here (5.5 times 30_a0.0025's; resumable)
     "60_a0.0025": (60, END_TIME[30], [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"]),
     "15_h2.0": (15, END_TIME[15], WIDE_KERNEL),
     "30_h2.0": (30, END_TIME[30], WIDE_KERNEL),
