@@ -178,7 +178,8 @@ def _csv_rows(path: Path) -> list[dict[str, str]]:
     reason="issue 23's target is not met: at d/dx = 15 with the seed's alpha = 0.02 (seed eq. 3 "
     "as printed: nu = alpha h c0) the wave reaches 6.37 m at 0.0028 m, -93 % "
     "(docs/validation_delta_sph_wave_tank.md); with alpha / 8 (viscosity_form = 'antuono') "
-    "-20 % at d/dx = 15 and -9.8 % at d/dx = 30; with h = 2.0 dx -30 % and -17 %; strict, "
+    "-20 % at d/dx = 15 and -9.8 % at d/dx = 30; with h = 2.0 dx -30 % and -17 % (less "
+    "viscosity meets it at d/dx = 30: test_low_viscosity_meets_the_height_at_d_dx_30); strict, "
     "so a run that meets it shows up",
 )
 def test_height_at_6_37_m_against_the_measurement():
@@ -288,3 +289,44 @@ def test_height_at_6_37_m_converges_with_the_spacing():
     print(f"|error| at 6.37 m: {errors} %, observed orders {orders}")
     assert errors[0] > errors[1] > errors[2]
     assert min(orders) >= 0.5
+
+
+@pytest.mark.slow
+def test_low_viscosity_meets_the_height_at_d_dx_30():
+    """The committed CSVs, the low-viscosity cases (docs/validation_delta_sph_wave_tank.md,
+    'Less artificial viscosity'): alpha / 32 at h = 1.3 dx ("15_a0.000625", "30_a0.000625": nu =
+    alpha h c0 a quarter of the 'antuono' reading's) and alpha = 0 at h = 2.0 dx ("15_h2.0_a0",
+    "30_h2.0_a0": density diffusion only).
+
+    (1) At d/dx = 30 the first-harmonic height at 6.37 m is within 5 % of the measured 0.0428 m
+    (issue 23's target) for both. (2) The loss from 2.37 to 6.37 m is what Lamb's decay for the
+    case's nu predicts, within the gauges' scatter: 2 nu k^2 / c_g over 4 m (alpha / 32 at
+    d/dx = 15: 4.4 %; at 30: 2.2 %; alpha = 0: nothing) within 3 % (two fits of 4-8 periods
+    scatter by about 1 % each: 2 sigma of their ratio). (3) The narrow kernel without viscosity
+    ("15_a0") stops with the named Mach error (a particle through the moving paddle at
+    4.7 s): the viscosity alpha / 32 is what it needs, not what it can spare."""
+    summary = {r["case"]: r for r in _csv_rows(wt.SUMMARY_CSV)}
+    gauges = {
+        (r["case"], float(r["x"])): float(r["height_first_harmonic"])
+        for r in _csv_rows(wt.CSV)
+        if r["gauge"] == "kernel"
+    }
+    cases = ("15_a0.000625", "30_a0.000625", "15_h2.0_a0", "30_h2.0_a0")
+    for case in (*cases, "15_a0"):
+        if case not in summary:
+            pytest.skip(
+                f"case {case} not in {wt.SUMMARY_CSV}: python validation/delta_sph_wave_tank.py"
+            )
+    for case in cases:
+        s = summary[case]
+        h237, h637 = gauges[(case, 2.37)], gauges[(case, wt.TARGET_GAUGE)]
+        lamb = 1.0 - math.exp(-float(s["decay_lamb_per_m"]) * (wt.TARGET_GAUGE - 2.37))
+        loss = 1.0 - h637 / h237
+        err = h637 / wt.MEASURED_HEIGHT - 1.0
+        print(f"{case}: H(6.37) {h637:.5f} m ({100 * err:+.1f} %), loss 2.37-6.37 m "
+              f"{100 * loss:+.1f} % (Lamb {100 * lamb:.1f} %)")  # fmt: skip
+        assert loss == pytest.approx(lamb, abs=0.03)
+        if s["d_over_dx"] == "30":
+            assert abs(err) <= wt.HEIGHT_TOLERANCE
+    stop = summary["15_a0"]["status"]
+    assert stop.startswith("failed") and "max_mach" in stop
