@@ -72,6 +72,10 @@ END_TIME = {15: 19.5, 30: 12.7}
 #: phi's factor 2 (n + 2) is nu = alpha h c0, 8 times the nu = alpha h c0 / (2 (n + 2)) that
 #: Antuono et al. (2010) give for the same alpha without it (docs/validation_delta_sph_wave_tank.md)
 ANTUONO_ALPHA = 0.02 / 8.0
+#: the seed's alpha = 0.02 (eq. 3 as printed): the scenario's value until it became 3.125e-4
+#: (nu = 1.2e-4 m^2/s at d/dx = 15, section "Less artificial viscosity" of the doc); cases "15",
+#: "30" and "30_short" keep it, so that they stay the runs they were
+SEED_ALPHA = ["fluid.sph.viscosity_alpha=0.02"]
 #: diagnostic runs: label -> (d/dx, simulated time s, extra overrides)
 #: "30_short": d/dx = 30 where the seed's convergence study looks (2.37 m, its Figs. 13, 18,
 #: 19) in a tank shortened to 6.3 m (the same 2 m sponge from 4.3 m): the window at 2.37 m runs
@@ -107,7 +111,7 @@ WIDE_KERNEL = [
 EQUAL_NU = [*WIDE_KERNEL, f"fluid.sph.viscosity_alpha={0.02 * 1.3 / 2.0!r}"]
 VARIANTS = {
     "15_a0.0025": (15, 19.5, [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"]),
-    "30_short": (30, 6.8, SHORT_TANK),
+    "30_short": (30, 6.8, [*SHORT_TANK, *SEED_ALPHA]),
     "30_short_a0.0025": (30, 6.8, [*SHORT_TANK, f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"]),
     "30_a0.0025": (30, END_TIME[30], [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA!r}"]),
     # the seed's finest resolution (Table 2's d/dx = 60), same numerics as 30_a0.0025: 160 600
@@ -126,6 +130,12 @@ VARIANTS = {
     "15_a0.000625": (15, END_TIME[30], [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA / 4!r}"]),
     "30_h2.0_a0": (30, END_TIME[30], [*WIDE_KERNEL, "fluid.sph.viscosity_alpha=0.0"]),
     "30_a0.000625": (30, END_TIME[30], [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA / 4!r}"]),
+    # how little the narrow kernel can carry at d/dx = 15: alpha / 64 and alpha / 128
+    "15_a0.0003125": (15, END_TIME[30], [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA / 8!r}"]),
+    "15_a0.00015625": (15, END_TIME[30], [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA / 16!r}"]),
+    "30_a0.0003125": (30, END_TIME[30], [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA / 8!r}"]),
+    # alpha / 64 at d/dx = 15 run on to 19.5 s: does it hold 7 s longer (and the reflection)
+    "15_a0.0003125_long": (15, END_TIME[15], [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA / 8!r}"]),
 }
 
 
@@ -152,8 +162,9 @@ def case_overrides(
 
 
 def cases() -> dict[str, tuple[int, list[str]]]:
-    """label -> (d/dx, overrides) of every run: the two resolutions and the diagnostics."""
-    out = {str(r): (r, case_overrides(r)) for r in RATIOS}
+    """label -> (d/dx, overrides) of every run: the two resolutions (with the seed's alpha, as
+    they were run before the scenario's own alpha became 3.125e-4) and the diagnostics."""
+    out = {str(r): (r, case_overrides(r, extra=SEED_ALPHA)) for r in RATIOS}
     for label, (r, end, extra) in VARIANTS.items():
         out[label] = (r, case_overrides(r, end, extra, label))
     return out

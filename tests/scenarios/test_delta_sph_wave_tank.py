@@ -8,7 +8,8 @@ piston (the reference of the CI run) against steady piston theory; a coarse, sho
 that linear transient.
 
 Slow (-m slow), from the committed CSVs: the height at 6.37 m against the measured 0.0428 m
-(strict xfail: not met), and the decay against the artificial viscosity's viscous estimate.
+with the seed's numerics (strict xfail: not met) and with the scenario's smaller viscosity
+(met at d/dx = 15 and 30), and the decay against the artificial viscosity's viscous estimate.
 """
 
 from __future__ import annotations
@@ -35,16 +36,27 @@ rw = load("regular_wave")
 
 
 def test_scenario_is_the_seed_tank_with_windows_for_every_paper_gauge():
-    """δ-SPHC (corrected gradient, RK4, h = 1.3 dx, delta = 0.1, alpha = 0.02; seed) on d =
-    0.266 m at d/dx = 15, a linear piston for T = 1 s and H = 0.0428 m, the sponge (not the
-    viscosity ramp) from 9 m; every paper gauge before 15 m has an incident-only window of at
-    least 4 periods within the run's 12.7 s, and the reflection split's window at 7.5 m lasts 2 periods
-    at the d/dx = 15 run's end time."""
+    """δ-SPHC (corrected gradient, RK4, h = 1.3 dx, delta = 0.1; seed) on d = 0.266 m at
+    d/dx = 15, a linear piston for T = 1 s and H = 0.0428 m, the sponge (not the viscosity ramp)
+    from 9 m; every paper gauge before 15 m has an incident-only window of at least 4 periods
+    within the run's 12.7 s, and the reflection split's window at 7.5 m lasts 2 periods at the
+    d/dx = 15 run's end time. The artificial viscosity (alpha = 3.125e-4, not the seed's 0.02)
+    keeps the rule its comment states: Lamb's loss over the 6.37 m, 1 - exp(-2 nu k^2 x / c_g)
+    with nu = alpha h c0, at most 5 %, and nu above 5.8e-5 m^2/s, where the paddle's runs
+    stopped (cases 15_a0.00015625, 30_a0.0003125)."""
     sc = load_scenario(SCENARIO).scenario
     f = sc.fluid
     assert f.method == "delta-sph" and f.sph.gradient == "corrected"
     assert f.sph.damping == "sponge" and f.sph.integrator == "rk4"
     assert f.spacing == pytest.approx(0.266 / 15)
+    assert f.sph.viscosity_form == "seed" and f.sph.smoothing_ratio == 1.3
+    c0 = 10.0 * math.sqrt(9.81 * wt.DEPTH)  # seed eq. 1 with U = 0.2 m/s < sqrt(g d)
+    nu = f.sph.viscosity_alpha * f.sph.smoothing_ratio * f.spacing * c0
+    omega = 2.0 * math.pi
+    k = wt.wave_number(omega, wt.DEPTH, rw.GRAVITY)
+    cg = 0.5 * omega / k * (1.0 + 2.0 * k * wt.DEPTH / math.sinh(2.0 * k * wt.DEPTH))
+    assert 1.0 - math.exp(-2.0 * nu * k**2 * wt.TARGET_GAUGE / cg) <= wt.HEIGHT_TOLERANCE
+    assert nu > 1.5 * 0.00015625 * 1.3 * (0.266 / 15) * c0  # 1.5 x the stopped runs' nu
     tank = rw.tank_from_resolved(sc.model_dump())
     assert tank.wave.depth == 0.266 and tank.wave.period == 1.0 and tank.wave_height == 0.0428
     assert tank.theory_height == pytest.approx(0.0428, rel=1e-12)
@@ -125,6 +137,11 @@ def coarse_run(tmp_path_factory):
             "fluid.sponges.0.start=1.5",
             "fluid.sponges.0.end=2.5",
             f"probes=[{gauge}]",
+            # the seed's alpha, at which the tolerances below were set and measured; with the
+            # scenario's 3.125e-4 (nu = 1.75e-4 m^2/s at d/dx = 10) the trough reads 24 % deep
+            # (-8.71 against -7.01 mm) and the RMS difference 0.18: too near the 25 % to be
+            # a test of the paddle, so CI keeps the run these bounds were made for
+            "fluid.sph.viscosity_alpha=0.02",
         ],
     )
     out = tmp_path_factory.mktemp("wave_tank") / "coarse.h5"
@@ -178,13 +195,14 @@ def _csv_rows(path: Path) -> list[dict[str, str]]:
     reason="issue 23's target is not met: at d/dx = 15 with the seed's alpha = 0.02 (seed eq. 3 "
     "as printed: nu = alpha h c0) the wave reaches 6.37 m at 0.0028 m, -93 % "
     "(docs/validation_delta_sph_wave_tank.md); with alpha / 8 (viscosity_form = 'antuono') "
-    "-20 % at d/dx = 15 and -9.8 % at d/dx = 30; with h = 2.0 dx -30 % and -17 % (less "
-    "viscosity meets it at d/dx = 30: test_low_viscosity_meets_the_height_at_d_dx_30); strict, "
+    "-20 % at d/dx = 15 and -9.8 % at d/dx = 30; with h = 2.0 dx -30 % and -17 % (the "
+    "scenario's own nu = 1.2e-4 m^2/s meets it at both: "
+    "test_low_viscosity_meets_the_height_at_both_resolutions); strict, "
     "so a run that meets it shows up",
 )
 def test_height_at_6_37_m_against_the_measurement():
     """The committed CSV (validation/delta_sph_wave_tank.py): at every resolution run in the
-    full tank (cases "15", "30": the scenario's numerics; "15_a0.0025", "30_a0.0025": alpha / 8,
+    full tank (cases "15", "30": the seed's numerics, alpha = 0.02; "15_a0.0025", "30_a0.0025": alpha / 8,
     the 'antuono' reading the paper's results need; "15_h2.0", "30_h2.0": the seed's wider
     kernel h = 2.0 dx with that reading), the first-harmonic height at 6.37 m within 5 % of the
     measured 0.0428 m (issue 23; seed Table 2)."""
@@ -292,33 +310,37 @@ def test_height_at_6_37_m_converges_with_the_spacing():
 
 
 @pytest.mark.slow
-def test_low_viscosity_meets_the_height_at_d_dx_30():
+def test_low_viscosity_meets_the_height_at_both_resolutions():
     """The committed CSVs, the low-viscosity cases (docs/validation_delta_sph_wave_tank.md,
-    'Less artificial viscosity'): alpha / 32 at h = 1.3 dx ("15_a0.000625", "30_a0.000625": nu =
-    alpha h c0 a quarter of the 'antuono' reading's) and alpha = 0 at h = 2.0 dx ("15_h2.0_a0",
-    "30_h2.0_a0": density diffusion only).
+    'Less artificial viscosity'), seed-form alpha at h = 1.3 dx: alpha / 32 (6.25e-4:
+    "15_a0.000625", "30_a0.000625"), alpha / 64 (3.125e-4, the scenario's: "15_a0.0003125"),
+    and alpha = 0 at h = 2.0 dx (density diffusion only: "15_h2.0_a0", "30_h2.0_a0").
 
-    (1) At d/dx = 30 the first-harmonic height at 6.37 m is within 5 % of the measured 0.0428 m
-    (issue 23's target) for both. (2) The loss from 2.37 to 6.37 m is what Lamb's decay for the
-    case's nu predicts, within the gauges' scatter: 2 nu k^2 / c_g over 4 m (alpha / 32 at
-    d/dx = 15: 4.4 %; at 30: 2.2 %; alpha = 0: nothing) within 3 % (two fits of 4-8 periods
-    scatter by about 1 % each: 2 sigma of their ratio). (3) The narrow kernel without viscosity
-    ("15_a0") stops with the named Mach error (a particle through the moving paddle at
-    4.7 s): the viscosity alpha / 32 is what it needs, not what it can spare."""
+    (1) The scenario's nu = alpha h c0 = 1.2e-4 m^2/s ("15_a0.0003125" at d/dx = 15,
+    "30_a0.000625" at 30) puts the first-harmonic height at 6.37 m within 5 % of the measured
+    0.0428 m at both resolutions (issue 23's target), as does alpha = 0 at h = 2.0 dx at
+    d/dx = 30. (2) Every finished low-viscosity case loses from 2.37 to 6.37 m what Lamb's decay
+    for its nu predicts, within the gauges' scatter: 2 nu k^2 / c_g over 4 m within 3 % (two
+    fits of 4-8 periods scatter by about 1 % each: 2 sigma of their ratio). (3) Below that nu
+    the paddle does not hold: nu = 0 at h = 1.3 dx ("15_a0") and nu = 5.8e-5 ("15_a0.00015625",
+    "30_a0.0003125") stop with the named Mach error (a particle driven through the moving
+    paddle)."""
     summary = {r["case"]: r for r in _csv_rows(wt.SUMMARY_CSV)}
     gauges = {
         (r["case"], float(r["x"])): float(r["height_first_harmonic"])
         for r in _csv_rows(wt.CSV)
         if r["gauge"] == "kernel"
     }
-    cases = ("15_a0.000625", "30_a0.000625", "15_h2.0_a0", "30_h2.0_a0")
-    for case in (*cases, "15_a0"):
+    finished = ("15_a0.000625", "30_a0.000625", "15_a0.0003125", "15_h2.0_a0", "30_h2.0_a0")
+    stopped = ("15_a0", "15_a0.00015625", "30_a0.0003125")
+    for case in (*finished, *stopped):
         if case not in summary:
             pytest.skip(
                 f"case {case} not in {wt.SUMMARY_CSV}: python validation/delta_sph_wave_tank.py"
             )
-    for case in cases:
+    for case in finished:
         s = summary[case]
+        assert s["status"] == "finished"
         h237, h637 = gauges[(case, 2.37)], gauges[(case, wt.TARGET_GAUGE)]
         lamb = 1.0 - math.exp(-float(s["decay_lamb_per_m"]) * (wt.TARGET_GAUGE - 2.37))
         loss = 1.0 - h637 / h237
@@ -326,7 +348,10 @@ def test_low_viscosity_meets_the_height_at_d_dx_30():
         print(f"{case}: H(6.37) {h637:.5f} m ({100 * err:+.1f} %), loss 2.37-6.37 m "
               f"{100 * loss:+.1f} % (Lamb {100 * lamb:.1f} %)")  # fmt: skip
         assert loss == pytest.approx(lamb, abs=0.03)
-        if s["d_over_dx"] == "30":
+        if case in ("15_a0.0003125", "30_a0.000625", "30_h2.0_a0"):
             assert abs(err) <= wt.HEIGHT_TOLERANCE
-    stop = summary["15_a0"]["status"]
-    assert stop.startswith("failed") and "max_mach" in stop
+    nu = {c: float(summary[c]["nu_artificial"]) for c in ("15_a0.0003125", "30_a0.000625")}
+    assert nu["15_a0.0003125"] == pytest.approx(nu["30_a0.000625"], rel=1e-9)
+    for case in stopped:
+        stop = summary[case]["status"]
+        assert stop.startswith("failed") and "max_mach" in stop
