@@ -136,6 +136,18 @@ VARIANTS = {
     "30_a0.0003125": (30, END_TIME[30], [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA / 8!r}"]),
     # alpha / 64 at d/dx = 15 run on to 19.5 s: does it hold 7 s longer (and the reflection)
     "15_a0.0003125_long": (15, END_TIME[15], [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA / 8!r}"]),
+    # alpha = 0 at h = 1.3 dx with the existing switches that might keep the paddle's particles:
+    # δ+-SPH shifting (Sun et al. 2017) and the wetted wall pressure
+    "15_a0_shift": (
+        15,
+        END_TIME[30],
+        ["fluid.sph.viscosity_alpha=0.0", 'fluid.sph.shifting="delta_plus"'],
+    ),
+    "15_a0_wetted": (
+        15,
+        END_TIME[30],
+        ["fluid.sph.viscosity_alpha=0.0", 'fluid.sph.wall_pressure="wetted"'],
+    ),
 }
 
 

@@ -323,8 +323,9 @@ def test_low_viscosity_meets_the_height_at_both_resolutions():
     for its nu predicts, within the gauges' scatter: 2 nu k^2 / c_g over 4 m within 3 % (two
     fits of 4-8 periods scatter by about 1 % each: 2 sigma of their ratio). (3) Below that nu
     the paddle does not hold: nu = 0 at h = 1.3 dx ("15_a0") and nu = 5.8e-5 ("15_a0.00015625",
-    "30_a0.0003125") stop with the named Mach error (a particle driven through the moving
-    paddle)."""
+    "30_a0.0003125") stop with the named Mach error (a particle driven into the moving
+    paddle); so do alpha = 0 with δ+-SPH shifting ("15_a0_shift") and with the wetted wall
+    pressure ("15_a0_wetted", a particle out of the domain under the paddle)."""
     summary = {r["case"]: r for r in _csv_rows(wt.SUMMARY_CSV)}
     gauges = {
         (r["case"], float(r["x"])): float(r["height_first_harmonic"])
@@ -332,7 +333,7 @@ def test_low_viscosity_meets_the_height_at_both_resolutions():
         if r["gauge"] == "kernel"
     }
     finished = ("15_a0.000625", "30_a0.000625", "15_a0.0003125", "15_h2.0_a0", "30_h2.0_a0")
-    stopped = ("15_a0", "15_a0.00015625", "30_a0.0003125")
+    stopped = ("15_a0", "15_a0.00015625", "30_a0.0003125", "15_a0_shift", "15_a0_wetted")
     for case in (*finished, *stopped):
         if case not in summary:
             pytest.skip(
@@ -354,4 +355,5 @@ def test_low_viscosity_meets_the_height_at_both_resolutions():
     assert nu["15_a0.0003125"] == pytest.approx(nu["30_a0.000625"], rel=1e-9)
     for case in stopped:
         stop = summary[case]["status"]
-        assert stop.startswith("failed") and "max_mach" in stop
+        assert stop.startswith("failed")
+        assert "max_mach" in stop or "left the domain" in stop
