@@ -143,6 +143,21 @@ VARIANTS = {
         END_TIME[30],
         ["fluid.sph.viscosity_alpha=0.0", 'fluid.sph.shifting="delta_plus"'],
     ),
+    "15_a0_clamped": (
+        15,
+        END_TIME[30],
+        ["fluid.sph.viscosity_alpha=0.0", 'fluid.sph.wall_pressure="clamped"'],
+    ),
+    "15_a0.00015625_clamped": (
+        15,
+        END_TIME[30],
+        [f"fluid.sph.viscosity_alpha={ANTUONO_ALPHA / 16!r}", 'fluid.sph.wall_pressure="clamped"'],
+    ),
+    "30_a0_clamped": (
+        30,
+        END_TIME[30],
+        ["fluid.sph.viscosity_alpha=0.0", 'fluid.sph.wall_pressure="clamped"'],
+    ),
     "15_a0_wetted": (
         15,
         END_TIME[30],

@@ -183,6 +183,32 @@ def test_dummy_pressure_is_adami_extrapolation(wall_acc):
     assert rho[3] == pytest.approx(1000.0 + expected / 400.0, rel=1e-12)
 
 
+def test_clamped_wall_pressure_floors_only_the_negative_walls():
+    """fluid.sph.wall_pressure = "clamped": p_w <- max(p_w, 0) on the wall particles (rho_w =
+    rho0 + p_w / c0^2 with it), fluid particles and positive walls untouched, bit for bit."""
+    p = np.array([-50.0, 30.0, -120.0, 80.0, 0.0])
+    rho = np.array([999.9, 1000.1, 999.7, 1000.2, 1000.0])
+    p0, rho0 = p.copy(), rho.copy()
+    delta_sph.clamp_wall_pressure(p, rho, 2, 1000.0, 20.0)
+    assert np.array_equal(p[:2], p0[:2]) and np.array_equal(rho[:2], rho0[:2])
+    assert p[2] == 0.0 and rho[2] == 1000.0
+    assert p[3] == p0[3] and rho[3] == rho0[3] and p[4] == 0.0
+
+
+def test_clamped_walls_are_never_negative_and_adami_walls_are():
+    """The solver applies the key: in a still tank the dummy particles above the water line,
+    which see only the free surface's top rows, extrapolate a negative pressure under 'adami'
+    (the hydrostatic term rho g . (r_w - r_f) < 0 above the fluid) and none under 'clamped'."""
+    lows = {}
+    for mode in ("adami", "clamped"):
+        s = DeltaSPHSolver(_tank(wall_pressure=mode))
+        for _ in range(3):
+            s.step(s.dt_next)
+        lows[mode] = float(s.p[s.n_fluid :].min())
+    assert lows["adami"] < 0.0
+    assert lows["clamped"] >= 0.0
+
+
 def test_a_shaken_tank_carries_its_acceleration_into_the_dummy_pressure():
     """A tank shaken harmonically along x, x = A sin(2 pi t / T): over each step its particles
     carry a_w = (v(t + dt) - v(t)) / dt, which tends to -A (2 pi / T)^2 sin(2 pi t / T)."""

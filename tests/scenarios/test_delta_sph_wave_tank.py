@@ -325,14 +325,18 @@ def test_low_viscosity_meets_the_height_at_both_resolutions():
     the paddle does not hold: nu = 0 at h = 1.3 dx ("15_a0") and nu = 5.8e-5 ("15_a0.00015625",
     "30_a0.0003125") stop with the named Mach error (a particle driven into the moving
     paddle); so do alpha = 0 with δ+-SPH shifting ("15_a0_shift") and with the wetted wall
-    pressure ("15_a0_wetted", a particle out of the domain under the paddle)."""
+    pressure ("15_a0_wetted", a particle out of the domain under the paddle). (4) With clamped
+    walls (wall_pressure = "clamped", p_w >= 0) alpha = 0 and alpha / 128 hold at d/dx = 15
+    ("15_a0_clamped", "15_a0.00015625_clamped") and are within 5 % too."""
     summary = {r["case"]: r for r in _csv_rows(wt.SUMMARY_CSV)}
     gauges = {
         (r["case"], float(r["x"])): float(r["height_first_harmonic"])
         for r in _csv_rows(wt.CSV)
         if r["gauge"] == "kernel"
     }
-    finished = ("15_a0.000625", "30_a0.000625", "15_a0.0003125", "15_h2.0_a0", "30_h2.0_a0")
+    clamped = ("15_a0_clamped", "15_a0.00015625_clamped")
+    finished = ("15_a0.000625", "30_a0.000625", "15_a0.0003125", "15_h2.0_a0", "30_h2.0_a0",
+                *clamped)  # fmt: skip
     stopped = ("15_a0", "15_a0.00015625", "30_a0.0003125", "15_a0_shift", "15_a0_wetted")
     for case in (*finished, *stopped):
         if case not in summary:
@@ -349,7 +353,7 @@ def test_low_viscosity_meets_the_height_at_both_resolutions():
         print(f"{case}: H(6.37) {h637:.5f} m ({100 * err:+.1f} %), loss 2.37-6.37 m "
               f"{100 * loss:+.1f} % (Lamb {100 * lamb:.1f} %)")  # fmt: skip
         assert loss == pytest.approx(lamb, abs=0.03)
-        if case in ("15_a0.0003125", "30_a0.000625", "30_h2.0_a0"):
+        if case in ("15_a0.0003125", "30_a0.000625", "30_h2.0_a0", *clamped):
             assert abs(err) <= wt.HEIGHT_TOLERANCE
     nu = {c: float(summary[c]["nu_artificial"]) for c in ("15_a0.0003125", "30_a0.000625")}
     assert nu["15_a0.0003125"] == pytest.approx(nu["30_a0.000625"], rel=1e-9)

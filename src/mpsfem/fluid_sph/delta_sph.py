@@ -94,6 +94,19 @@ def wall_pressure(pos, rho, p, kind, indptr, indices, r2max, n_fluid, gravity, o
         rho[i] = rho0 + p[i] * inv_c2
 
 
+@njit(cache=True)
+def clamp_wall_pressure(p, rho, n_fluid, rho0, c0):
+    """``fluid.sph.wall_pressure = "clamped"``: p_w <- max(p_w, 0) (Pa) for every wall / dummy
+    particle after :func:`wall_pressure`, and rho_w = rho0 + p_w / c0^2 again: no wall pulls on
+    the fluid (PySPH's ClampWallPressure for Adami's walls), the real suction of a wall pulled
+    out of water included."""
+    inv_c2 = 1.0 / (c0 * c0)
+    for i in range(n_fluid, p.shape[0]):
+        if p[i] < 0.0:
+            p[i] = 0.0
+            rho[i] = rho0 + p[i] * inv_c2
+
+
 #: "wetted" walls (fluid.sph.wall_pressure): a pressure-layer particle is wholly wet while the
 #: fluid in front of it reaches to within WET_GAP spacings of the wall face and wholly dry from
 #: DRY_GAP on (face-to-surface gaps, in l0: the fluid's first row sits (gap + 1) l0 from the

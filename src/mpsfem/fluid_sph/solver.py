@@ -178,6 +178,7 @@ class DeltaSPHSolver:
         #: on the fluid's kernel sum for a gap of DRY_GAP / WET_GAP spacings, and each wall
         #: particle's wetness at the last right-hand side (1: Adami's pressure, 0: p_w = 0)
         self.wetted_walls = sph.wall_pressure == "wetted"
+        self.clamped_walls = sph.wall_pressure == "clamped"
         self.wall_patch_all = np.full(n - nf, -1, dtype=np.int64)
         for k, pt in enumerate(self.patches):
             self.wall_patch_all[pt.start - nf : pt.stop - nf] = k
@@ -378,6 +379,8 @@ class DeltaSPHSolver:
             self.gravity, self.omega2, self.center, self.wall_acc, self.h, self.norm, self.rho0,
             self.c0,
         )  # fmt: skip
+        if self.clamped_walls:  # fluid.sph.wall_pressure = "clamped": no wall pulls
+            delta_sph.clamp_wall_pressure(self.p, self.rho, nf, self.rho0, self.c0)
         if self.wetted_walls:  # fluid.sph.wall_pressure = "wetted": no pull across an air gap
             delta_sph.dry_walls(
                 self.pos, self.rho, self.p, nb.indptr, nb.indices, r2max, nf, self.mass,

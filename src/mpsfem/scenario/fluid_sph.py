@@ -135,7 +135,7 @@ class DeltaSPHSection(Section):
         "'Coupled to a structure'); 'exchange', the whole pair exchange on both sides (the "
         "behaviour before this key)",
     )
-    wall_pressure: Literal["adami", "wetted"] = Field(
+    wall_pressure: Literal["adami", "wetted", "clamped"] = Field(
         "adami",
         description="pressure of the wall and structure dummy particles: 'adami', extrapolated "
         "from every fluid neighbour, p_w = (sum p_f W + (g - a_w) . sum rho_f r_wf W) / sum W "
@@ -145,7 +145,10 @@ class DeltaSPHSection(Section):
         "below that of a half-space 3/4 of a spacing beyond the wall face is dry (p_w = 0, and "
         "the fluid's own pressure is dropped from its pairs: it exchanges no force), one whose "
         "fluid reaches within 1/4 spacing of the face keeps Adami's pressure, linear in the sum "
-        "between; dummy layers are as wet as their face (docs/fluid_sph.md, 'Walls')",
+        "between; dummy layers are as wet as their face (docs/fluid_sph.md, 'Walls'); "
+        "'clamped', Adami's pressure floored at zero, p_w <- max(p_w, 0) (PySPH's "
+        "ClampWallPressure): no wall pulls, the real suction of a wall pulled out of water "
+        "included",
     )
 
     # ---- particle shifting (δ+-SPH; fluid_sph/particle_shifting.py, docs/fluid_sph.md)
