@@ -327,14 +327,15 @@ def test_low_viscosity_meets_the_height_at_both_resolutions():
     paddle); so do alpha = 0 with δ+-SPH shifting ("15_a0_shift") and with the wetted wall
     pressure ("15_a0_wetted", a particle out of the domain under the paddle). (4) With clamped
     walls (wall_pressure = "clamped", p_w >= 0) alpha = 0 and alpha / 128 hold at d/dx = 15
-    ("15_a0_clamped", "15_a0.00015625_clamped") and are within 5 % too."""
+    ("15_a0_clamped", "15_a0.00015625_clamped"), alpha = 0 at 30 ("30_a0_clamped"), and all
+    are within 5 % too."""
     summary = {r["case"]: r for r in _csv_rows(wt.SUMMARY_CSV)}
     gauges = {
         (r["case"], float(r["x"])): float(r["height_first_harmonic"])
         for r in _csv_rows(wt.CSV)
         if r["gauge"] == "kernel"
     }
-    clamped = ("15_a0_clamped", "15_a0.00015625_clamped")
+    clamped = ("15_a0_clamped", "15_a0.00015625_clamped", "30_a0_clamped")
     finished = ("15_a0.000625", "30_a0.000625", "15_a0.0003125", "15_h2.0_a0", "30_h2.0_a0",
                 *clamped)  # fmt: skip
     stopped = ("15_a0", "15_a0.00015625", "30_a0.0003125", "15_a0_shift", "15_a0_wetted")
