@@ -50,14 +50,13 @@ def test_scenario_is_the_seed_tank_with_windows_for_every_paper_gauge():
     assert f.sph.damping == "sponge" and f.sph.integrator == "rk4"
     assert f.spacing == pytest.approx(0.266 / 15)
     assert f.sph.viscosity_form == "seed" and f.sph.smoothing_ratio == 1.3
-    c0 = 10.0 * math.sqrt(9.81 * wt.DEPTH)  # seed eq. 1 with U = 0.2 m/s < sqrt(g d)
-    nu = f.sph.viscosity_alpha * f.sph.smoothing_ratio * f.spacing * c0
-    omega = 2.0 * math.pi
-    k = wt.wave_number(omega, wt.DEPTH, rw.GRAVITY)
-    cg = 0.5 * omega / k * (1.0 + 2.0 * k * wt.DEPTH / math.sinh(2.0 * k * wt.DEPTH))
-    assert 1.0 - math.exp(-2.0 * nu * k**2 * wt.TARGET_GAUGE / cg) <= wt.HEIGHT_TOLERANCE
-    assert nu > 1.5 * 0.00015625 * 1.3 * (0.266 / 15) * c0  # 1.5 x the stopped runs' nu
     tank = rw.tank_from_resolved(sc.model_dump())
+    c0 = 10.0 * math.sqrt(9.81 * wt.DEPTH)  # seed eq. 1 with U = 0.2 m/s < sqrt(g d)
+    h_c0 = f.sph.smoothing_ratio * f.spacing * c0  # nu = alpha h c0 (seed eq. 3 as printed)
+    nu = f.sph.viscosity_alpha * h_c0
+    lamb = 2.0 * nu * tank.wave.k**2 / tank.wave.group_velocity  # Lamb 1932, art. 348
+    assert 1.0 - math.exp(-lamb * wt.TARGET_GAUGE) <= wt.HEIGHT_TOLERANCE
+    assert nu > 1.5 * (wt.ANTUONO_ALPHA / 16) * h_c0  # 1.5 x the stopped runs' nu
     assert tank.wave.depth == 0.266 and tank.wave.period == 1.0 and tank.wave_height == 0.0428
     assert tank.theory_height == pytest.approx(0.0428, rel=1e-12)
     assert tank.sponge_start == 9.0
