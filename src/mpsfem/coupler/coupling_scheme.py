@@ -16,10 +16,13 @@ One window [t_n, t_n + T] (:meth:`CouplingScheme.advance_window`):
 
 1. Predict the window-end interface state x = d_n + T v_n, s = v_n (d, v the structure's
    accepted displacement and velocity at t_n). For Newmark's average-acceleration rule this pair
-   is consistent, and it is the first iterate of the implicit scheme.
+   is consistent, and it is the first iterate of the implicit scheme (``coupling.predictor``:
+   "constant" x = d_n, "linear" x = d_n + T (d_n - d_n-1) / T_n-1, as preCICE's extrapolation
+   orders 0 and 1).
 2. Fluid: sub-cycles from t_n to t_n + T in equal steps (``time_window.subcycle``), given at each
    sub-step end the displacement and velocity interpolated linearly between (d_n, v_n) and
-   (x, s), mapped to its points; its forces are sampled after every sub-step and averaged over
+   (x, s), mapped to its points (``interface_velocity = "displacement_rate"``: the velocity is
+   instead the points' own, (H x - H d_n) / T, constant in the window); its forces are sampled after every sub-step and averaged over
    the window (``force_sampling = "mean"``) or taken at the end.
 3. Structure: the mapped force, linearly interpolated from the previous window's value when it
    sub-cycles; answers x_tilde, s_tilde at t_n + T.
@@ -43,6 +46,7 @@ accepted with a residual, above all those accepted at their first iterate (the p
 
 from __future__ import annotations
 
+import math
 import time
 import warnings
 from collections.abc import Callable
@@ -238,6 +242,7 @@ class CouplingScheme:
                 raise ValueError(f"structure {name} of shape {a.shape}, expected {shape}")
         check_finite("initial data", displacement=self.d, velocity=self.v)
         self.d_f = self.mapping.displacement_to_fluid(self.d)  # where the fluid's points are
+        self.d_prev, self.T_prev = self.d.copy(), math.nan  # the window before (predictor)
         self.fluid.write(DISPLACEMENT, self.d_f)
         self.fluid.write(VELOCITY, self.mapping.velocity_to_fluid(self.v, self.d))
         self.energy0 = energy_of(self.structure)
@@ -288,7 +293,7 @@ class CouplingScheme:
         v_f0 = self.mapping.velocity_to_fluid(self.v, self.d)
         timings["mapping"] += time.perf_counter() - tic
 
-        x = self.d + T * self.v  # window-end prediction (consistent for avg-acceleration)
+        x = self._predict(T)
         s = self.v.copy()
         if self.implicit:
             self.fluid.checkpoint()
@@ -475,6 +480,7 @@ class CouplingScheme:
             work_f = float(np.vdot(F_f1, d_f1 - d_f_start))
         else:
             work_f = 0.5 * float(np.vdot(F_f_prev + F_f1, d_f1 - d_f_start))
+        self.d_prev, self.T_prev = self.d, T
         self.d, self.v = x_t, s_t
         self.force_scale_peak = max(self.force_scale_peak, f_scale)
         self.d_f = d_f1
@@ -545,6 +551,18 @@ class CouplingScheme:
         )
         return residual, r_abs, got, f_scale, f_ratio
 
+    def _predict(self, T: float) -> np.ndarray:
+        """The window-end interface displacement of the first iterate (``coupling.predictor``):
+        "velocity" d_n + T v_n (consistent for Newmark's average acceleration); "constant" d_n
+        (preCICE's extrapolation order 0); "linear" d_n + T (d_n - d_n-1) / T_n-1 (order 1;
+        d_n at the first window)."""
+        kind = self.config.predictor
+        if kind == "velocity":
+            return self.d + T * self.v
+        if kind == "linear" and math.isfinite(self.T_prev):
+            return self.d + (T / self.T_prev) * (self.d - self.d_prev)
+        return self.d.copy()
+
     def _evaluate(self, t0, t1, d_f0, v_f0, x, s, set_iterate, timings) -> tuple:
         """One iteration of both participants from the window's start: the fluid over [t0, t1]
         given the interface iterate (x, s) at t1, its forces mapped, the structure under them.
@@ -554,7 +572,11 @@ class CouplingScheme:
         T = self.window_length(t0, t1)
         tic = time.perf_counter()
         d_f1 = self.mapping.displacement_to_fluid(x)
-        v_f1 = self.mapping.velocity_to_fluid(s, x)
+        if self.config.interface_velocity == "displacement_rate":
+            # the points' own velocity: they move linearly from H d_n to H x over the window
+            v_f0 = v_f1 = (d_f1 - d_f0) / T
+        else:
+            v_f1 = self.mapping.velocity_to_fluid(s, x)
         timings["mapping"] += time.perf_counter() - tic
         tic = time.perf_counter()
         try:
@@ -640,6 +662,8 @@ class CouplingScheme:
             "F_s": self.F_s.copy(),
             "F_f": self.F_f.copy(),
             "d_f": self.d_f.copy(),
+            "d_prev": self.d_prev.copy(),
+            "T_prev": self.T_prev,
             "force_scale_peak": self.force_scale_peak,
             **{f"acceleration/{k}": v for k, v in acc.items()},
         }
@@ -656,6 +680,9 @@ class CouplingScheme:
         self.d_f = (
             np.array(state["d_f"]) if "d_f" in state else self.mapping.displacement_to_fluid(self.d)
         )
+        # checkpoints written before the linear predictor: its first window predicts d_n
+        self.d_prev = np.array(state["d_prev"]) if "d_prev" in state else self.d.copy()
+        self.T_prev = float(state.get("T_prev", math.nan))
         # checkpoints written before the force-error criterion: no peak yet
         self.force_scale_peak = float(state.get("force_scale_peak", 0.0))
         acc = {k[13:]: v for k, v in state.items() if k.startswith("acceleration/")}

@@ -206,6 +206,28 @@ class CouplingSection(Section):
             'noise); "end", the force of the last sub-step.'
         ),
     )
+    predictor: Literal["velocity", "constant", "linear"] = Field(
+        "velocity",
+        description=(
+            'First iterate of a window\'s interface displacement: "velocity", d_n + T v_n (the '
+            "structure's velocity; consistent for Newmark's average acceleration); "
+            '"constant", d_n; "linear", d_n + T (d_n - d_n-1) / T_n-1 (preCICE\'s extrapolation '
+            "orders 0 and 1). For members so light that their velocity jumps from window to "
+            "window (docs/coupler.md, 'Predictor and interface velocity')."
+        ),
+    )
+    interface_velocity: Literal["structure", "displacement_rate"] = Field(
+        "structure",
+        description=(
+            'Velocity of the fluid\'s interface points inside a window: "structure", the '
+            "structure's velocity at the window's ends (v_n, and the iterate's at t_n + T), "
+            'linearly interpolated; "displacement_rate", the rate of the motion the fluid is '
+            "given, (H x - H d_n) / T, constant in the window (the points move linearly "
+            "between H d_n and H x, so it is their own velocity). For members so light that "
+            "their Newmark velocity alternates from window to window while they move a "
+            "fraction of a millimetre (docs/coupler.md, 'Predictor and interface velocity')."
+        ),
+    )
     mapping: MappingConfig = Field(
         default_factory=_default(MAPPINGS, "shape-function"),
         description=(
