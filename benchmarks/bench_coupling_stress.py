@@ -70,6 +70,16 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
   ``0.001825`` (L/80) on ``--only obstacle_ratio`` (rows in
   benchmarks/results/coupling_stress_fine.csv) and on H2's ``obstacle_shaped`` setting (rows
   appended to coupling_stress_shaped.csv).
+* ``obstacle_sph_ratio`` (``--only obstacle_sph_ratio``; not in the default set): the obstacle
+  of ``obstacle_ratio`` under the δ-SPH fluid (validation/results/delta_sph_obstacle.toml, as
+  validation/delta_sph_obstacle.py writes it: Adami walls, whose extrapolated pressure can pull)
+  at mass ratio 10, 0.103, 1e-2, 1e-3 and 1e-4, without the MPS-only surface freeze (issue 21: is the
+  MPS fluid's push-only, white-noise load what stops the windows at 1e-4?); ``plate_sph_ratio``
+  the plate of ``plate_ratio`` the same way (``fluid.method = "delta-sph"`` on its scenario).
+  ``--end-time`` runs every selected run to another end (the obstacle's to 0.3 s, past its
+  first tip peak). Rows: benchmarks/results/coupling_stress_sph.csv (``--out``), with the
+  overrides in their settings column; docs/validation_coupling_stress.md, "Under the δ-SPH
+  fluid".
 * ``mock_fictitious`` (``--only mock_fictitious``, its own CSV
   benchmarks/results/coupling_stress_mock_fictitious.csv; see :func:`mock_sweep`): the FEM beam
   against the added-mass mock at added / structure mass 1e4, with and without fictitious mass.
@@ -95,6 +105,7 @@ import argparse
 import csv
 import itertools
 import math
+import os
 import sys
 import tempfile
 import time
@@ -109,6 +120,8 @@ sys.path.insert(0, str(ROOT / "src"))
 
 PLATE = ROOT / "scenarios" / "hydrostatic_plate_2d.toml"
 OBSTACLE = ROOT / "scenarios" / "dam_break_elastic_obstacle_2d.toml"
+#: the obstacle under the δ-SPH fluid, as validation/delta_sph_obstacle.py writes it
+OBSTACLE_SPH = ROOT / "validation" / "results" / "delta_sph_obstacle.toml"
 RHO_W = 1000.0
 
 # (scene, H, h, probe, component, spacing, end time, displacement bound): the bound, set as
@@ -118,7 +131,11 @@ RHO_W = 1000.0
 SCENES = {
     "plate": (PLATE, 2.0, 0.05, "mid_deflection", 1, 0.05, 0.03, 0.1),
     "obstacle": (OBSTACLE, 0.292, 0.012, "tip", 0, 0.0073, 0.17, 0.08),
+    "obstacle_sph": (OBSTACLE_SPH, 0.292, 0.012, "tip", 0, 0.0073, 0.17, 0.08),
+    "plate_sph": (PLATE, 2.0, 0.05, "mid_deflection", 1, 0.05, 0.03, 0.1),
 }
+#: scenes under the δ-SPH fluid: their own overrides, and no MPS surface flags to freeze
+SPH_SCENES = {"obstacle_sph": [], "plate_sph": ['fluid.method="delta-sph"']}
 
 
 def plate_added_mass(H: float = 2.0, L: float = 1.0) -> float:
@@ -149,6 +166,7 @@ def sweeps() -> list[tuple[str, str, str, float, list[str], float | None]]:
         rho = r * RHO_W * 2.0 / 0.05
         sets = [f"structure.members.0.material.density={rho!r}"]
         out.append(("plate_ratio", "plate", "mass_ratio", r, sets, None))
+        out.append(("plate_sph_ratio", "plate_sph", "mass_ratio", r, sets, None))
     for T in (2.5e-4, 1e-3, 4e-3):
         sets = ["structure.time.dt=0.00025", f"coupling.window={T!r}"]
         out.append(("plate_window", "plate", "window_s", T, sets, 0.04))
@@ -156,6 +174,10 @@ def sweeps() -> list[tuple[str, str, str, float, list[str], float | None]]:
         rho = r * RHO_W * 0.292 / 0.012
         sets = [f"structure.members.0.material.density={rho!r}"]
         out.append(("obstacle_ratio", "obstacle", "mass_ratio", r, sets, None))
+    for r in (10.0, 0.103, 1e-2, 1e-3, 1e-4):  # the same under δ-SPH: a fluid that can pull
+        rho = r * RHO_W * 0.292 / 0.012
+        sets = [f"structure.members.0.material.density={rho!r}"]
+        out.append(("obstacle_sph_ratio", "obstacle_sph", "mass_ratio", r, sets, None))
     for E in (1e5, 1e6, 1e8, 2e11):
         sets = [f"structure.members.0.material.youngs_modulus={E!r}"]
         out.append(("obstacle_E", "obstacle", "youngs_modulus_Pa", E, sets, None))
@@ -237,9 +259,12 @@ def run_one(
         ),
         "coupling.convergence.relative_tolerance=0.001",
         "coupling.convergence.max_iterations=30",
-        "fluid.surface.freeze_in_coupling_window=true",
         f"coupling.convergence.max_displacement={bound!r}",
     ]
+    if scene in SPH_SCENES:
+        base += SPH_SCENES[scene]
+    else:
+        base.append("fluid.surface.freeze_in_coupling_window=true")
     loaded = load_scenario(toml, base + sets)
     m = loaded.scenario.structure.members[0]
     ratio = m.material.density * h / (RHO_W * H)
@@ -266,7 +291,7 @@ def run_one(
     elif verdict.startswith("converged") and (conv == 0).any():
         verdict = f"ran to the end, {int((conv == 0).sum())} windows not converged"
     peak_t = math.nan
-    if w.size and scene == "plate":
+    if w.size and scene.startswith("plate"):
         disp = float(w[tw >= 0.5 * tw[-1]].mean())
     elif w.size:
         disp = float(w[np.argmax(np.abs(w))])
@@ -814,6 +839,12 @@ def main(argv=None) -> int:
         "this JSON-lines file (one run: use with --values / --ratios selecting one), and print "
         "its summary",
     )
+    ap.add_argument(
+        "--end-time",
+        type=float,
+        default=None,
+        help="end time (s) of every run (default: the scene's)",
+    )
     ap.add_argument("--trace-from", type=float, default=0.118, help="--trace start (s)")
     ap.add_argument(
         "--summarize-trace", type=Path, default=None, help="print the summary of a --trace file"
@@ -860,7 +891,7 @@ def main(argv=None) -> int:
         return 0
     runs = sweeps()
     if not args.only:
-        runs = [r for r in runs if not r[0].endswith(("_fictitious", "_shaped"))]
+        runs = [r for r in runs if not r[0].endswith(("_fictitious", "_shaped", "_sph_ratio"))]
     if args.only:
         keep = set(args.only.split(","))
         unknown = keep - {r[0] for r in runs}
@@ -878,8 +909,11 @@ def main(argv=None) -> int:
               "windows_not_converged", "displacement_m", "wall_s"]  # fmt: skip
     fictitious_only = all(r[0].endswith(("_fictitious", "_shaped")) for r in runs)
     shaped_only = all(r[0].endswith("_shaped") for r in runs)
+    sph_only = all(r[0].endswith("_sph_ratio") for r in runs)
     if fictitious_only:  # the fictitious-mass runs' extra columns (issue 21)
         fields += ["peak_time_s", "wet_windows", "force_error_max", "settings"]
+    elif sph_only:  # the δ-SPH runs: the spacing and the coupling's safeguards
+        fields += ["peak_time_s", "settings"]
     if shaped_only:  # task H1: the iterations of the windows in which M_f acted
         fields += ["iterations_mean_wet", "not_converged_wet"]
         if args.out == ROOT / "benchmarks/results/coupling_stress.csv":
@@ -910,14 +944,15 @@ def main(argv=None) -> int:
             path = Path(tmp) / f"r{k}.h5"
             if args.keep_h5 is not None:
                 args.keep_h5.mkdir(parents=True, exist_ok=True)
-                stamp = time.strftime("%H%M%S")
+                stamp = f"{time.strftime('%H%M%S')}_{os.getpid()}"  # two runs in one second
                 path = (
                     args.keep_h5
                     / f"{sweep}_{value:g}_{_ratio((sweep, scene, factor, value, sets)):g}_{stamp}.h5"
                 )
             sets = sets + args.set
+            end = args.end_time if args.end_time is not None else end
             got = run_one(scene, sets, end, args.acceleration, path, args.relaxation)
-            if fictitious_only:
+            if fictitious_only or sph_only:
                 got["settings"] = " ".join(args.set)
                 if args.probe_tank_depth is not None:
                     got["settings"] += f" probe:tank_bottom_operator_depth={args.probe_tank_depth}"
