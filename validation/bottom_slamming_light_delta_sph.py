@@ -52,12 +52,22 @@ from bottom_slamming_light import (  # noqa: E402
     analyse_light,
     light_overrides,
 )
-from results_csv import write_csv  # noqa: E402
+from results_csv import read_csv, write_csv  # noqa: E402
 
 CSV = RESULTS_DIR / "bottom_slamming_light_delta_sph.csv"
 CASE = Case(0.3, 0.06)
 L0 = "0.0057"  # H / 20
-RUNS = ("rigid", "rigid_x", "mf0.3", "mf1", "heavy")
+RUNS = ("rigid", "rigid_x", "mf0.3", "mf1", "heavy", "rigid_xw", "imvj", "imvj_sg")
+#: the runs with dry walls across the air gap (fluid.sph.wall_pressure = "wetted", task H2)
+WETTED = 'fluid.sph.wall_pressure="wetted"'
+#: the elastic runs, and the rigid pair exchange each one's MF divides by
+MF_REFERENCE = {
+    "mf0.3": "rigid_x",
+    "mf1": "rigid_x",
+    "heavy": "rigid_x",
+    "imvj": "rigid_xw",
+    "imvj_sg": "rigid_xw",
+}
 #: the rigid plate's force as its pair exchange (fluid.boundary_force = "momentum_exchange"),
 #: the measure the coupled member's load is (docs/fluid_sph.md, "Coupled to a structure"); the
 #: default, the first layer's pressure integral, also reads the pull of the negative wall
@@ -95,8 +105,15 @@ def write_scenario(kind: str) -> Path:
 def run_path(run: str, end_time: float, ft: str = "0.01") -> Path:
     """Results file; the light runs' names parse with bottom_slamming_light.NAME (``ft``: the
     force tolerance, "off" for a branch's base)."""
-    if run in ("rigid", "rigid_x"):
+    if run in ("rigid", "rigid_x", "rigid_xw"):
         return RESULTS_DIR / f"dsph_bottom_slamming_{run}_{L0}_end{end_time:g}_{CASE.label()}.h5"
+    if run in ("imvj", "imvj_sg"):  # no M_f, IQN-IMVJ, wetted walls (the prefix keeps
+        # NAME's pattern; "_sg": the coupling safeguards and HHT of light_overrides)
+        sg = "_sg" if run == "imvj_sg" else ""
+        return RESULTS_DIR / (
+            f"dsph_wetted_bottom_slamming_light_{L0}_mf0_rtol0.001_acciqn-imvj{sg}_ftoff_"
+            f"end{end_time:g}_{CASE.label()}.h5"
+        )
     if run == "heavy":
         return RESULTS_DIR / f"dsph_bottom_slamming_heavy_{L0}_end{end_time:g}_{CASE.label()}.h5"
     f = float(run.removeprefix("mf"))
@@ -107,9 +124,20 @@ def run_path(run: str, end_time: float, ft: str = "0.01") -> Path:
 
 
 def overrides(run: str, spacing: float, end_time: float, ft: str = "0.01") -> list[str]:
-    if run in ("rigid", "rigid_x"):
-        extra = [EXCHANGE] if run == "rigid_x" else []
+    if run in ("rigid", "rigid_x", "rigid_xw"):
+        extra = {"rigid": [], "rigid_x": [EXCHANGE], "rigid_xw": [EXCHANGE, WETTED]}[run]
         return case_overrides("rigid", CASE, spacing) + [f"run.end_time={end_time!r}", *extra]
+    if run in ("imvj", "imvj_sg"):  # the light plate as the obstacle at mass ratio 1e-4
+        # under δ-SPH: IQN-IMVJ's defaults, no fictitious mass (docs/validation_coupling_stress.md)
+        light = light_overrides(
+            0.0,
+            1e-3,
+            force_tolerance="off",
+            end_time=end_time,
+            acceleration="iqn-imvj",
+            safeguards=run == "imvj_sg",
+        )
+        return case_overrides("elastic", CASE, spacing) + light + [WETTED]
     if run == "heavy":  # the scenario's section, Aitken as the light runs, no M_f
         return case_overrides("elastic", CASE, spacing) + [
             f"run.end_time={end_time!r}",
@@ -169,7 +197,7 @@ def branch_time(path: Path) -> float:
 def report() -> int:
     rows = []
     refs: dict[str, tuple[float, float]] = {}  # run -> (raw, 11 ms mean) rigid peak
-    for run in ("rigid", "rigid_x"):
+    for run in ("rigid", "rigid_x", "rigid_xw"):
         files = sorted(RESULTS_DIR.glob(f"dsph_bottom_slamming_{run}_{L0}_end*.h5"))
         for path, _ in case_runner.readable_results(files):
             r = analyse(path)
@@ -194,9 +222,9 @@ def report() -> int:
                 }
             )
     # MF against the rigid plate's pair exchange, the measure the member's load is
-    rigid, rigid_s = refs.get("rigid_x", (math.nan, math.nan))
     rigid_p, rigid_ps = refs.get("rigid", (math.nan, math.nan))
-    for run in RUNS[2:]:
+    for run in MF_REFERENCE:
+        rigid, rigid_s = refs.get(MF_REFERENCE[run], (math.nan, math.nan))
         pattern = run_path(run, 0).name.replace("end0", "end*")
         for path, _ in case_runner.readable_results(sorted(RESULTS_DIR.glob(pattern))):
             with h5py.File(path, "r") as h5:
@@ -254,6 +282,9 @@ def report() -> int:
                 row.update(coupling_split(path, branch_time(path), "ft"))
             row.update(coupling_split(path, WET_FROM))
             rows.append(row)
+    if CSV.is_file():  # rows whose results file is not here are kept as they were
+        have = {row["results_file"] for row in rows}
+        rows = [r for r in read_csv(CSV) if r.get("results_file") not in have] + rows
     if not rows:
         print("nothing to analyse")
         return 1
