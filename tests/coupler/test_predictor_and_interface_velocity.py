@@ -3,8 +3,8 @@ velocity the fluid's interface points are given), on the mock added-mass problem
 
 Predictor: "velocity" d_n + T v_n (the default), "constant" d_n, "linear" d_n + T (d_n -
 d_n-1) / T_n-1. It changes only where the iterations start: every predictor converges to the
-same monolithic solution (to the tolerance), and a restart with the linear one (which needs the
-window before) continues bit for bit.
+same monolithic solution (to the tolerance). A restart with the linear one (which needs the
+window before) continuing bit for bit is in test_schemes.py's restart test.
 
 Interface velocity:
 "structure" (the default): the structure's velocity at the window's ends, interpolated;
@@ -24,7 +24,6 @@ velocity it is given):
 
 from __future__ import annotations
 
-import copy
 import math
 
 import numpy as np
@@ -141,19 +140,3 @@ def test_every_predictor_converges_to_the_monolithic_solution(mu):
         assert np.abs(trace - ref).max() < 1e-7 * np.abs(ref).max(), kind
         iterations[kind] = sch.history.column("iterations").sum()
     assert len(set(iterations.values())) > 1  # the first iterates differ
-
-
-def test_restart_with_the_linear_predictor_continues_bit_for_bit():
-    cfg = config(predictor="linear", acceleration={"kind": "iqn-imvj"})
-    fluid, st = mock.pair(3.0)
-    sch = create_scheme(fluid, st, cfg)
-    sch.run(0.01)
-    saved = copy.deepcopy((fluid, st, sch.state_dict()))
-    sch.run(0.02)
-    f2, s2, state = saved
-    sch2 = create_scheme(f2, s2, cfg)
-    sch2.initialize()
-    sch2.load_state_dict(state)
-    sch2.run(0.02)
-    assert sch2.d.tobytes() == sch.d.tobytes() and s2.u.tobytes() == st.u.tobytes()
-    assert [r.iterations for r in sch2.history] == [r.iterations for r in sch.history[10:]]

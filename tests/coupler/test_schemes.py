@@ -322,16 +322,18 @@ def test_mapping_rebuilt_when_particles_change():
 
 
 @pytest.mark.parametrize(
-    "acc",
+    ("acc", "extra"),
     [
-        {"kind": "iqn-ils"},
-        {"kind": "iqn-imvj"},
-        {"kind": "iqn-imvj", "restart": "RS-SVD", "chunk_size": 3},
-        {"kind": "iqn-imvj", "restart": "RS-LS", "chunk_size": 3},
+        ({"kind": "iqn-ils"}, {}),
+        ({"kind": "iqn-imvj"}, {}),
+        ({"kind": "iqn-imvj", "restart": "RS-SVD", "chunk_size": 3}, {}),
+        ({"kind": "iqn-imvj", "restart": "RS-LS", "chunk_size": 3}, {}),
+        # the linear predictor needs the window before: d_n-1 and T_n-1 are in the checkpoint
+        ({"kind": "iqn-imvj"}, {"predictor": "linear"}),
     ],
 )
-def test_restart_continues_bit_for_bit(acc):
-    cfg = config(acceleration=acc)
+def test_restart_continues_bit_for_bit(acc, extra):
+    cfg = config(acceleration=acc, **extra)
     fluid, st = mock.pair(3.0)
     sch = create_scheme(fluid, st, cfg)
     sch.run(0.01)
