@@ -22,8 +22,9 @@ One window [t_n, t_n + T] (:meth:`CouplingScheme.advance_window`):
 2. Fluid: sub-cycles from t_n to t_n + T in equal steps (``time_window.subcycle``), given at each
    sub-step end the displacement and velocity interpolated linearly between (d_n, v_n) and
    (x, s), mapped to its points (``interface_velocity = "displacement_rate"``: the velocity is
-   instead the points' own, (H x - H d_n) / T, constant in the window); its forces are sampled after every sub-step and averaged over
-   the window (``force_sampling = "mean"``) or taken at the end.
+   instead the points' own, (H x - H d_n) / T, constant in the window); its forces are sampled
+   after every sub-step and averaged over the window (``force_sampling = "mean"``) or taken at
+   the end.
 3. Structure: the mapped force, linearly interpolated from the previous window's value when it
    sub-cycles; answers x_tilde, s_tilde at t_n + T.
 4. Explicit: accept. Implicit: residual r = x_tilde - x (``convergence``); if converged accept,
