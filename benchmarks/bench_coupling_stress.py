@@ -75,7 +75,8 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
   validation/delta_sph_obstacle.py writes it: Adami walls, whose extrapolated pressure can pull)
   at mass ratio 10, 0.103, 1e-2, 1e-3 and 1e-4, without the MPS-only surface freeze (issue 21: is the
   MPS fluid's push-only, white-noise load what stops the windows at 1e-4?); ``plate_sph_ratio``
-  the plate of ``plate_ratio`` the same way (``fluid.method = "delta-sph"`` on its scenario).
+  the plate of ``plate_ratio`` the same way (``fluid.method = "delta-sph"`` on its scenario);
+  ``obstacle_sph_E`` and ``plate_sph_window`` the Young's modulus and window sweeps under δ-SPH.
   ``--end-time`` runs every selected run to another end (the obstacle's to 0.3 s, past its
   first tip peak). Rows: benchmarks/results/coupling_stress_sph.csv (``--out``), with the
   overrides in their settings column; docs/validation_coupling_stress.md, "Under the δ-SPH
@@ -170,6 +171,7 @@ def sweeps() -> list[tuple[str, str, str, float, list[str], float | None]]:
     for T in (2.5e-4, 1e-3, 4e-3):
         sets = ["structure.time.dt=0.00025", f"coupling.window={T!r}"]
         out.append(("plate_window", "plate", "window_s", T, sets, 0.04))
+        out.append(("plate_sph_window", "plate_sph", "window_s", T, sets, 0.04))
     for r in (10.0, 0.103, 1e-2, 1e-4):
         rho = r * RHO_W * 0.292 / 0.012
         sets = [f"structure.members.0.material.density={rho!r}"]
@@ -181,6 +183,7 @@ def sweeps() -> list[tuple[str, str, str, float, list[str], float | None]]:
     for E in (1e5, 1e6, 1e8, 2e11):
         sets = [f"structure.members.0.material.youngs_modulus={E!r}"]
         out.append(("obstacle_E", "obstacle", "youngs_modulus_Pa", E, sets, None))
+        out.append(("obstacle_sph_E", "obstacle_sph", "youngs_modulus_Pa", E, sets, None))
     m_a = plate_added_mass()
     for r in (1e-3, 1e-4):
         rho = r * RHO_W * 2.0 / 0.05
@@ -891,7 +894,9 @@ def main(argv=None) -> int:
         return 0
     runs = sweeps()
     if not args.only:
-        runs = [r for r in runs if not r[0].endswith(("_fictitious", "_shaped", "_sph_ratio"))]
+        runs = [
+            r for r in runs if not (r[0].endswith(("_fictitious", "_shaped")) or "_sph_" in r[0])
+        ]
     if args.only:
         keep = set(args.only.split(","))
         unknown = keep - {r[0] for r in runs}
@@ -909,7 +914,7 @@ def main(argv=None) -> int:
               "windows_not_converged", "displacement_m", "wall_s"]  # fmt: skip
     fictitious_only = all(r[0].endswith(("_fictitious", "_shaped")) for r in runs)
     shaped_only = all(r[0].endswith("_shaped") for r in runs)
-    sph_only = all(r[0].endswith("_sph_ratio") for r in runs)
+    sph_only = all("_sph_" in r[0] for r in runs)
     if fictitious_only:  # the fictitious-mass runs' extra columns (issue 21)
         fields += ["peak_time_s", "wet_windows", "force_error_max", "settings"]
     elif sph_only:  # the δ-SPH runs: the spacing and the coupling's safeguards
