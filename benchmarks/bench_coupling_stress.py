@@ -133,8 +133,8 @@ SCENES = {
     "plate": (PLATE, 2.0, 0.05, "mid_deflection", 1, 0.05, 0.03, 0.1),
     "obstacle": (OBSTACLE, 0.292, 0.012, "tip", 0, 0.0073, 0.17, 0.08),
     "obstacle_sph": (OBSTACLE_SPH, 0.292, 0.012, "tip", 0, 0.0073, 0.17, 0.08),
-    "plate_sph": (PLATE, 2.0, 0.05, "mid_deflection", 1, 0.05, 0.03, 0.1),
 }
+SCENES["plate_sph"] = SCENES["plate"]  # the same scenario, fluid.method set by SPH_SCENES
 #: scenes under the δ-SPH fluid: their own overrides, and no MPS surface flags to freeze
 SPH_SCENES = {"obstacle_sph": [], "plate_sph": ['fluid.method="delta-sph"']}
 

@@ -189,7 +189,7 @@ def test_clamped_wall_pressure_floors_only_the_negative_walls():
     p = np.array([-50.0, 30.0, -120.0, 80.0, 0.0])
     rho = np.array([999.9, 1000.1, 999.7, 1000.2, 1000.0])
     p0, rho0 = p.copy(), rho.copy()
-    delta_sph.clamp_wall_pressure(p, rho, 2, 1000.0, 20.0)
+    delta_sph.clamp_wall_pressure(p, rho, 2, 1000.0)
     assert np.array_equal(p[:2], p0[:2]) and np.array_equal(rho[:2], rho0[:2])
     assert p[2] == 0.0 and rho[2] == 1000.0
     assert p[3] == p0[3] and rho[3] == rho0[3] and p[4] == 0.0

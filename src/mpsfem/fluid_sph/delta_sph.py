@@ -95,16 +95,15 @@ def wall_pressure(pos, rho, p, kind, indptr, indices, r2max, n_fluid, gravity, o
 
 
 @njit(cache=True)
-def clamp_wall_pressure(p, rho, n_fluid, rho0, c0):
+def clamp_wall_pressure(p, rho, n_fluid, rho0):
     """``fluid.sph.wall_pressure = "clamped"``: p_w <- max(p_w, 0) (Pa) for every wall / dummy
-    particle after :func:`wall_pressure`, and rho_w = rho0 + p_w / c0^2 again: no wall pulls on
-    the fluid (PySPH's ClampWallPressure for Adami's walls), the real suction of a wall pulled
-    out of water included."""
-    inv_c2 = 1.0 / (c0 * c0)
+    particle after :func:`wall_pressure`, with its density rho_w = rho0 + p_w / c0^2 = rho0
+    where clamped: no wall pulls on the fluid (PySPH's ClampWallPressure for Adami's walls), the
+    real suction of a wall pulled out of water included."""
     for i in range(n_fluid, p.shape[0]):
         if p[i] < 0.0:
             p[i] = 0.0
-            rho[i] = rho0 + p[i] * inv_c2
+            rho[i] = rho0
 
 
 #: "wetted" walls (fluid.sph.wall_pressure): a pressure-layer particle is wholly wet while the

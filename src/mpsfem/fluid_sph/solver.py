@@ -380,7 +380,7 @@ class DeltaSPHSolver:
             self.c0,
         )  # fmt: skip
         if self.clamped_walls:  # fluid.sph.wall_pressure = "clamped": no wall pulls
-            delta_sph.clamp_wall_pressure(self.p, self.rho, nf, self.rho0, self.c0)
+            delta_sph.clamp_wall_pressure(self.p, self.rho, nf, self.rho0)
         if self.wetted_walls:  # fluid.sph.wall_pressure = "wetted": no pull across an air gap
             delta_sph.dry_walls(
                 self.pos, self.rho, self.p, nb.indptr, nb.indices, r2max, nf, self.mass,
