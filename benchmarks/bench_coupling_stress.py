@@ -14,7 +14,9 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
 * ``obstacle_ratio``: scenarios/dam_break_elastic_obstacle_2d.toml at l0 = L/20 = 0.0073 m,
   shortened to 0.17 s (the surge reaches the plate at about 0.15 s: the first-contact windows,
   where wet/dry switching is, are in; the first tip peak, at about 0.2 s, is not), mass ratio
-  (h = 0.012 m, H = 0.292 m) 10, 0.103 (the scenario's), 1e-2, 1e-4; self-weight off.
+  (h = 0.012 m, H = 0.292 m) 10, 0.103 (the scenario's), 1e-2, 1e-3, 1e-4; self-weight off
+  (1e-3 added 2026-11-27; coupling_stress.csv predates it). A run with ``--set`` overrides has
+  them in a settings column (e.g. benchmarks/results/coupling_stress_wc_mps.csv).
 * ``obstacle_E``: the same obstacle run at its own mass ratio with E = 1e5, 1e6 (the
   scenario's), 1e8, 2e11 Pa.
 * ``plate_fictitious``: the plate of ``plate_ratio`` at mass ratio 1e-3 and 1e-4 with the
@@ -172,7 +174,7 @@ def sweeps() -> list[tuple[str, str, str, float, list[str], float | None]]:
         sets = ["structure.time.dt=0.00025", f"coupling.window={T!r}"]
         out.append(("plate_window", "plate", "window_s", T, sets, 0.04))
         out.append(("plate_sph_window", "plate_sph", "window_s", T, sets, 0.04))
-    for r in (10.0, 0.103, 1e-2, 1e-4):
+    for r in (10.0, 0.103, 1e-2, 1e-3, 1e-4):
         rho = r * RHO_W * 0.292 / 0.012
         sets = [f"structure.members.0.material.density={rho!r}"]
         out.append(("obstacle_ratio", "obstacle", "mass_ratio", r, sets, None))
@@ -919,6 +921,8 @@ def main(argv=None) -> int:
         fields += ["peak_time_s", "wet_windows", "force_error_max", "settings"]
     elif sph_only:  # the δ-SPH runs: the spacing and the coupling's safeguards
         fields += ["peak_time_s", "settings"]
+    elif args.set:  # any other run with overrides names them
+        fields += ["settings"]
     if shaped_only:  # task H1: the iterations of the windows in which M_f acted
         fields += ["iterations_mean_wet", "not_converged_wet"]
         if args.out == ROOT / "benchmarks/results/coupling_stress.csv":
@@ -957,7 +961,7 @@ def main(argv=None) -> int:
             sets = sets + args.set
             end = args.end_time if args.end_time is not None else end
             got = run_one(scene, sets, end, args.acceleration, path, args.relaxation)
-            if fictitious_only or sph_only:
+            if "settings" in fields:
                 got["settings"] = " ".join(args.set)
                 if args.probe_tank_depth is not None:
                     got["settings"] += f" probe:tank_bottom_operator_depth={args.probe_tank_depth}"
