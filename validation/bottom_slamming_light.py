@@ -508,13 +508,15 @@ def return_load(path: Path, case: Case) -> dict:
     dt = float(np.median(np.diff(t)))
     smooth = running_mean(fy, 2 * max(1, int(round(0.5 * SMOOTH_S / dt))) + 1)
     i = int(np.argmax(np.where(after, fy, -np.inf)))
-    k = int(np.nanargmax(np.where(after, smooth, np.nan)))
+    masked = np.where(after, smooth, np.nan)
+    # the running mean is undefined within half its width of the record's end
+    k = int(np.nanargmax(masked)) if np.isfinite(masked).any() else -1
     down = np.flatnonzero(dsel & (np.arange(td.size) > j) & (uy <= 0.0))
     return {
         "return_peak": float(fy[i]),
         "return_peak_time_s": float(t[i]),
-        "return_peak_smooth": float(smooth[k]),
-        "return_peak_smooth_time_s": float(t[k]),
+        "return_peak_smooth": float(smooth[k]) if k >= 0 else math.nan,
+        "return_peak_smooth_time_s": float(t[k]) if k >= 0 else math.nan,
         "mid_back_at_rest_s": float(td[down[0]]) if down.size else math.nan,
     }
 

@@ -42,9 +42,11 @@ from bottom_slamming import (  # noqa: E402
     DEPTH,
     RESULTS_DIR,
     SCENARIOS,
+    SMOOTH_S,
     Case,
     analyse,
     case_overrides,
+    running_mean,
     spacing_for,
 )
 from bottom_slamming_light import (  # noqa: E402
@@ -57,7 +59,21 @@ from results_csv import read_csv, write_csv  # noqa: E402
 CSV = RESULTS_DIR / "bottom_slamming_light_delta_sph.csv"
 CASE = Case(0.3, 0.06)
 L0 = "0.0057"  # H / 20
-RUNS = ("rigid", "rigid_x", "mf0.3", "mf1", "heavy", "rigid_xw", "imvj", "imvj_sg")
+#: the IQN-IMVJ runs without M_f: "imvj" plus any of the tags "_corot" (co-rotational
+#: kinematics), "_sg" (the safeguards of light_overrides), "_rate" (coupling.interface_velocity
+#: = "displacement_rate"), "_c2" (twice the default sound speed), in this order
+IMVJ_RUNS = (
+    "imvj",
+    "imvj_sg",
+    "imvj_corot",
+    "imvj_corot_sg",
+    "imvj_corot_sg_rate",
+    "imvj_corot_sg_c2",
+)
+RUNS = ("rigid", "rigid_x", "mf0.3", "mf1", "heavy", "rigid_xw", *IMVJ_RUNS)
+#: the default c0 of this case, 10 x 2 sqrt(g H) with H = 0.114 m (fluid.sph.sound_speed's
+#: default; the "_c2" runs double it)
+SOUND_SPEED = 20.0 * math.sqrt(9.81 * 0.114)
 #: the runs with dry walls across the air gap (fluid.sph.wall_pressure = "wetted", task H2)
 WETTED = 'fluid.sph.wall_pressure="wetted"'
 #: the elastic runs, and the rigid pair exchange each one's MF divides by
@@ -65,8 +81,7 @@ MF_REFERENCE = {
     "mf0.3": "rigid_x",
     "mf1": "rigid_x",
     "heavy": "rigid_x",
-    "imvj": "rigid_xw",
-    "imvj_sg": "rigid_xw",
+    **{run: "rigid_xw" for run in IMVJ_RUNS},
 }
 #: the rigid plate's force as its pair exchange (fluid.boundary_force = "momentum_exchange"),
 #: the measure the coupled member's load is (docs/fluid_sph.md, "Coupled to a structure"); the
@@ -107,11 +122,13 @@ def run_path(run: str, end_time: float, ft: str = "0.01") -> Path:
     force tolerance, "off" for a branch's base)."""
     if run in ("rigid", "rigid_x", "rigid_xw"):
         return RESULTS_DIR / f"dsph_bottom_slamming_{run}_{L0}_end{end_time:g}_{CASE.label()}.h5"
-    if run in ("imvj", "imvj_sg"):  # no M_f, IQN-IMVJ, wetted walls (the prefix keeps
-        # NAME's pattern; "_sg": the coupling safeguards and HHT of light_overrides)
-        sg = "_sg" if run == "imvj_sg" else ""
+    if run in IMVJ_RUNS:  # no M_f, IQN-IMVJ, wetted walls (the prefix keeps NAME's pattern;
+        # "_corot" and "_sg" are NAME's own tags, "_rate" and "_c2" go into the prefix)
+        tags = run.split("_")[1:]
+        pre = "".join(f"{t}_" for t in ("rate", "c2") if t in tags)
+        mid = "".join(f"_{t}" for t in ("corot", "sg") if t in tags)
         return RESULTS_DIR / (
-            f"dsph_wetted_bottom_slamming_light_{L0}_mf0_rtol0.001_acciqn-imvj{sg}_ftoff_"
+            f"dsph_wetted_{pre}bottom_slamming_light_{L0}_mf0_rtol0.001_acciqn-imvj{mid}_ftoff_"
             f"end{end_time:g}_{CASE.label()}.h5"
         )
     if run == "heavy":
@@ -127,16 +144,22 @@ def overrides(run: str, spacing: float, end_time: float, ft: str = "0.01") -> li
     if run in ("rigid", "rigid_x", "rigid_xw"):
         extra = {"rigid": [], "rigid_x": [EXCHANGE], "rigid_xw": [EXCHANGE, WETTED]}[run]
         return case_overrides("rigid", CASE, spacing) + [f"run.end_time={end_time!r}", *extra]
-    if run in ("imvj", "imvj_sg"):  # the light plate as the obstacle at mass ratio 1e-4
-        # under δ-SPH: IQN-IMVJ's defaults, no fictitious mass (docs/validation_coupling_stress.md)
+    if run in IMVJ_RUNS:  # the light plate as the obstacle at mass ratio 1e-4 under δ-SPH:
+        # IQN-IMVJ's defaults, no fictitious mass (docs/validation_coupling_stress.md)
+        tags = run.split("_")[1:]
         light = light_overrides(
             0.0,
             1e-3,
             force_tolerance="off",
             end_time=end_time,
             acceleration="iqn-imvj",
-            safeguards=run == "imvj_sg",
+            kinematics="corotational" if "corot" in tags else "linear",
+            safeguards="sg" in tags,
         )
+        if "rate" in tags:
+            light.append('coupling.interface_velocity="displacement_rate"')
+        if "c2" in tags:
+            light.append(f"fluid.sph.sound_speed={2.0 * SOUND_SPEED!r}")
         return case_overrides("elastic", CASE, spacing) + light + [WETTED]
     if run == "heavy":  # the scenario's section, Aitken as the light runs, no M_f
         return case_overrides("elastic", CASE, spacing) + [
@@ -198,7 +221,7 @@ def report() -> int:
     rows = []
     refs: dict[str, tuple[float, float]] = {}  # run -> (raw, 11 ms mean) rigid peak
     for run in ("rigid", "rigid_x", "rigid_xw"):
-        files = sorted(RESULTS_DIR.glob(f"dsph_bottom_slamming_{run}_{L0}_end*.h5"))
+        files = sorted(RESULTS_DIR.glob(f"dsph_bottom_slamming_{run}_{L0}_end*_{CASE.label()}.h5"))
         for path, _ in case_runner.readable_results(files):
             r = analyse(path)
             refs[run] = (r.peak_uplift, r.peak_uplift_smooth)
@@ -208,6 +231,7 @@ def report() -> int:
             rows.append(
                 {
                     "run": run,
+                    "d_over_h": CASE.clearance,
                     "results_file": path.name,
                     "status": r.status,
                     "t_end_s": r.t_end_s,
@@ -272,11 +296,13 @@ def report() -> int:
                     "steps": r.steps,
                     "wall_time_s": r.wall_time_s,
                 }
+            row["d_over_h"] = CASE.clearance
             row["results_file"] = path.name
             row["branch_at_s"] = branch_time(path) if run != "heavy" else math.nan
             row["dry_uplift_mean"] = dry_uplift
             row["mf_raw"] = row["peak_uplift"] / rigid
             row["mf_smooth"] = row["peak_uplift_smooth"] / rigid_s
+            row.update(before_stop(path, row["status"], rigid_s))
             row["mf_raw_vs_pressure_integral"] = row["peak_uplift"] / rigid_p
             if run != "heavy":  # the windows at the force tolerance 1e-2 (after a branch)
                 row.update(coupling_split(path, branch_time(path), "ft"))
@@ -288,13 +314,17 @@ def report() -> int:
     if not rows:
         print("nothing to analyse")
         return 1
+    for row in rows:  # rows written before the column: the clearance is in the file name
+        if not _finite(row.get("d_over_h")):
+            row["d_over_h"] = float(row["results_file"].split("_DH")[1].removesuffix(".h5"))
     columns = [
-        "run", "fictitious_mass", "status", "t_end_s", "windows", "it_per_window_mean",
+        "run", "d_over_h", "fictitious_mass", "status", "t_end_s", "windows", "it_per_window_mean",
         "unconverged_windows", "branch_at_s", "ft_windows", "ft_it_mean", "ft_unconverged",
         "ft_force_error_median", "ft_force_error_p90", "wet_windows", "wet_it_mean", "wet_it_max",
         "wet_unconverged", "wet_force_error_median", "wet_force_error_p90", "dry_uplift_mean",
         "contact_time_s", "peak_uplift", "peak_time_s", "peak_uplift_smooth",
-        "peak_smooth_time_s", "mf_raw", "mf_smooth", "mf_raw_vs_pressure_integral", "mid_disp_at_crest_mm", "mid_disp_max_mm", "mid_disp_max_time_s",
+        "peak_smooth_time_s", "mf_raw", "mf_smooth", "mf_raw_vs_pressure_integral", "peak_smooth_before_stop",
+        "peak_smooth_before_stop_time_s", "mf_smooth_before_stop", "mid_disp_at_crest_mm", "mid_disp_max_mm", "mid_disp_max_time_s",
         "interface_work_error_pct", "steps", "wall_time_s", "results_file",
     ]  # fmt: skip
     full = [{k: row.get(k, math.nan) for k in columns} for row in rows]
@@ -303,7 +333,7 @@ def report() -> int:
         CSV,
         columns=columns,
         comment="validation/bottom_slamming_light_delta_sph.py: the light plate under δ-SPH, "
-        "A/H = 0.3, D/H = 0.06, l0 = H/20; MF against the δ-SPH rigid plate's pair exchange "
+        "A/H = 0.3, D/H = 0.06 (others: d_over_h), l0 = H/20; MF against the δ-SPH rigid plate's pair exchange "
         "(rigid_x); dry_uplift_mean: 0.5-1.0 s, still water under the plate",
     )
     for row in full:
@@ -317,7 +347,42 @@ def report() -> int:
     return 0
 
 
+#: s: what "before the stop" leaves out of a stopped run: its failing windows, whose rejected and
+#: retried iterates load the plate with spikes (tens to hundreds of N/m against a few)
+STOP_MARGIN = 0.02
+
+
+def before_stop(path: Path, status: str, rigid_smooth: float) -> dict[str, float]:
+    """The 11 ms running mean's largest uplift (N/m), its time (s) and MF against the rigid
+    plate's 11 ms peak ``rigid_smooth``, up to STOP_MARGIN before a stop (the whole record of a
+    finished run)."""
+    with h5py.File(path, "r") as h5:
+        t, fy = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:, 1]
+    if t.size < 3:
+        return {}
+    dt = float(np.median(np.diff(t)))
+    smooth = running_mean(fy, 2 * max(1, int(round(0.5 * SMOOTH_S / dt))) + 1)
+    keep = t <= t[-1] - (0.0 if status == "finished" else STOP_MARGIN)
+    masked = np.where(keep, smooth, np.nan)
+    if not np.isfinite(masked).any():
+        return {}
+    k = int(np.nanargmax(masked))
+    return {
+        "peak_smooth_before_stop": float(smooth[k]),
+        "peak_smooth_before_stop_time_s": float(t[k]),
+        "mf_smooth_before_stop": float(smooth[k]) / rigid_smooth,
+    }
+
+
+def _finite(value: object) -> bool:
+    try:
+        return math.isfinite(float(value))
+    except (TypeError, ValueError):
+        return False
+
+
 def main(argv: list[str] | None = None) -> int:
+    global CASE
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--runs", default="rigid", help=f"comma-separated of {', '.join(RUNS)}")
     ap.add_argument("--end-time", type=float, default=2.1, help="run.end_time, s (default 2.1)")
@@ -334,8 +399,18 @@ def main(argv: list[str] | None = None) -> int:
         default="off",
         help='the base run\'s coupling.convergence.fictitious_force_tolerance (default "off")',
     )
+    ap.add_argument(
+        "--clearance",
+        type=float,
+        default=CASE.clearance,
+        help=f"D/H of the plate (thesis: 0.03, 0.06, 0.10; default {CASE.clearance}); "
+        f"A/H = {CASE.ratio}",
+    )
     case_runner.add_run_options(ap)
     args = ap.parse_args(argv)
+    if args.clearance not in (0.03, 0.06, 0.1):
+        ap.error(f"--clearance {args.clearance}: one of 0.03, 0.06, 0.1 (the thesis's)")
+    CASE = Case(CASE.ratio, args.clearance)
     runs = args.runs.split(",")
     bad = [r for r in runs if r not in RUNS]
     if bad:
