@@ -61,7 +61,8 @@ CASE = Case(0.3, 0.06)
 L0 = "0.0057"  # H / 20
 #: the IQN-IMVJ runs without M_f: "imvj" plus any of the tags "_corot" (co-rotational
 #: kinematics), "_sg" (the safeguards of light_overrides), "_rate" (coupling.interface_velocity
-#: = "displacement_rate"), "_c2" (twice the default sound speed), in this order
+#: = "displacement_rate"), "_c2" / "_c075" (2 / 0.75 times the default sound speed), "_w05"
+#: (coupling window and structure step 0.5 ms instead of 1 ms), in this order
 IMVJ_RUNS = (
     "imvj",
     "imvj_sg",
@@ -69,6 +70,8 @@ IMVJ_RUNS = (
     "imvj_corot_sg",
     "imvj_corot_sg_rate",
     "imvj_corot_sg_c2",
+    "imvj_corot_sg_rate_c075",
+    "imvj_corot_sg_rate_w05",
 )
 RUNS = ("rigid", "rigid_x", "mf0.3", "mf1", "heavy", "rigid_xw", *IMVJ_RUNS)
 #: the default c0 of this case, 10 x 2 sqrt(g H) with H = 0.114 m (fluid.sph.sound_speed's
@@ -125,7 +128,7 @@ def run_path(run: str, end_time: float, ft: str = "0.01") -> Path:
     if run in IMVJ_RUNS:  # no M_f, IQN-IMVJ, wetted walls (the prefix keeps NAME's pattern;
         # "_corot" and "_sg" are NAME's own tags, "_rate" and "_c2" go into the prefix)
         tags = run.split("_")[1:]
-        pre = "".join(f"{t}_" for t in ("rate", "c2") if t in tags)
+        pre = "".join(f"{t}_" for t in ("rate", "c2", "c075", "w05") if t in tags)
         mid = "".join(f"_{t}" for t in ("corot", "sg") if t in tags)
         return RESULTS_DIR / (
             f"dsph_wetted_{pre}bottom_slamming_light_{L0}_mf0_rtol0.001_acciqn-imvj{mid}_ftoff_"
@@ -160,6 +163,10 @@ def overrides(run: str, spacing: float, end_time: float, ft: str = "0.01") -> li
             light.append('coupling.interface_velocity="displacement_rate"')
         if "c2" in tags:
             light.append(f"fluid.sph.sound_speed={2.0 * SOUND_SPEED!r}")
+        if "c075" in tags:
+            light.append(f"fluid.sph.sound_speed={0.75 * SOUND_SPEED!r}")
+        if "w05" in tags:
+            light += ["coupling.window=0.0005", "structure.time.dt=0.0005"]
         return case_overrides("elastic", CASE, spacing) + light + [WETTED]
     if run == "heavy":  # the scenario's section, Aitken as the light runs, no M_f
         return case_overrides("elastic", CASE, spacing) + [
@@ -180,8 +187,9 @@ WET_FROM = 1.62
 
 
 def coupling_split(path: Path, contact: float, prefix: str = "wet") -> dict[str, float]:
-    """Iterations per window and unconverged windows before / from ``contact`` (s; window k
-    ends at (k + 1) dt_window); the accepted windows' force errors from ``contact`` on."""
+    """Iterations per window and unconverged windows before / from ``contact`` (s; a window's
+    end time is /coupling/time, or (k + 1) x 1 ms in files without it); the accepted windows'
+    force errors from ``contact`` on."""
     with h5py.File(path, "r") as h5:
         if "coupling" not in h5:
             return {}
@@ -189,8 +197,7 @@ def coupling_split(path: Path, contact: float, prefix: str = "wet") -> dict[str,
         its = c["iterations"][:]
         conv = c["converged"][:]
         ferr = c["fictitious_force_error"][:] if "fictitious_force_error" in c else None
-        dt = float(h5["structure"].attrs.get("dt", 1e-3)) if "structure" in h5 else 1e-3
-    t_end = (np.arange(its.size) + 1) * dt
+        t_end = c["time"][:] if "time" in c else (np.arange(its.size) + 1) * 1e-3
     wet = t_end >= contact if math.isfinite(contact) else np.zeros(its.size, bool)
     out = {
         f"{prefix}_windows": int(wet.sum()),
