@@ -602,7 +602,7 @@ Member = Annotated[BeamMember | PlateMember, Field(discriminator="type")]
 
 # --------------------------------------------------------------------------- time
 class StructureTime(Section):
-    """Time integration of the structure (Newmark-beta or HHT-alpha)."""
+    """Time integration of the structure (Newmark-beta, HHT-alpha or generalised-alpha)."""
 
     dt: float = Field(
         gt=0,
@@ -630,13 +630,16 @@ class StructureTime(Section):
             "beta = 1/6) the run checks dt against the stability limit of the highest mode."
         ),
     )
-    scheme: Literal["newmark", "hht"] = Field(
+    scheme: Literal["newmark", "hht", "generalized_alpha"] = Field(
         "newmark",
         description=(
-            '"newmark" (newmark_beta, newmark_gamma) or "hht" (Hilber-Hughes-Taylor alpha '
+            '"newmark" (newmark_beta, newmark_gamma), "hht" (Hilber-Hughes-Taylor alpha '
             "method: beta = (1 - alpha)^2 / 4, gamma = 1/2 - alpha from `hht_alpha`; "
-            "unconditionally stable, second order, dissipates high frequencies). Nonlinear "
-            '(co-rotational) members and "hht" are solved with Newton iterations per step.'
+            "unconditionally stable, second order, dissipates high frequencies) or "
+            '"generalized_alpha" (Chung & Hulbert 1993, from `rho_inf`: the same, with the '
+            "high-frequency dissipation set down to annihilation in one step). Nonlinear "
+            '(co-rotational) members, "hht" and "generalized_alpha" are solved with Newton '
+            "iterations per step."
         ),
     )
     hht_alpha: float = Field(
@@ -649,44 +652,75 @@ class StructureTime(Section):
         ),
     )
 
+    rho_inf: float = Field(
+        0.8,
+        ge=0.0,
+        le=1.0,
+        description=(
+            "Spectral radius at infinite frequency, 0 <= rho_inf <= 1 (scheme = "
+            '"generalized_alpha" only): 1 dissipates nothing (the midpoint rule), 0 removes a '
+            "mode far above 1 / dt in one step (for near-massless members whose displacement "
+            "follows a noisy load); alpha_m = (2 rho_inf - 1) / (rho_inf + 1), alpha_f = "
+            "rho_inf / (rho_inf + 1), gamma = 1/2 - alpha_m + alpha_f, beta = (1 - alpha_m + "
+            "alpha_f)^2 / 4."
+        ),
+    )
+
     @model_validator(mode="after")
     def _scheme_keys(self) -> StructureTime:
-        # a key of the other scheme is refused when it differs from its default (a default
+        # a key of another scheme is refused when it differs from its default (a default
         # written out, as model_dump does, is harmless and must validate again)
         defaults = type(self).model_fields
-        if self.scheme == "hht":
+        if self.scheme != "newmark":
             for key in ("newmark_beta", "newmark_gamma"):
                 if getattr(self, key) != defaults[key].default:
                     raise InvalidValue(
                         key,
-                        'scheme = "hht" sets beta = (1 - hht_alpha)^2 / 4 and gamma = 1/2 - '
-                        "hht_alpha; leave newmark_beta and newmark_gamma out",
+                        f'scheme = "{self.scheme}" sets beta and gamma (from '
+                        f"{'hht_alpha' if self.scheme == 'hht' else 'rho_inf'}); leave "
+                        "newmark_beta and newmark_gamma out",
                         getattr(self, key),
                     )
-        elif self.hht_alpha != defaults["hht_alpha"].default:
-            raise InvalidValue(
-                "hht_alpha", 'hht_alpha is used only with scheme = "hht"', self.hht_alpha
-            )
+        own = {"hht": "hht_alpha", "generalized_alpha": "rho_inf"}
+        for scheme, key in own.items():
+            if self.scheme != scheme and getattr(self, key) != defaults[key].default:
+                raise InvalidValue(
+                    key, f'{key} is used only with scheme = "{scheme}"', getattr(self, key)
+                )
         return self
 
     @property
+    def alpha_m(self) -> float:
+        """Weight of the step-start acceleration in the inertia (generalised-alpha; 0 else)."""
+        if self.scheme == "generalized_alpha":
+            return (2.0 * self.rho_inf - 1.0) / (self.rho_inf + 1.0)  # Chung & Hulbert eq. 25
+        return 0.0
+
+    @property
+    def alpha_f(self) -> float:
+        """Weight of the step-start state in the forces (-hht_alpha under HHT; 0 Newmark)."""
+        if self.scheme == "generalized_alpha":
+            return self.rho_inf / (self.rho_inf + 1.0)  # Chung & Hulbert eq. 25
+        return -self.hht_alpha if self.scheme == "hht" else 0.0
+
+    @property
     def beta(self) -> float:
-        """Newmark beta in effect (from hht_alpha under the HHT scheme)."""
-        if self.scheme == "hht":
-            return (1.0 - self.hht_alpha) ** 2 / 4.0
-        return self.newmark_beta
+        """Newmark beta in effect (from hht_alpha / rho_inf under HHT / generalised-alpha)."""
+        if self.scheme == "newmark":
+            return self.newmark_beta
+        return (1.0 - self.alpha_m + self.alpha_f) ** 2 / 4.0  # Chung & Hulbert eq. 20
 
     @property
     def gamma(self) -> float:
-        """Newmark gamma in effect (from hht_alpha under the HHT scheme)."""
-        if self.scheme == "hht":
-            return 0.5 - self.hht_alpha
-        return self.newmark_gamma
+        """Newmark gamma in effect (from hht_alpha / rho_inf under HHT / generalised-alpha)."""
+        if self.scheme == "newmark":
+            return self.newmark_gamma
+        return 0.5 - self.alpha_m + self.alpha_f  # Chung & Hulbert eq. 17
 
     @property
     def alpha(self) -> float:
-        """HHT alpha in effect (0 under the Newmark scheme)."""
-        return self.hht_alpha if self.scheme == "hht" else 0.0
+        """HHT's alpha in effect, -alpha_f (0 under the Newmark scheme)."""
+        return -self.alpha_f
 
 
 class NewtonSettings(Section):

@@ -1,9 +1,16 @@
-"""Newmark and HHT-alpha time integration of M a + C v + f_int(u) = F(t), Newton in every step.
+"""Newmark, HHT-alpha and generalised-alpha time integration of M a + C v + f_int(u) = F(t),
+Newton in every step.
 
 The equation of motion is enforced at the HHT point (Hilber, Hughes & Taylor 1977, eq. 6;
 for a nonlinear f_int the forces are averaged, as in Crisfield 1997 vol. 2 sec. 24.3)::
 
-    M a1 + (1 + alpha) (C v1 + f_int(u1)) - alpha (C v + f_int(u)) = (1 + alpha) F1 - alpha F
+    (1 - alpha_m) M a1 + alpha_m M a + (1 + alpha) (C v1 + f_int(u1)) - alpha (C v + f_int(u))
+        = (1 + alpha) F1 - alpha F
+
+``alpha_m = 0`` except under generalised-alpha (Chung & Hulbert 1993, eq. 3, with alpha_f =
+-alpha; ``scheme = "generalized_alpha"``: alpha_m, alpha_f, beta and gamma from the spectral
+radius at infinity rho_inf in [0, 1], second order and unconditionally stable, rho_inf = 0
+removes the highest modes in one step).
 
 with the Newmark relations for u1, v1, a1 (:mod:`.newmark`). ``alpha = 0`` is Newmark with any
 (beta, gamma) (``scheme = "newmark"``); ``scheme = "hht"`` takes alpha in [-1/3, 0] with
@@ -18,8 +25,9 @@ The predictor is the last displacement, u1 = u (robust where the
 acceleration carries the high modes, as at a release).
 
 Energies (:meth:`NonlinearNewmark.energy`) are those of the state at the end of each step,
-1/2 v1.M v1 + strain energy(u1), not at the HHT point t + (1 + alpha) dt. Under HHT (alpha < 0)
-or gamma > 1/2 their sum decreases by the scheme's numerical dissipation, not by a physical loss;
+1/2 v1.M v1 + strain energy(u1), not at the HHT point t + (1 + alpha) dt. Under HHT (alpha < 0),
+generalised-alpha (rho_inf < 1) or gamma > 1/2 their sum decreases by the scheme's numerical
+dissipation, not by a physical loss;
 under average acceleration (alpha = 0, beta = 1/4, gamma = 1/2) a linear undamped member keeps
 it exactly and a co-rotational one to O(dt^2).
 
@@ -89,6 +97,7 @@ class NonlinearNewmark:
         beta: float = 0.25,
         gamma: float = 0.5,
         alpha: float = 0.0,
+        alpha_m: float = 0.0,
         tolerance: float = 1e-8,
         max_iterations: int = 25,
         reuse_ratio: float = 0.01,
@@ -98,26 +107,34 @@ class NonlinearNewmark:
             raise ValueError(f"newmark_beta = {beta}: must be > 0 (implicit schemes only)")
         if gamma < 0.5:
             raise ValueError(f"newmark_gamma = {gamma}: must be >= 0.5 (less is unstable)")
-        if not -1.0 / 3.0 - 1e-15 <= alpha <= 0.0:
+        if alpha_m == 0.0 and not -1.0 / 3.0 - 1e-15 <= alpha <= 0.0:
             raise ValueError(f"hht_alpha = {alpha}: must be in [-1/3, 0]")
+        if alpha_m != 0.0 and not (-1.0 <= alpha_m <= 0.5 and -0.5 <= alpha <= 0.0):
+            raise ValueError(
+                f"alpha_m = {alpha_m}, alpha = {alpha}: generalised-alpha needs alpha_m in "
+                "[-1, 1/2] and alpha = -alpha_f in [-1/2, 0] (rho_inf in [0, 1])"
+            )
         self.system = system
         self.M = sp.csr_matrix(system.M)
         C = sp.csr_matrix(system.C, copy=True)
         C.eliminate_zeros()
         self.C = C if C.nnz else None
         self.beta, self.gamma, self.alpha = float(beta), float(gamma), float(alpha)
+        self.alpha_m = float(alpha_m)
         self.tolerance = float(tolerance)
         self.max_iterations = int(max_iterations)
         self.reuse_ratio = float(reuse_ratio)
         self.n = self.M.shape[0]
         Mf = None if fictitious_mass is None else sp.csr_matrix(fictitious_mass)
         self.Mf = Mf if Mf is not None and Mf.nnz else None
-        # M a1 + (1 + alpha) C v1 as one product [M | (1 + alpha) C] [a1; v1]
+        # (1 - alpha_m) M a1 + (1 + alpha) C v1 as one product [(1 - alpha_m) M | (1 + alpha) C]
+        # [a1; v1] (alpha_m = 0: M itself, so Newmark and HHT are unchanged bit for bit)
+        self._Mw = self.M if alpha_m == 0.0 else (1.0 - alpha_m) * self.M
         self._MC = (
-            None if self.C is None else sp.hstack([self.M, (1.0 + alpha) * self.C], format="csr")
+            None if self.C is None else sp.hstack([self._Mw, (1.0 + alpha) * self.C], format="csr")
         )
         # row-sum norm of M: bounds the terms of M a1 = c0 M (u1 - u) + M base_a (round-off)
-        self._M_norm = float(abs(self.M).sum(axis=1).max()) if self.n else 0.0
+        self._M_norm = float(abs(self._Mw).sum(axis=1).max()) if self.n else 0.0
         self._C_norm = (
             (1.0 + alpha) * float(abs(self.C).sum(axis=1).max()) if self.C is not None else 0.0
         )
@@ -218,7 +235,7 @@ class NonlinearNewmark:
         u, v, a = s.u, s.v, s.a
         al = self.alpha
         g = self.gamma
-        sysm, M, C = self.system, self.M, self.C
+        sysm, M, C, Mw = self.system, self.M, self.C, self._Mw
         rhs = np.asarray(F1, dtype=float)
         if al != 0.0:
             rhs = (1.0 + al) * rhs - al * s.f_ext
@@ -226,6 +243,8 @@ class NonlinearNewmark:
             if C is not None:
                 old = old + C @ v
             rhs = rhs + al * old
+        if self.alpha_m != 0.0:  # generalised-alpha: the step-start inertia alpha_m M a
+            rhs = rhs - self.alpha_m * (M @ a)
         if Mf is not None:  # (M + M_f) a1 + ... = ... + M_f a_prev
             rhs = rhs + Mf @ a_prev
             if shift is not None:
@@ -243,7 +262,7 @@ class NonlinearNewmark:
             a1 = c0 * (u1 - u) + base_a
             fi = sysm.internal_force(u1)
             if MC is None:
-                ma = M @ a1
+                ma = Mw @ a1
             else:  # M a1 + (1 + alpha) C v1
                 av[:n] = a1
                 av[n:] = base_v + (dt * g) * a1
@@ -264,7 +283,7 @@ class NonlinearNewmark:
 
         def jacobian(u1):
             cc = (1.0 + al) * c1 if C is not None else 0.0
-            J = sysm.effective_tangent(u1, 1.0 + al, c0, cc)
+            J = sysm.effective_tangent(u1, 1.0 + al, (1.0 - self.alpha_m) * c0, cc)
             if self.Mf is not None:  # always, so that the kept factor fits every step
                 J = _add_sparse(J, c0 * self.Mf)
             return J

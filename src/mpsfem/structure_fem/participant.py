@@ -180,8 +180,8 @@ class StructureParticipant:
         self.dt = float(t.dt)
         sysm = self.system
         # linear members under Newmark keep the linear integrator (one solve per step); a
-        # co-rotational member or the HHT scheme takes Newton iterations
-        self.nonlinear = sysm.nonlinear or t.scheme == "hht"
+        # co-rotational member or an alpha scheme (HHT, generalised-alpha) takes Newton iterations
+        self.nonlinear = sysm.nonlinear or t.scheme != "newmark"
         # fictitious added mass (members' `fictitious_mass`; None: off) and the accelerations
         # of the previous coupling iteration, per sub-step of the window (:mod:`.fictitious_mass`)
         self._fm_masses = [cfg.fictitious_mass for cfg in section.members]
@@ -243,6 +243,7 @@ class StructureParticipant:
                 beta=t.beta,
                 gamma=t.gamma,
                 alpha=t.alpha,
+                alpha_m=t.alpha_m,
                 tolerance=nw.tolerance,
                 max_iterations=nw.max_iterations,
                 reuse_ratio=nw.reuse_ratio,

@@ -91,6 +91,11 @@ def energy_meaning(time) -> str:
         "kinetic 1/2 v.M v and strain energy (1/2 u.K u; co-rotational members: the sum of "
         "their elements' local strain energies) of the state at the end of each step"
     )
+    if time.scheme == "generalized_alpha" and time.rho_inf < 1.0:
+        return (
+            f"{base}, not at the generalised-alpha points (rho_inf = {time.rho_inf:g}); their "
+            "sum decreases by the scheme's numerical dissipation, not by a physical loss"
+        )
     if time.scheme == "hht":
         return (
             f"{base}, not at the HHT point t + (1 + alpha) dt (hht_alpha = {time.hht_alpha:g}); "
