@@ -354,6 +354,14 @@ def uplift_impulse(t: np.ndarray, fy: np.ndarray, contact: float, window_end: fl
     return float(np.trapezoid(fy[wet], t[wet])) if np.count_nonzero(wet) > 1 else math.nan
 
 
+def smooth_force(t: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Centred running mean of a force record f(t) over SMOOTH_S (N/m), the n = 2 round(SMOOTH_S
+    / 2 dt) + 1 samples at its median spacing dt (1 ms if there is one sample); NaN within half
+    the width of either end."""
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 1e-3
+    return running_mean(f, 2 * max(1, int(round(0.5 * SMOOTH_S / dt))) + 1)
+
+
 def analyse(path: Path) -> CaseResult:
     """Every measurement of one results file.
 
@@ -409,8 +417,7 @@ def analyse(path: Path) -> CaseResult:
         raise ValueError(f"{path.name}: no uplift samples before {w_end:.3f} s")
     i = int(np.argmax(np.where(sel, fy, -np.inf)))
     peak, t_peak = float(fy[i]), float(t[i])
-    dt = float(np.median(np.diff(t))) if t.size > 1 else 1e-3
-    smooth = running_mean(fy, 2 * max(1, int(round(0.5 * SMOOTH_S / dt))) + 1)
+    smooth = smooth_force(t, fy)
     js = int(np.nanargmax(np.where(sel, smooth, np.nan)))
     peak_smooth, t_peak_smooth = float(smooth[js]), float(t[js])
     above = np.flatnonzero(sel & (fy > 0.02 * peak))
@@ -566,9 +573,8 @@ def plot_forces(l0_label: str, rows: list[CaseResult], out: Path) -> None:
                     continue
                 with h5py.File(path, "r") as h5:
                     t, f = _series(h5, "uplift")
-                n = 2 * max(1, int(round(0.5 * SMOOTH_S / float(np.median(np.diff(t)))))) + 1
                 ax.plot(t - case.crest_time, f[:, 1], color=color, lw=0.4, alpha=0.3)
-                ax.plot(t - case.crest_time, running_mean(f[:, 1], n), color=color, lw=1.0,
+                ax.plot(t - case.crest_time, smooth_force(t, f[:, 1]), color=color, lw=1.0,
                         label=f"{kind} (11 ms mean)")  # fmt: skip
             ax.axvline(case.reflection_time - case.crest_time, color="0.5", ls=":", lw=0.8)
             ax.axhline(0.0, color="0.6", lw=0.4)

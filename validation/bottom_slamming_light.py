@@ -42,13 +42,13 @@ from bottom_slamming import (  # noqa: E402 - the rigid/elastic study's set-up a
     PLATE_LENGTH,
     RESULTS_DIR,
     SCENARIOS,
-    SMOOTH_S,
     THESIS_MF,
     Case,
     analyse,
     case_overrides,
     parse_cases,
     running_mean,
+    smooth_force,
     spacing_for,
 )
 from results_csv import read_csv, write_csv  # noqa: E402
@@ -505,8 +505,7 @@ def return_load(path: Path, case: Case) -> dict:
     after = (t > td[j]) & (t <= w_end)
     if not after.any():
         return {}
-    dt = float(np.median(np.diff(t)))
-    smooth = running_mean(fy, 2 * max(1, int(round(0.5 * SMOOTH_S / dt))) + 1)
+    smooth = smooth_force(t, fy)
     i = int(np.argmax(np.where(after, fy, -np.inf)))
     masked = np.where(after, smooth, np.nan)
     # the running mean is undefined within half its width of the record's end

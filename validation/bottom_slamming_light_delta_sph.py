@@ -42,11 +42,10 @@ from bottom_slamming import (  # noqa: E402
     DEPTH,
     RESULTS_DIR,
     SCENARIOS,
-    SMOOTH_S,
     Case,
     analyse,
     case_overrides,
-    running_mean,
+    smooth_force,
     spacing_for,
 )
 from bottom_slamming_light import (  # noqa: E402
@@ -326,9 +325,6 @@ def report() -> int:
     if not rows:
         print("nothing to analyse")
         return 1
-    for row in rows:  # rows written before the column: the clearance is in the file name
-        if not _finite(row.get("d_over_h")):
-            row["d_over_h"] = float(row["results_file"].split("_DH")[1].removesuffix(".h5"))
     columns = [
         "run", "d_over_h", "fictitious_mass", "status", "t_end_s", "windows", "it_per_window_mean",
         "unconverged_windows", "branch_at_s", "ft_windows", "ft_it_mean", "ft_unconverged",
@@ -370,10 +366,7 @@ def before_stop(path: Path, status: str, rigid_smooth: float) -> dict[str, float
     finished run)."""
     with h5py.File(path, "r") as h5:
         t, fy = h5["probes"]["uplift"]["time"][:], h5["probes"]["uplift"]["value"][:, 1]
-    if t.size < 3:
-        return {}
-    dt = float(np.median(np.diff(t)))
-    smooth = running_mean(fy, 2 * max(1, int(round(0.5 * SMOOTH_S / dt))) + 1)
+    smooth = smooth_force(t, fy)
     keep = t <= t[-1] - (0.0 if status == "finished" else STOP_MARGIN)
     masked = np.where(keep, smooth, np.nan)
     if not np.isfinite(masked).any():
@@ -384,13 +377,6 @@ def before_stop(path: Path, status: str, rigid_smooth: float) -> dict[str, float
         "peak_smooth_before_stop_time_s": float(t[k]),
         "mf_smooth_before_stop": float(smooth[k]) / rigid_smooth,
     }
-
-
-def _finite(value: object) -> bool:
-    try:
-        return math.isfinite(float(value))
-    except (TypeError, ValueError):
-        return False
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -263,7 +263,7 @@ class NonlinearNewmark:
             fi = sysm.internal_force(u1)
             if MC is None:
                 ma = Mw @ a1
-            else:  # M a1 + (1 + alpha) C v1
+            else:  # (1 - alpha_m) M a1 + (1 + alpha) C v1
                 av[:n] = a1
                 av[n:] = base_v + (dt * g) * a1
                 ma = MC @ av
