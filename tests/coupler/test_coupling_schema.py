@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import typing
+import warnings
 
 import pytest
 from pydantic import BaseModel, ValidationError
@@ -13,6 +14,7 @@ from mpsfem.coupler.mapping import MAPPINGS
 from mpsfem.coupler.transport import TRANSPORTS
 from mpsfem.scenario.base import Section
 from mpsfem.scenario.coupling import CouplingSection
+from mpsfem.scenario.schema import LinkWarning
 
 
 def errors(data) -> list[str]:
@@ -143,5 +145,9 @@ def test_corotational_members_turn_the_rigid_link_exactly_unless_told():
     linear = "structure.members.0.kinematics=linear"
     assert not load_scenario(scene, [linear]).scenario.coupling.mapping.large_rotation
     assert load_scenario(scene, [corot]).scenario.coupling.mapping.large_rotation
-    told = load_scenario(scene, [corot, "coupling.mapping.large_rotation=false"])
+    with pytest.warns(LinkWarning, match="'obstacle'.*linear rigid link"):
+        told = load_scenario(scene, [corot, "coupling.mapping.large_rotation=false"])
     assert not told.scenario.coupling.mapping.large_rotation
+    with warnings.catch_warnings():  # a linear member with the linear link: nothing to say
+        warnings.simplefilter("error", LinkWarning)
+        load_scenario(scene, [linear, "coupling.mapping.large_rotation=false"])

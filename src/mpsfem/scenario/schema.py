@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 from pydantic import Field, model_validator
 
 from mpsfem.scenario.base import InvalidValue, Section
@@ -11,6 +13,12 @@ from mpsfem.scenario.limits import check_limits
 from mpsfem.scenario.output import OutputSection, RunSection
 from mpsfem.scenario.probes import Probe
 from mpsfem.scenario.structure import StructureSection, distance_to_member
+
+
+class LinkWarning(UserWarning):
+    """A co-rotational member coupled through the linear rigid link
+    (``coupling.mapping.large_rotation = false`` set by the scenario)."""
+
 
 #: a displacement probe may lie at most this fraction of its member's extent (a beam's length, a
 #: plate's longest vertex-to-vertex distance) from the member's mid-line / mid-surface
@@ -39,11 +47,23 @@ class Scenario(Section):
         mapping = getattr(self.coupling, "mapping", None) if self.coupling is not None else None
         if mapping is None or "large_rotation" not in type(mapping).model_fields:
             return
+        corot = [
+            m.name
+            for m in self.structure.members
+            if getattr(m, "kinematics", "linear") == "corotational"
+        ]
         if "large_rotation" in mapping.model_fields_set:
+            if corot and not mapping.large_rotation:
+                warnings.warn(
+                    "coupling.mapping.large_rotation = false with co-rotational member(s) "
+                    f"{', '.join(map(repr, corot))}: the linear rigid link moves the faces' "
+                    "particles off a member that turns far (millimetres at 0.65 rad); leave the "
+                    "key out (or set it true) unless reproducing a linear-link run",
+                    LinkWarning,
+                    stacklevel=2,
+                )
             return
-        if any(
-            getattr(m, "kinematics", "linear") == "corotational" for m in self.structure.members
-        ):
+        if corot:
             mapping.large_rotation = True
 
     @model_validator(mode="after")
