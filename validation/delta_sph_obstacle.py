@@ -33,7 +33,7 @@ validation/results/delta_sph_obstacle.csv and prints the table.
 ``--cases`` picks the cases to run; the CSV lists every case, reading the others' results files.
 Cases ``*_stiff`` give the plate E = 2e11 Pa (a member that does not move: the fluid's own load
 noise, issue 20), ``mps20_stiff_*`` with switches of the pressure equation, the surface and the
-step. Cases ``mps*_suction`` let the water pull on the plate (``fluid.pressure.structure_suction``,
+step. Cases ``dsph*_h2`` widen the δ-SPH kernel to h = 2 l0. Cases ``mps*_suction`` let the water pull on the plate (``fluid.pressure.structure_suction``,
 docs/fluid.md). ``--noise-map`` re-runs --cases in process and writes the ringing node by node
 (delta_sph_obstacle_noise.csv; ``noise_map``).
 """
@@ -91,6 +91,9 @@ STIFF = ("structure.members.0.material.youngs_modulus=2e11",)
 #: negative pressure kept next to the member away from the free surface (issue 21: can the
 #: water pull on the plate?)
 SUCTION = ("fluid.pressure.structure_suction=true",)
+#: a wider δ-SPH kernel, h = 2 l0 (default 1.3 l0): more neighbours, a smoother pressure (issue
+#: 20, the ringing)
+WIDE = ("fluid.sph.smoothing_ratio=2.0",)
 #: key -> (fluid method, L / l0, end time in s[, extra --set overrides])
 CASES = {
     "dsph20": ("delta-sph", 20, 0.3),
@@ -123,6 +126,8 @@ CASES = {
     "mps20_stiff_pzero": ("mps", 20, 0.3, (*STIFF, 'fluid.surface.pressure="zero"')),
     "mps20_suction": ("mps", 20, 0.3, SUCTION),
     "mps40_suction": ("mps", 40, 0.3, SUCTION),
+    "dsph20_h2": ("delta-sph", 20, 0.3, WIDE),
+    "dsph40_h2": ("delta-sph", 40, 0.3, WIDE),
 }
 #: 0.1 s blocks after the first peak whose mean tip u_x is reported (the water piled up behind
 #: the plate; docs/validation.md gives MPS's of an earlier fluid)
