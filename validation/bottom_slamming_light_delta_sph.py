@@ -63,7 +63,8 @@ L0 = "0.0057"  # H / 20
 #: = "displacement_rate"), "_c2" / "_c075" (2 / 0.75 times the default sound speed), "_w05"
 #: (coupling window and structure step 0.5 ms instead of 1 ms), "_ga0" (the structure's HHT of
 #: the safeguards replaced by generalised-alpha with rho_inf = 0), "_fend" (coupling.force_sampling
-#: = "end": the fluid's force at the window's end instead of its window mean), in this order
+#: = "end": the fluid's force at the window's end instead of its window mean), "_shift"
+#: (fluid.sph.shifting = "delta_plus"), in this order
 IMVJ_RUNS = (
     "imvj",
     "imvj_sg",
@@ -75,6 +76,7 @@ IMVJ_RUNS = (
     "imvj_corot_sg_rate_w05",
     "imvj_corot_sg_rate_ga0",
     "imvj_corot_sg_rate_fend",
+    "imvj_corot_sg_rate_shift",
 )
 RUNS = ("rigid", "rigid_x", "mf0.3", "mf1", "heavy", "rigid_xw", *IMVJ_RUNS)
 #: the default c0 of this case, 10 x 2 sqrt(g H) with H = 0.114 m (fluid.sph.sound_speed's
@@ -131,7 +133,7 @@ def run_path(run: str, end_time: float, ft: str = "0.01") -> Path:
     if run in IMVJ_RUNS:  # no M_f, IQN-IMVJ, wetted walls (the prefix keeps NAME's pattern;
         # "_corot" and "_sg" are NAME's own tags, "_rate" and "_c2" go into the prefix)
         tags = run.split("_")[1:]
-        pre = "".join(f"{t}_" for t in ("rate", "c2", "c075", "w05", "ga0", "fend") if t in tags)
+        pre = "".join(f"{t}_" for t in ("rate", "c2", "c075", "w05", "ga0", "fend", "shift") if t in tags)
         mid = "".join(f"_{t}" for t in ("corot", "sg") if t in tags)
         return RESULTS_DIR / (
             f"dsph_wetted_{pre}bottom_slamming_light_{L0}_mf0_rtol0.001_acciqn-imvj{mid}_ftoff_"
@@ -175,6 +177,8 @@ def overrides(run: str, spacing: float, end_time: float, ft: str = "0.01") -> li
             light += ['structure.time.scheme="generalized_alpha"', "structure.time.rho_inf=0.0"]
         if "fend" in tags:
             light.append('coupling.force_sampling="end"')
+        if "shift" in tags:
+            light.append('fluid.sph.shifting="delta_plus"')
         return case_overrides("elastic", CASE, spacing) + light + [WETTED]
     if run == "heavy":  # the scenario's section, Aitken as the light runs, no M_f
         return case_overrides("elastic", CASE, spacing) + [
