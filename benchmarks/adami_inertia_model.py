@@ -28,19 +28,22 @@ from __future__ import annotations
 
 import numpy as np
 
+from mpsfem.scenario.structure import StructureTime
+
 MASS_RATIO = 0.029 / 10.0  # m_s / m_d: the obstacle at 1e-4 (0.029 kg/m^2) against ~10 kg/m^2
 
 
 def parameters(scheme: str) -> tuple[float, float, float, float]:
-    """(alpha_m, alpha_f, beta, gamma) of a scheme name: 'newmark', 'hht0.3', 'ga0.0'."""
+    """(alpha_m, alpha_f, beta, gamma) of a scheme name: 'newmark', 'hht0.3' (hht_alpha =
+    -0.3), 'ga0.0' (generalised-alpha, rho_inf = 0), as the structure solver takes them from
+    ``structure.time`` (:class:`mpsfem.scenario.structure.StructureTime`)."""
     if scheme == "newmark":
-        return 0.0, 0.0, 0.25, 0.5
-    if scheme.startswith("hht"):  # HHT alpha = -a: alpha_f = a
-        a = float(scheme[3:])
-        return 0.0, a, 0.25 * (1.0 + a) ** 2, 0.5 + a
-    rho = float(scheme[2:])  # generalised-alpha, rho_inf
-    am, af = (2.0 * rho - 1.0) / (rho + 1.0), rho / (rho + 1.0)
-    return am, af, 0.25 * (1.0 - am + af) ** 2, 0.5 - am + af
+        t = StructureTime(dt=1.0)
+    elif scheme.startswith("hht"):
+        t = StructureTime(dt=1.0, scheme="hht", hht_alpha=-float(scheme[3:]))
+    else:
+        t = StructureTime(dt=1.0, scheme="generalized_alpha", rho_inf=float(scheme[2:]))
+    return t.alpha_m, t.alpha_f, t.beta, t.gamma
 
 
 def step(

@@ -82,6 +82,19 @@ RUNS = ("rigid", "rigid_x", "mf0.3", "mf1", "heavy", "rigid_xw", *IMVJ_RUNS)
 #: the default c0 of this case, 10 x 2 sqrt(g H) with H = 0.114 m (fluid.sph.sound_speed's
 #: default; the "_c2" runs double it)
 SOUND_SPEED = 20.0 * math.sqrt(9.81 * 0.114)
+#: the run tags that go into the results file's name before "bottom_slamming", in this order,
+#: and the overrides each adds (a tag with a structure scheme replaces the safeguards' HHT)
+PREFIX_TAGS = {
+    "rate": ['coupling.interface_velocity="displacement_rate"'],
+    "c2": [f"fluid.sph.sound_speed={2.0 * SOUND_SPEED!r}"],
+    "c075": [f"fluid.sph.sound_speed={0.75 * SOUND_SPEED!r}"],
+    "w05": ["coupling.window=0.0005", "structure.time.dt=0.0005"],
+    "ga0": ['structure.time.scheme="generalized_alpha"', "structure.time.rho_inf=0.0"],
+    "fend": ['coupling.force_sampling="end"'],
+    "shift": ['fluid.sph.shifting="delta_plus"'],
+}
+#: the safeguards' structure-scheme overrides (light_overrides) that a scheme tag replaces
+SAFEGUARD_SCHEME = ("structure.time.scheme", "structure.time.hht_alpha")
 #: the runs with dry walls across the air gap (fluid.sph.wall_pressure = "wetted", task H2)
 WETTED = 'fluid.sph.wall_pressure="wetted"'
 #: the elastic runs, and the rigid pair exchange each one's MF divides by
@@ -131,9 +144,9 @@ def run_path(run: str, end_time: float, ft: str = "0.01") -> Path:
     if run in ("rigid", "rigid_x", "rigid_xw"):
         return RESULTS_DIR / f"dsph_bottom_slamming_{run}_{L0}_end{end_time:g}_{CASE.label()}.h5"
     if run in IMVJ_RUNS:  # no M_f, IQN-IMVJ, wetted walls (the prefix keeps NAME's pattern;
-        # "_corot" and "_sg" are NAME's own tags, "_rate" and "_c2" go into the prefix)
+        # "_corot" and "_sg" are NAME's own tags, PREFIX_TAGS go into the prefix)
         tags = run.split("_")[1:]
-        pre = "".join(f"{t}_" for t in ("rate", "c2", "c075", "w05", "ga0", "fend", "shift") if t in tags)
+        pre = "".join(f"{t}_" for t in PREFIX_TAGS if t in tags)
         mid = "".join(f"_{t}" for t in ("corot", "sg") if t in tags)
         return RESULTS_DIR / (
             f"dsph_wetted_{pre}bottom_slamming_light_{L0}_mf0_rtol0.001_acciqn-imvj{mid}_ftoff_"
@@ -164,21 +177,12 @@ def overrides(run: str, spacing: float, end_time: float, ft: str = "0.01") -> li
             kinematics="corotational" if "corot" in tags else "linear",
             safeguards="sg" in tags,
         )
-        if "rate" in tags:
-            light.append('coupling.interface_velocity="displacement_rate"')
-        if "c2" in tags:
-            light.append(f"fluid.sph.sound_speed={2.0 * SOUND_SPEED!r}")
-        if "c075" in tags:
-            light.append(f"fluid.sph.sound_speed={0.75 * SOUND_SPEED!r}")
-        if "w05" in tags:
-            light += ["coupling.window=0.0005", "structure.time.dt=0.0005"]
-        if "ga0" in tags:
-            light = [o for o in light if not o.startswith("structure.time.")]
-            light += ['structure.time.scheme="generalized_alpha"', "structure.time.rho_inf=0.0"]
-        if "fend" in tags:
-            light.append('coupling.force_sampling="end"')
-        if "shift" in tags:
-            light.append('fluid.sph.shifting="delta_plus"')
+        for tag, extra in PREFIX_TAGS.items():
+            if tag not in tags:
+                continue
+            if any(o.startswith("structure.time.scheme") for o in extra):  # replaces the HHT
+                light = [o for o in light if not o.startswith(SAFEGUARD_SCHEME)]
+            light += extra
         return case_overrides("elastic", CASE, spacing) + light + [WETTED]
     if run == "heavy":  # the scenario's section, Aitken as the light runs, no M_f
         return case_overrides("elastic", CASE, spacing) + [
