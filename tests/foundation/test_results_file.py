@@ -167,3 +167,26 @@ def test_killed_run_leaves_a_sidecar_listing_only_snapshots_on_disk(tmp_path):
         on_disk = sorted(h5["particles"])
     listed = _sidecar_keys(tmp_path / "k.xdmf")
     assert listed and set(listed) <= set(on_disk), (listed, on_disk)
+
+
+def test_coupling_rows_keep_one_row_per_window_across_flushes(tmp_path):
+    """/coupling is buffered and written at each flush: a key first seen after a flush is
+    NaN-padded for the windows written before it, a key a window lacks reads NaN there, and the
+    buffered rows reach the file at close."""
+    path = tmp_path / "c.h5"
+    rf = ResultsFile.create(path, "title = 'x'")
+    rf.append_coupling(0.1, 1, 1e-3, a=1.0)
+    rf.flush()
+    rf.append_coupling(0.2, 2, 1e-4, a=2.0, b=5.0)
+    rf.append_coupling(0.3, 3, 1e-5)
+    rf.flush()
+    rf.append_coupling(0.4, 4, 1e-6, b=7.0)
+    rf.close("finished")
+    with h5py.File(path, "r") as h5:
+        g = h5["coupling"]
+        np.testing.assert_allclose(g["time"][:], [0.1, 0.2, 0.3, 0.4])
+        np.testing.assert_array_equal(g["iterations"][:], [1, 2, 3, 4])
+        assert g["iterations"].dtype == np.int32
+        np.testing.assert_allclose(g["residual"][:], [1e-3, 1e-4, 1e-5, 1e-6])
+        np.testing.assert_array_equal(g["a"][:], [1.0, 2.0, np.nan, np.nan])
+        np.testing.assert_array_equal(g["b"][:], [np.nan, 5.0, np.nan, 7.0])

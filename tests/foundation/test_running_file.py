@@ -55,6 +55,7 @@ def test_restart_drops_a_half_appended_coupling_row(tmp_path):
     f = ResultsFile.create(path, "title = 'x'")
     for k in range(1, 5):
         f.append_coupling(k / 10, 2, 1e-4)
+    f.flush()  # the rows reach the file at a flush
     for ds in f.h5["coupling"].values():  # the interrupted append: resized, never written
         ds.resize(ds.shape[0] + 1, axis=0)
     f.close("failed: interrupted (SIGINT)")
