@@ -22,10 +22,12 @@ simulated second, wall and CPU time per simulated second.
 
 Writes benchmarks/results/delta_sph_rhs.csv and benchmarks/results/delta_sph_vs_mps_steps.csv
 (``--tag X``: delta_sph_rhs_X.csv, ..., e.g. to keep a run of another version of the code apart;
-``--dim 3``: part 1 in a 3D tank d broad, delta_sph_rhs_3d*.csv).
+``--dim 3``: part 1 in a 3D tank d broad, delta_sph_rhs_3d*.csv; ``--budget``: with the
+momentum budget, whose split joins the profile as ``momentum_budget_split``).
 
     python benchmarks/bench_delta_sph.py [--threads 1,2] [--calls 20] [--repeat 3] [--sim-time 0.1]
                                          [--steps-only] [--rhs-only] [--profile] [--tag X] [--dim 3]
+                                         [--budget]
 """
 
 from __future__ import annotations
@@ -46,9 +48,11 @@ from results_csv import write_csv  # noqa: E402
 RESULTS = ROOT / "benchmarks" / "results"
 
 
-def tank(n_depth: int, ratio: float, dim: int = 2):
+def tank(n_depth: int, ratio: float, dim: int = 2, budget: bool = False):
     """Still water d = 1 m deep at d / l0 = ``n_depth``, 2 d long (and d broad in 3D), in a
-    tank 1.5 d high; δ-SPHC, RK4, h = ``ratio`` l0."""
+    tank 1.5 d high; δ-SPHC, RK4, h = ``ratio`` l0; ``budget``: with the momentum budget
+    (``fluid.momentum_budget = true``), whose split then runs in every right-hand side."""
+    extra = {"momentum_budget": True} if budget else {}
     from mpsfem.fluid_sph.solver import DeltaSPHSolver
     from mpsfem.scenario.fluid import FluidSection
 
@@ -65,6 +69,7 @@ def tank(n_depth: int, ratio: float, dim: int = 2):
             {"shape": "tank", "lower": [0.0] * dim, "upper": [2 * d, *across, 1.5 * d], "name": "t"}
         ],  # fmt: skip
         sph={"smoothing_ratio": ratio},
+        **extra,
     )
     return DeltaSPHSolver(spec)
 
@@ -82,10 +87,11 @@ def time_rhs(s, calls: int, repeat: int) -> tuple[float, float]:
     return best, cpu_best
 
 
-def profile_rhs(s, calls: int) -> dict[str, float]:
+def profile_rhs(s, calls: int, repeat: int = 1) -> dict[str, float]:
     """CPU seconds per call of each stage of ``DeltaSPHSolver.rhs`` (the same calls in the same
     order, timed one by one: the sum is the right-hand side less the Python glue) and of one
-    RK4 step's integrator kernels (``time_stepping``: 4 accumulations, 3 stages, 1 finish)."""
+    RK4 step's integrator kernels (``time_stepping``: 4 accumulations, 3 stages, 1 finish); each
+    the least of ``repeat`` blocks of ``calls`` calls."""
     from mpsfem.fluid_sph import delta_sph, time_stepping
 
     nf = s.n_fluid
@@ -121,18 +127,20 @@ def profile_rhs(s, calls: int) -> dict[str, float]:
             else:
                 time_stepping.rk_finish(p0, v0, r0, sp, sv, sr, nf, 1e-9, pos, vel, rho)
 
+    if s.budget.full:  # the momentum budget's split of the right-hand side (--budget)
+        stages["momentum_budget_split"] = lambda: s.budget.evaluate(s, nb)
     stages["rk4_step_integrator"] = rk4_kernels
+    stages["rhs_total"] = s.rhs
     out = {}
     for name, fn in stages.items():
         fn()  # compile / warm
-        cpu = time.process_time()
-        for _ in range(calls):
-            fn()
-        out[name] = (time.process_time() - cpu) / calls
-    cpu = time.process_time()
-    for _ in range(calls):
-        s.rhs()
-    out["rhs_total"] = (time.process_time() - cpu) / calls
+        best = float("inf")
+        for _ in range(repeat):
+            cpu = time.process_time()
+            for _ in range(calls):
+                fn()
+            best = min(best, (time.process_time() - cpu) / calls)
+        out[name] = best
     return out
 
 
@@ -187,14 +195,20 @@ def main() -> int:
         help="per-stage CPU time of the right-hand side on 1 thread, then exit",
     )
     ap.add_argument("--tag", default="", help="suffix of the profile CSV's name")
+    ap.add_argument(
+        "--budget",
+        action="store_true",
+        help="with the momentum budget (fluid.momentum_budget = true): its split is profiled "
+        "and timed in every right-hand side",
+    )
     args = ap.parse_args()
     if args.profile:
         numba.set_num_threads(1)
         prof = []
         for n_depth in (int(x) for x in args.depths.split(",")):
             for ratio in (float(r) for r in args.ratios.split(",")):
-                s = tank(n_depth, ratio, args.dim)
-                t = profile_rhs(s, args.calls)
+                s = tank(n_depth, ratio, args.dim, args.budget)
+                t = profile_rhs(s, args.calls, args.repeat)
                 for name, sec in t.items():
                     prof.append(
                         {
@@ -221,7 +235,7 @@ def main() -> int:
     rows = []
     for ratio in (float(r) for r in args.ratios.split(",")) if not args.steps_only else ():
         for n_depth in (int(x) for x in args.depths.split(",")):
-            s = tank(n_depth, ratio, args.dim)
+            s = tank(n_depth, ratio, args.dim, args.budget)
             s.rhs()  # compile and warm the neighbour candidates
             for threads in (int(t) for t in args.threads.split(",")):
                 numba.set_num_threads(threads)

@@ -19,18 +19,21 @@ from numba import njit
 
 from mpsfem.fluid_mps.momentum_budget import range_sums
 from mpsfem.fluid_sph.delta_sph import ETA2
-from mpsfem.fluid_sph.wendland import gradient_factor_fast
 
 
 @njit(cache=True)
-def split_forces(pos, vel, rho, vol, p, indptr, indices, n_fluid, h, inv_h, coef, rho0, c0, mass,
-                 corrected, M, alpha, internal, wall, project, wall_group, ext_dir,
+def split_forces(pos, vel, rho, vol, p, row_start, row_end, pair_j, fv_pair, n_fluid, h, rho0, c0,
+                 mass, corrected, M, pM, alpha, internal, wall, project, wall_group, ext_dir,
                  ext_keep, wall_wet=None):  # fmt: skip
     """The pair forces of one right-hand side, split (N; N/m in 2D): ``internal[0]`` the sum over
     fluid-fluid pressure pairs of -V_i <grad p>_i's share, ``internal[1]`` the same for the
     artificial viscosity, ``wall[j - n_fluid]`` the pressure force of the fluid on wall / dummy
     particle j (the reaction to the pair term fluid particle i received, seed eqs. 6, 12). Same
-    pairs and arithmetic as ``delta_sph.pair_terms``; serial in index order (deterministic).
+    pairs and arithmetic as ``delta_sph.pair_terms``: the pair table ``pair_j``, ``fv_pair`` (F
+    V_j) of rows ``row_start[i] .. row_end[i] - 1`` that ``delta_sph.correction`` wrote for
+    this right-hand side, and its products ``pM`` = p_i M_i (the same products this kernel
+    formed before it took them: the same bits); serial in index order (deterministic; the sums in local variables,
+    in the order the earlier array accumulators took, so the bits are theirs).
     With ``project`` a wall particle of group g = ``wall_group[j - n_fluid]`` >= 0 books only
     sum_k keep[g, k] (c . e_k) e_k of its pair (``fluid.sph.structure_load = "normal_pairs"``, as
     ``pair_terms`` gives it to the fluid). ``wall_wet`` (``fluid.sph.wall_pressure =
@@ -39,23 +42,22 @@ def split_forces(pos, vel, rho, vol, p, indptr, indices, n_fluid, h, inv_h, coef
     dim = pos.shape[1]
     eta2 = ETA2 * h * h
     nvis = 2.0 * (dim + 2)
-    internal[:] = 0.0
     wall[:] = 0.0
+    ip0 = ip1 = ip2 = 0.0  # internal pressure
+    iv0 = iv1 = iv2 = 0.0  # internal viscous
     for i in range(n_fluid):
         inv_rho = 1.0 / rho[i]
         vi = vol[i]  # V_i = m / rho_i
         visc = mass * h * c0 * rho0 * inv_rho  # m alpha h c0 rho0 / rho_i, seed eq. 3
         p_own = p[i]
-        for k in range(indptr[i], indptr[i + 1]):
-            j = indices[k]
+        for k in range(row_start[i], row_end[i]):
+            fv = fv_pair[k]  # F V_j; grad_i W_ij V_j = F r_ij V_j
+            if fv == 0.0:
+                continue
+            j = pair_j[k]
             d0 = pos[i, 0] - pos[j, 0]
             d1 = pos[i, 1] - pos[j, 1]
             d2 = pos[i, 2] - pos[j, 2] if dim == 3 else 0.0
-            r2 = d0 * d0 + d1 * d1 + d2 * d2
-            f = gradient_factor_fast(np.sqrt(r2), inv_h, coef)
-            if f == 0.0:
-                continue
-            fv = f * vol[j]  # F V_j; grad_i W_ij V_j = F r_ij V_j
             g0 = fv * d0
             g1 = fv * d1
             g2 = fv * d2
@@ -64,8 +66,20 @@ def split_forces(pos, vel, rho, vol, p, indptr, indices, n_fluid, h, inv_h, coef
             pi = p_own
             if wall_wet is not None and not fluid_j:
                 pi = p_own * wall_wet[j - n_fluid]  # w_j p_i at a wetted wall (dry_walls)
-            if corrected:  # (p_i M_i + p_j M_j) grad_i W_ij V_j, seed eq. 12 (M_j = M_i at a wall)
-                jj = j if fluid_j else i
+            if corrected and fluid_j:  # (p_i M_i + p_j M_j) grad_i W_ij V_j, seed eq. 12
+                gp0 = (pM[i, 0, 0] + pM[j, 0, 0]) * g0
+                gp0 += (pM[i, 0, 1] + pM[j, 0, 1]) * g1
+                gp1 = (pM[i, 1, 0] + pM[j, 1, 0]) * g0
+                gp1 += (pM[i, 1, 1] + pM[j, 1, 1]) * g1
+                gp2 = 0.0
+                if dim == 3:
+                    gp0 += (pM[i, 0, 2] + pM[j, 0, 2]) * g2
+                    gp1 += (pM[i, 1, 2] + pM[j, 1, 2]) * g2
+                    gp2 = (pM[i, 2, 0] + pM[j, 2, 0]) * g0
+                    gp2 += (pM[i, 2, 1] + pM[j, 2, 1]) * g1
+                    gp2 += (pM[i, 2, 2] + pM[j, 2, 2]) * g2
+            elif corrected:  # a wall particle: M_j = M_i, p_i weighed by its wetness
+                jj = i
                 gp0 = (pi * M[i, 0, 0] + pj * M[jj, 0, 0]) * g0
                 gp0 += (pi * M[i, 0, 1] + pj * M[jj, 0, 1]) * g1
                 gp1 = (pi * M[i, 1, 0] + pj * M[jj, 1, 0]) * g0
@@ -83,17 +97,18 @@ def split_forces(pos, vel, rho, vol, p, indptr, indices, n_fluid, h, inv_h, coef
                 gp1 = s * g1
                 gp2 = s * g2
             if fluid_j:
+                r2 = d0 * d0 + d1 * d1 + d2 * d2
                 u_d = (vel[j, 0] - vel[i, 0]) * d0 + (vel[j, 1] - vel[i, 1]) * d1
                 if dim == 3:
                     u_d += (vel[j, 2] - vel[i, 2]) * d2
                 w = visc * 0.5 * (alpha[i] + alpha[j]) * (-nvis * u_d / (r2 + eta2))  # eq. 3
-                internal[0, 0] -= vi * gp0
-                internal[0, 1] -= vi * gp1
-                internal[1, 0] += w * g0
-                internal[1, 1] += w * g1
+                ip0 -= vi * gp0
+                ip1 -= vi * gp1
+                iv0 += w * g0
+                iv1 += w * g1
                 if dim == 3:
-                    internal[0, 2] -= vi * gp2
-                    internal[1, 2] += w * g2
+                    ip2 -= vi * gp2
+                    iv2 += w * g2
             else:
                 t = j - n_fluid
                 grp = wall_group[t] if project else -1
@@ -113,6 +128,14 @@ def split_forces(pos, vel, rho, vol, p, indptr, indices, n_fluid, h, inv_h, coef
                 wall[t, 1] += vi * gp1
                 if dim == 3:
                     wall[t, 2] += vi * gp2
+    internal[:] = 0.0
+    internal[0, 0] = ip0
+    internal[0, 1] = ip1
+    internal[1, 0] = iv0
+    internal[1, 1] = iv1
+    if dim == 3:
+        internal[0, 2] = ip2
+        internal[1, 2] = iv2
 
 
 @njit(cache=True)
@@ -182,8 +205,8 @@ class SPHMomentumBudget:
 
     def evaluate(self, s, nb) -> None:
         """Split the right-hand side just computed by the solver ``s`` on the list ``nb``."""
-        split_forces(s.pos, s.vel, s.rho, s.vol, s.p, nb.indptr, nb.indices, s.n_fluid, s.h, s.inv_h,
-                     s.grad_coef, s.rho0, s.c0, s.mass, s.corrected, s.M, s.alpha,
+        split_forces(s.pos, s.vel, s.rho, s.vol, s.p, nb.indptr, s.row_end, s.pair_j, s.fv_pair,
+                     s.n_fluid, s.h, s.rho0, s.c0, s.mass, s.corrected, s.M, s.pM, s.alpha,
                      self._internal, self.wall_force, s.project_load, s.wall_group, s.ext_dir,
                      s.ext_keep, s.wall_wet if s.wetted_walls else None)  # fmt: skip
         body_force(s.pos, s.n_fluid, s.mass, s.gravity, s.omega2, s.center, self.split[0])
