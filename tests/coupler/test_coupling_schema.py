@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import typing
 import warnings
+from pathlib import Path
 
 import pytest
 from pydantic import BaseModel, ValidationError
@@ -14,7 +15,7 @@ from mpsfem.coupler.mapping import MAPPINGS
 from mpsfem.coupler.transport import TRANSPORTS
 from mpsfem.scenario.base import Section
 from mpsfem.scenario.coupling import CouplingSection
-from mpsfem.scenario.schema import LinkWarning
+from mpsfem.scenario.schema import AddedMassWarning, LinkWarning
 
 
 def errors(data) -> list[str]:
@@ -151,3 +152,49 @@ def test_corotational_members_turn_the_rigid_link_exactly_unless_told():
     with warnings.catch_warnings():  # a linear member with the linear link: nothing to say
         warnings.simplefilter("error", LinkWarning)
         load_scenario(scene, [linear, "coupling.mapping.large_rotation=false"])
+
+
+# --------------------------------------------------------------------------- light members
+ROOT = Path(__file__).resolve().parents[2]
+OBSTACLE = ROOT / "scenarios" / "dam_break_elastic_obstacle_2d.toml"
+OBSTACLE_SPH = ROOT / "validation" / "results" / "delta_sph_obstacle.toml"
+LIGHT = "structure.members.0.material.density=2.43"  # rho_s h / (rho_w H) = 1e-4
+
+
+def _load_quietly(path, overrides=()):
+    from mpsfem.scenario.loader import load_scenario
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", AddedMassWarning)
+        return load_scenario(path, list(overrides)).scenario
+
+
+def test_mass_ratio_is_the_documented_one():
+    """The obstacle's ratio as docs/validation_coupling_stress.md defines it: rho_s h = 2500 x
+    0.012 kg/m^2 against 1000 kg/m^3 x the 0.292 m column: 0.1027."""
+    ratio, H = _load_quietly(OBSTACLE).mass_ratios()["obstacle"]
+    assert H == pytest.approx(0.292, rel=1e-12)
+    assert ratio == pytest.approx(2500 * 0.012 / (1000 * 0.292), rel=1e-12)
+
+
+def test_shipped_scenarios_raise_no_light_member_warning():
+    for path in sorted((ROOT / "scenarios").glob("*.toml")) + [OBSTACLE_SPH]:
+        _load_quietly(path)
+
+
+def test_a_light_member_under_mps_is_pointed_to_the_guide():
+    from mpsfem.scenario.loader import load_scenario
+
+    with pytest.warns(AddedMassWarning, match=r"'obstacle'.*= 0\.0001.*below 0\.01.*Light members"):
+        load_scenario(OBSTACLE, [LIGHT])
+    _load_quietly(OBSTACLE, [LIGHT, "structure.members.0.fictitious_mass=0.25"])
+
+
+def test_a_light_member_under_delta_sph_is_pointed_to_the_safeguards():
+    from mpsfem.scenario.loader import load_scenario
+
+    with pytest.warns(AddedMassWarning, match=r"below 0\.001.*delta-sph.*safeguards"):
+        load_scenario(OBSTACLE_SPH, [LIGHT])
+    _load_quietly(OBSTACLE_SPH, [LIGHT, "coupling.convergence.accept_unconverged=best"])
+    # 1e-3 is where δ-SPH's defaults still converged: no warning there
+    _load_quietly(OBSTACLE_SPH, ["structure.members.0.material.density=25.0"])  # 1.03e-3

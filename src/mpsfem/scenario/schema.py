@@ -20,6 +20,17 @@ class LinkWarning(UserWarning):
     (``coupling.mapping.large_rotation = false`` set by the scenario)."""
 
 
+class AddedMassWarning(UserWarning):
+    """A member far lighter than the water it meets, under coupling settings that the stress
+    sweeps did not see converge at its mass ratio (docs/coupler.md, "Light members")."""
+
+
+#: mass ratios (rho_s h) / (rho_w H) below which each fluid method's defaults did not converge
+#: on every case of the stress sweeps (docs/coupler.md, "Light members: what to set, by mass
+#: ratio"): MPS's obstacle needs the shaped fictitious mass at 1e-2 and its plate at 1e-3;
+#: δ-SPH's obstacle needs the safeguards at 1e-4
+LIGHT_MEMBER_RATIO = {"mps": 1e-2, "delta-sph": 1e-3}
+
 #: a displacement probe may lie at most this fraction of its member's extent (a beam's length, a
 #: plate's longest vertex-to-vertex distance) from the member's mid-line / mid-surface
 DISPLACEMENT_PROBE_TOLERANCE = 0.1
@@ -66,6 +77,67 @@ class Scenario(Section):
         if corot:
             mapping.large_rotation = True
 
+    def mass_ratios(self) -> dict[str, tuple[float, float]]:
+        """Each member's mass ratio (rho_s h) / (rho_w H) and the H it takes (m): the member's
+        mass per area of its mid-surface (a beam: density x area / width) over that of the
+        water, H being the fluid blocks' extent along gravity (the initial water depth or
+        column height; the vertical axis without gravity). {} without fluid or structure."""
+        if self.fluid is None or self.structure is None:
+            return {}
+        g = [abs(c) for c in self.fluid.gravity]
+        ax = g.index(max(g)) if max(g) > 0 else self.fluid.dim - 1
+        H = max(b.upper[ax] for b in self.fluid.blocks) - min(
+            b.lower[ax] for b in self.fluid.blocks
+        )
+        out = {}
+        for m in self.structure.members:
+            rho = m.material.density
+            if getattr(m, "width", None) is not None:  # a beam: mass per length over its width
+                area = m.area if m.area is not None else m.width * m.thickness
+                per_area = rho * area / m.width
+            else:
+                per_area = rho * m.thickness
+            out[m.name] = (per_area / (self.fluid.density * H), H)
+        return out
+
+    def _light_member_advice(self) -> None:
+        """Warn (:class:`AddedMassWarning`) where a member's mass ratio lies below what the
+        fluid method's defaults converged at in the stress sweeps and the scenario sets none
+        of the remedies measured there: a fictitious mass under MPS, the safeguards
+        (``coupling.convergence.accept_unconverged = "best"``) under δ-SPH."""
+        if self.coupling is None:
+            return
+        method = self.fluid.method
+        limit = LIGHT_MEMBER_RATIO.get(method)
+        if limit is None:
+            return
+        ratios = self.mass_ratios()
+        safeguards = self.coupling.convergence.accept_unconverged == "best"
+        for m in self.structure.members:
+            ratio, H = ratios[m.name]
+            if ratio >= limit * (1.0 - 1e-9):
+                continue
+            if method == "mps" and m.fictitious_mass > 0.0:
+                continue
+            if method == "delta-sph" and safeguards:
+                continue
+            remedy = (
+                "a fictitious mass (structure.members.N.fictitious_mass; under MPS no setting "
+                "converged on the dam-break obstacle below 1e-2, and δ-SPH did)"
+                if method == "mps"
+                else 'the safeguards (coupling.convergence.accept_unconverged = "best", '
+                "retreat_predictor, the HHT scheme) and a plate at least 3 spacings thick"
+            )
+            warnings.warn(
+                f"structure member {m.name!r}: mass ratio (rho_s h) / (rho_w H) = {ratio:.2g} "
+                f"(H = {H:.3g} m, the fluid blocks' depth), below {limit:g}, where the "
+                f"coupling stress sweeps saw the {method} fluid's defaults fail to converge; "
+                f"they needed {remedy}. See docs/coupler.md, 'Light members: what to set, by "
+                "mass ratio'",
+                AddedMassWarning,
+                stacklevel=2,
+            )
+
     @model_validator(mode="after")
     def _check(self) -> Scenario:
         check_limits(self)  # first: coordinates and sizes the other checks compute with
@@ -103,6 +175,8 @@ class Scenario(Section):
         if self.structure is not None:
             self._check_displacement_probes_on_members()
             self._large_rotation_link()
+            if self.fluid is not None:
+                self._light_member_advice()
         if self.fluid is not None:
             walls = {w.name for w in self.fluid.walls if w.name}
             if self.structure is not None:
