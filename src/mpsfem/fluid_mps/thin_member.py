@@ -174,7 +174,7 @@ def rules_1_2(i, j, kind, member_of, side_of, half, side):
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _allowed(i, j, pos, kind, member_of, side_of, half, side, anchors, aptr):
     """May row i keep neighbour j? (rules of the module docstring)"""
     r = rules_1_2(i, j, kind, member_of, side_of, half, side)

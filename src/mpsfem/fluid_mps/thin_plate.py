@@ -47,7 +47,7 @@ def _bracket(s, h, n, L):
     return j, min(max(w, 0.0), 1.0)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _height(m, s1, s2, size, grid, hptr, heights):
     """Mid-surface offset eta_mid (m) of plate m at (s1, s2), clamped to its rectangle."""
     L1 = size[m, 0]
@@ -135,7 +135,7 @@ def segment_crosses_plate(a, b, m, frame, size, grid, hptr, heights):
     return (g0 <= 0.0 and g1 >= 0.0) or (g0 >= 0.0 and g1 <= 0.0)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _allowed(i, j, pos, kind, member_of, side_of, half, side, frame, size, grid, hptr, heights):
     """May row i keep neighbour j? (rules of thin_member's docstring, plate crossing test)"""
     r = rules_1_2(i, j, kind, member_of, side_of, half, side)
