@@ -21,7 +21,8 @@ Cases (each an ``mpsfem run`` subprocess, resumable like every study in validati
   RMS, highest particle), the dam break at L/40 to 0.4 s (budget, front error against both
   experiments as validation/dam_break.py defines it, the far-wall gauge's noise as
   validation/dam_break_wall_gauge.py defines it; the default run's figures beside it) and
-  the elastic obstacle at L/20 (budget, tip, ringing);
+  the elastic obstacle at L/20 (budget, tip, ringing), and at L/40 without shifting (the
+  issue's budget target names both resolutions);
 
 Per case and window, from ``/momentum_budget`` (impulses in N s/m):
 
@@ -40,6 +41,11 @@ Writes validation/results/momentum_budget.csv and prints the table; discussed in
 ("Momentum budget") and docs/validation.md.
 
     python validation/momentum_budget.py [--threads 1] [--analyse-only] [--retry-failed]
+                                         [--only NAME ...]
+
+``--only``: the cases whose results file name contains one of the strings (e.g.
+``momentum_obstacle_L40_tanaka``, the limited Tanaka obstacle at L/40); the CSV keeps every other
+row as it was (the study's results files are not kept in the repository).
 """
 
 from __future__ import annotations
@@ -54,7 +60,7 @@ from scipy.signal import savgol_filter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import case_runner  # noqa: E402 - validation/case_runner.py: resumable runs of one case
-from results_csv import write_csv  # noqa: E402
+from results_csv import read_csv, write_csv  # noqa: E402
 
 ROOT = case_runner.ROOT
 RESULTS_DIR = ROOT / "validation" / "results"
@@ -123,6 +129,7 @@ LIMITED_RUNS = {
     "still_water": ("default", "default_shifting", "tanaka_limited", "tanaka_limited_shifting"),
     "dam_break": ("default_shifting", "tanaka_limited", "tanaka_limited_shifting"),
     "obstacle": ("tanaka_limited", "tanaka_limited_shifting"),
+    "obstacle_L40": ("tanaka_limited",),  # the issue's budget target at L/40 too
 }
 
 
@@ -134,16 +141,18 @@ def limited_cases() -> dict:
         "still_water": (0, "momentum_still", ["run.end_time=2.0"]),
         "dam_break": (40, "momentum_dam_break_L40", dam_cases()[("dam_break", 40, "fluid_only")][1]),
         "obstacle": (20, "momentum_obstacle_L20", [f"fluid.spacing={L / 20:.6g}", "run.end_time=0.25"]),
+        "obstacle_L40": (40, "momentum_obstacle_L40", [f"fluid.spacing={L / 40:.6g}", "run.end_time=0.25"]),
     }  # fmt: skip
     cases = {}
-    for case, variants in LIMITED_RUNS.items():
-        n, stem, sets = base[case]
+    for name, variants in LIMITED_RUNS.items():
+        n, stem, sets = base[name]
+        case = name.split("_L")[0]  # obstacle_L40 is the obstacle case at L/40
         for variant in variants:
             extra = VARIANTS[variant][0]
             cases[(case, n, variant)] = (
                 RESULTS_DIR / f"{stem}_{variant}.h5",
                 [*extra, *sets, "output.snapshot_interval=0"],
-                f"[{case} {variant}]",
+                f"[{name} {variant}]",
             )
     return cases
 
@@ -345,21 +354,58 @@ def stability_row(path: Path, key: tuple) -> dict:
     }
 
 
+def _selector(only: list[str] | None):
+    """cases -> the cases whose results file name contains one of ``only`` (all without it)."""
+
+    def pick(cases: dict) -> dict:
+        if not only:
+            return cases
+        return {k: v for k, v in cases.items() if any(o in v[0].name for o in only)}
+
+    return pick
+
+
+#: the columns that name a row of the CSV
+ROW_KEY = ("case", "resolution_L_over_l0", "force_model", "window")
+
+
+def _merged(old: list[dict], new: list[dict]) -> list[dict]:
+    """The CSV's rows with those of this run in place of the rows they repeat (same
+    :data:`ROW_KEY`), and the new ones appended; values of old rows stay as written."""
+
+    def key(r: dict) -> tuple[str, ...]:
+        return tuple(str(r.get(k, "")) for k in ROW_KEY)
+
+    fresh = {key(r): r for r in new}
+    out = [fresh.pop(key(r), r) for r in old]
+    return out + [r for r in new if key(r) in fresh]
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     case_runner.add_run_options(ap)
+    ap.add_argument(
+        "--only",
+        nargs="+",
+        default=None,
+        help="run and analyse only the cases whose results file name contains one of these "
+        "strings (e.g. momentum_obstacle_L40); the CSV keeps the other cases' rows",
+    )
     args = ap.parse_args(argv)
     RESULTS_DIR.mkdir(parents=True, exist_ok=True)
     run = (args.threads, args.analyse_only, args.retry_failed)
     rows = []
     obstacle_scene = RESULTS_DIR / "dam_break_elastic_obstacle_2d_two_force_probes.toml"
     obstacle_scene.write_text(OBSTACLE.read_text() + INSTANT_PROBE)
-    for key, path in case_runner.finished_cases(obstacle_scene, obstacle_cases(), *run).items():
+    pick = _selector(args.only)
+    for key, path in case_runner.finished_cases(
+        obstacle_scene, pick(obstacle_cases()), *run
+    ).items():
         rows.append(obstacle_row(path, key[1], key[2]))
-    for path in case_runner.finished_cases(DAM, dam_cases(), *run).values():
+    for path in case_runner.finished_cases(DAM, pick(dam_cases()), *run).values():
         rows.extend(dam_rows(path))
         rows[-1].update(dam_quality(path))
-    limited = limited_cases()
+    limited = pick(limited_cases())
     for key, (out, sets, tag) in limited.items():
         scene = {"still_water": STILL, "dam_break": DAM}.get(key[0], obstacle_scene)
         status = case_runner.case_status(scene, out, sets, *run, tag=tag)
@@ -377,7 +423,7 @@ def main(argv: list[str] | None = None) -> int:
             rows[-1].update(dam_quality(out))
         else:
             rows.append(obstacle_row(out, key[1], model))
-    for key, (out, sets, tag) in conservative_cases().items():
+    for key, (out, sets, tag) in pick(conservative_cases()).items():
         scene = STILL if key[0] == "still_water" else DAM
         status = case_runner.case_status(scene, out, sets, *run, tag=tag)
         if status is not None:  # a blow-up is the result here
@@ -385,6 +431,9 @@ def main(argv: list[str] | None = None) -> int:
     if not rows:
         print("nothing to analyse")
         return 1
+    table = rows  # the rows of this run are printed; with --only the CSV keeps the others
+    if args.only:
+        rows = _merged(read_csv(RESULTS_DIR / "momentum_budget.csv"), rows)
     columns = list(dict.fromkeys(k for r in rows for k in r))
     write_csv(
         rows,
@@ -393,7 +442,7 @@ def main(argv: list[str] | None = None) -> int:
         "momentum budget over impacts (validation/momentum_budget.py); impulses N s/m",
     )
     print("case        L/l0  model                 window    res_ext x (rel)   res_ext y (rel)")
-    for r in rows:
+    for r in table:
         if r["case"] == "still_water" and r["window"] != "stability":
             print(f"still water  {r['force_model']}: gauge {100 * r['gauge_mean_error_rel']:+.2f} %, "
                   f"velocity rms {r['velocity_rms']:.3f} m/s over 1-2 s")  # fmt: skip
