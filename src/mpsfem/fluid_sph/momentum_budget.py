@@ -31,9 +31,9 @@ def split_forces(pos, vel, rho, vol, p, row_start, row_end, pair_j, fv_pair, n_f
     particle j (the reaction to the pair term fluid particle i received, seed eqs. 6, 12). Same
     pairs and arithmetic as ``delta_sph.pair_terms``: the pair table ``pair_j``, ``fv_pair`` (F
     V_j) of rows ``row_start[i] .. row_end[i] - 1`` that ``delta_sph.correction`` wrote for
-    this right-hand side, and its products ``pM`` = p_i M_i (the same products this kernel
-    formed before it took them: the same bits); serial in index order (deterministic; the sums in local variables,
-    in the order the earlier array accumulators took, so the bits are theirs).
+    this right-hand side, and its products ``pM`` = p_i M_i (the products this kernel formed
+    itself before: the same bits). Serial in index order (deterministic); the sums run in local
+    variables in the order the earlier array accumulators took, so the bits are theirs.
     With ``project`` a wall particle of group g = ``wall_group[j - n_fluid]`` >= 0 books only
     sum_k keep[g, k] (c . e_k) e_k of its pair (``fluid.sph.structure_load = "normal_pairs"``, as
     ``pair_terms`` gives it to the fluid). ``wall_wet`` (``fluid.sph.wall_pressure =
