@@ -25,10 +25,11 @@ class AddedMassWarning(UserWarning):
     sweeps did not see converge at its mass ratio (docs/coupler.md, "Light members")."""
 
 
-#: mass ratios (rho_s h) / (rho_w H) below which each fluid method's defaults did not converge
-#: on every case of the stress sweeps (docs/coupler.md, "Light members: what to set, by mass
-#: ratio"): MPS's obstacle needs the shaped fictitious mass at 1e-2 and its plate at 1e-3;
-#: δ-SPH's obstacle needs the safeguards at 1e-4
+#: mass ratios (rho_s h) / (rho_w H) below which the stress sweeps saw a fluid method's defaults
+#: fail (docs/coupler.md, "Light members: what to set, by mass ratio"): under MPS the plate
+#: converged down to 1e-2 (the obstacle at 1e-2 needed the shaped fictitious mass already) and
+#: neither case below; under δ-SPH both converged down to 1e-3, and at 1e-4 the obstacle
+#: needed the safeguards
 LIGHT_MEMBER_RATIO = {"mps": 1e-2, "delta-sph": 1e-3}
 
 #: a displacement probe may lie at most this fraction of its member's extent (a beam's length, a
