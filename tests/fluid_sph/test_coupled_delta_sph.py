@@ -553,3 +553,30 @@ def test_free_end_is_pushed_not_pulled(theta):
     f, *_ = out["exchange"]
     np.testing.assert_allclose(f[corner], 30.0 * axis - 50.0 * n_face, atol=1e-12)
     np.testing.assert_allclose(f[face], 7.0 * axis - 40.0 * n_face, atol=1e-12)
+
+
+def test_coupled_run_on_candidates_gives_the_exact_lists_bits():
+    """A coupled run (thin-member filter, the member's reaction, the budget) takes the Verlet
+    candidates, filtered on a copy (``DeltaSPHSolver.neighbour_rows``); the same run on the
+    shared search's exact list gives every fluid and structure array equal, bit for bit, over
+    40 windows."""
+    from mpsfem.fluid_mps.neighbours import NeighbourSearch
+
+    runs = []
+    for exact in (False, True):
+        fl, st, scheme = _coupled(["fluid.momentum_budget=true"])
+        s = fl.solver
+        assert s.budget.full and s.neighbour_filter is not None and s.ext_rows.size
+        if exact:
+            s.exact_neighbours = True
+            s.search = NeighbourSearch(s.dim, s.radius, domain=(s.lower, s.upper),
+                                       skin=s.spec.neighbours.skin * s.spec.spacing)  # fmt: skip
+        for _ in range(40):
+            scheme.advance_window()
+        runs.append((fl, st))
+    (fa, sa), (fb, sb) = runs
+    assert fa.solver.search.reuses > fa.solver.search.builds  # the candidates were reused
+    for k, v in fa.solver.state().items():
+        assert np.array_equal(v, fb.solver.state()[k]), k
+    assert np.array_equal(sa.read("displacement"), sb.read("displacement"))
+    assert np.array_equal(fa.solver.budget.ledger, fb.solver.budget.ledger)

@@ -9,7 +9,10 @@ here the candidates go to the kernels as they are: ``delta_sph.wall_pressure`` a
 applies, on the same r^2 bits), and ``correction`` writes the pairs it kept, in their order,
 into the candidates' slots of each row for ``delta_sph.pair_terms``. Every kernel thus sums the
 exact list's pairs in the exact list's (ascending) order: the results are those of the exact
-list, bit for bit.
+list, bit for bit. Coupled runs take them too (since 2026-11-27): a thin-member filter drops
+its pairs from a copy (``DeltaSPHSolver.neighbour_rows``), and the wall reaction, patch
+exchange and momentum budget skip the pairs beyond the kernel's support (F = 0) or read the
+correction pass's pairs.
 
 The rebuild rule is the search's (``NeighbourSearch.update``): the candidates are kept while no
 particle has moved more than ``skin / 2`` since they were built (a pair closer than ``radius``

@@ -296,9 +296,7 @@ class ParticleShifting:
 
     def compute(self, solver, dt: float) -> np.ndarray:
         """δr of every fluid particle (m) at the solver's positions into :attr:`shift`."""
-        nb = solver.search.update(solver.pos)  # candidate rows, or the exact list
-        if solver.neighbour_filter is not None:
-            nb = solver.neighbour_filter(nb, solver.pos, solver.kind)
+        nb = solver.neighbour_rows()  # candidate rows (filtered through a member's filter)
         delta_sph.particle_volume(solver.rho, solver.mass, solver.vol)  # V = m / rho
         r2max = solver.radius * solver.radius
         nf = solver.n_fluid
