@@ -28,6 +28,7 @@ import math  # noqa: E402
 import signal  # noqa: E402
 import sys  # noqa: E402
 import threading  # noqa: E402
+import warnings  # noqa: E402
 from collections.abc import Iterator  # noqa: E402
 from pathlib import Path  # noqa: E402
 
@@ -350,7 +351,20 @@ def _cmd_docs(args: argparse.Namespace) -> int:
     return 0
 
 
+_python_formatwarning = warnings.formatwarning
+
+
+def _format_warning(message, category, filename, lineno, line=None) -> str:
+    """mpsfem's own warnings (the scenario's links and light members, large rotations, the
+    coupler's) as one ``warning: ...`` line like the CLI's ``error:`` and ``note:`` lines;
+    Python's form, with the source line, for everyone else's."""
+    if category.__module__.startswith("mpsfem."):
+        return f"warning: {message}\n"
+    return _python_formatwarning(message, category, filename, lineno, line)
+
+
 def main(argv: list[str] | None = None) -> int:
+    warnings.formatwarning = _format_warning
     parser = build_parser()
     args = parser.parse_args(argv)
     try:

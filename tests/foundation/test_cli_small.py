@@ -72,3 +72,29 @@ def test_sigint_stops_the_run_with_a_reason_and_a_checkpoint(tmp_path):
     with h5py.File(out, "r") as h5:
         assert h5.attrs["status"] == "failed: interrupted (SIGINT)"
     assert ckpt.exists()
+
+
+def test_own_warnings_print_as_one_warning_line():
+    """mpsfem's warnings reach a CLI user as ``warning: ...`` lines (as ``error:`` / ``note:``),
+    not as Python's ``file.py:123: Category: ...`` with the source line under it."""
+    import subprocess
+    import sys
+
+    obstacle = CANTILEVER.parent / "dam_break_elastic_obstacle_2d.toml"
+    proc = subprocess.run(
+        [sys.executable, "-m", "mpsfem.cli", "validate", str(obstacle), "--set",
+         "structure.members.0.material.density=2.43"],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stderr.splitlines()
+    assert any(x.startswith("warning: structure member 'obstacle': mass ratio") for x in lines)
+    assert "AddedMassWarning" not in proc.stderr and "schema.py" not in proc.stderr
+
+
+def test_other_warnings_keep_pythons_form():
+    import warnings
+
+    cli.main(["docs", "--out", "/nonexistent-folder/s.md"])  # installs the format, exits 2
+    text = warnings.formatwarning("plain", UserWarning, "f.py", 3)
+    assert text.startswith("f.py:3: UserWarning: plain")
