@@ -389,7 +389,7 @@ def main(argv: list[str] | None = None) -> int:
         nargs="+",
         default=None,
         help="run and analyse only the cases whose results file name contains one of these "
-        "strings (e.g. momentum_obstacle_L40); the CSV keeps the other cases' rows",
+        "strings (e.g. momentum_obstacle_L40_tanaka); the CSV keeps the other cases' rows",
     )
     args = ap.parse_args(argv)
     RESULTS_DIR.mkdir(parents=True, exist_ok=True)

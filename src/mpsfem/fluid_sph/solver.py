@@ -380,9 +380,10 @@ class DeltaSPHSolver:
     def rhs(self) -> None:
         """acc and drho/dt of the fluid at the current (pos, vel, rho); walls where they are.
 
-        The kernels read candidate rows (:class:`CandidatePairs`) and skip the pairs beyond the
-        radius, or, with a neighbour filter, external patches or the budget
-        (:attr:`exact_neighbours`), the exact list: the same results, bit for bit."""
+        The kernels read the rows of :meth:`neighbour_rows` (Verlet candidates, through the
+        neighbour filter when there is one) and skip the pairs beyond the radius; on the exact
+        list (:attr:`exact_neighbours` with a NeighbourSearch) they give the same results, bit
+        for bit."""
         tic = time.perf_counter()
         nb = self.neighbour_rows()
         if self.pair_j.shape[0] < nb.nnz:
