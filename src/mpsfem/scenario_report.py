@@ -250,7 +250,13 @@ def report(scenario: Scenario, title: str = "") -> Report:
             f"thread ({cost}; splashing flows take more)"
         )
     if scenario.structure is not None:
-        lines.append(f"structure: {len(scenario.structure.members)} member(s)")
+        text = f"structure: {len(scenario.structure.members)} member(s)"
+        ratios = scenario.mass_ratios()  # docs/coupler.md, "Light members"
+        if ratios:
+            H = next(iter(ratios.values()))[1]
+            each = ", ".join(f"{name} {r:.3g}" for name, (r, _) in ratios.items())
+            text += f"; mass ratio (rho_s h) / (rho_w H), H = {H:.3g} m: {each}"
+        lines.append(text)
     lines.extend(f"warning: {w}" for w in warnings)
     what = title or "scenario"
     verdict = f"valid: {what}" + (

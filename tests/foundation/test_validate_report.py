@@ -50,3 +50,14 @@ def test_member_through_a_wall_is_a_contact_problem(capsys):
     ]
     out = validate(capsys, OBSTACLE, *[a for s in sets for a in ("--set", s)])
     assert "meets fluid.walls[0]: part of its mid-line lies inside the wall" in out
+
+
+def test_structure_line_gives_each_members_mass_ratio(capsys):
+    """(rho_s h) / (rho_w H) = 2500 x 0.012 / (1000 x 0.292) = 0.1027 for the obstacle, the
+    ratio docs/coupler.md's light-member guide is indexed by."""
+    out = validate(capsys, OBSTACLE)
+    line = next(x for x in out.splitlines() if x.startswith("structure:"))
+    assert (
+        line
+        == "structure: 1 member(s); mass ratio (rho_s h) / (rho_w H), H = 0.292 m: obstacle 0.103"
+    )
