@@ -354,15 +354,11 @@ def stability_row(path: Path, key: tuple) -> dict:
     }
 
 
-def _selector(only: list[str] | None):
-    """cases -> the cases whose results file name contains one of ``only`` (all without it)."""
-
-    def pick(cases: dict) -> dict:
-        if not only:
-            return cases
-        return {k: v for k, v in cases.items() if any(o in v[0].name for o in only)}
-
-    return pick
+def _picked(cases: dict, only: list[str] | None) -> dict:
+    """The cases whose results file name contains one of ``only`` (all without it)."""
+    if not only:
+        return cases
+    return {k: v for k, v in cases.items() if any(o in v[0].name for o in only)}
 
 
 #: the columns that name a row of the CSV
@@ -397,15 +393,14 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     obstacle_scene = RESULTS_DIR / "dam_break_elastic_obstacle_2d_two_force_probes.toml"
     obstacle_scene.write_text(OBSTACLE.read_text() + INSTANT_PROBE)
-    pick = _selector(args.only)
     for key, path in case_runner.finished_cases(
-        obstacle_scene, pick(obstacle_cases()), *run
+        obstacle_scene, _picked(obstacle_cases(), args.only), *run
     ).items():
         rows.append(obstacle_row(path, key[1], key[2]))
-    for path in case_runner.finished_cases(DAM, pick(dam_cases()), *run).values():
+    for path in case_runner.finished_cases(DAM, _picked(dam_cases(), args.only), *run).values():
         rows.extend(dam_rows(path))
         rows[-1].update(dam_quality(path))
-    limited = pick(limited_cases())
+    limited = _picked(limited_cases(), args.only)
     for key, (out, sets, tag) in limited.items():
         scene = {"still_water": STILL, "dam_break": DAM}.get(key[0], obstacle_scene)
         status = case_runner.case_status(scene, out, sets, *run, tag=tag)
@@ -423,7 +418,7 @@ def main(argv: list[str] | None = None) -> int:
             rows[-1].update(dam_quality(out))
         else:
             rows.append(obstacle_row(out, key[1], model))
-    for key, (out, sets, tag) in pick(conservative_cases()).items():
+    for key, (out, sets, tag) in _picked(conservative_cases(), args.only).items():
         scene = STILL if key[0] == "still_water" else DAM
         status = case_runner.case_status(scene, out, sets, *run, tag=tag)
         if status is not None:  # a blow-up is the result here

@@ -253,8 +253,8 @@ def report(scenario: Scenario, title: str = "") -> Report:
         text = f"structure: {len(scenario.structure.members)} member(s)"
         ratios = scenario.mass_ratios()  # docs/coupler.md, "Light members"
         if ratios:
-            H = next(iter(ratios.values()))[1]
-            each = ", ".join(f"{name} {r:.3g}" for name, (r, _) in ratios.items())
+            each = ", ".join(f"{name} {r:.3g}" for name, r in ratios.items())
+            H = scenario.fluid.water_height
             text += f"; mass ratio (rho_s h) / (rho_w H), H = {H:.3g} m: {each}"
         lines.append(text)
     lines.extend(f"warning: {w}" for w in warnings)

@@ -172,8 +172,9 @@ def _load_quietly(path, overrides=()):
 def test_mass_ratio_is_the_documented_one():
     """The obstacle's ratio as docs/validation_coupling_stress.md defines it: rho_s h = 2500 x
     0.012 kg/m^2 against 1000 kg/m^3 x the 0.292 m column: 0.1027."""
-    ratio, H = _load_quietly(OBSTACLE).mass_ratios()["obstacle"]
-    assert H == pytest.approx(0.292, rel=1e-12)
+    sc = _load_quietly(OBSTACLE)
+    assert sc.fluid.water_height == pytest.approx(0.292, rel=1e-12)
+    ratio = sc.mass_ratios()["obstacle"]
     assert ratio == pytest.approx(2500 * 0.012 / (1000 * 0.292), rel=1e-12)
 
 

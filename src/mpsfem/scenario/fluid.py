@@ -728,6 +728,13 @@ class FluidSection(Section):
         g = [abs(x) for x in self.gravity]
         return g.index(max(g)) if any(g) else self.dim - 1
 
+    @property
+    def water_height(self) -> float:
+        """Extent of the fluid blocks along :attr:`vertical_axis`, m: the initial water depth
+        or column height."""
+        up = self.vertical_axis
+        return max(b.upper[up] for b in self.blocks) - min(b.lower[up] for b in self.blocks)
+
     def domain_box(self, extra: list[list[float]] = ()) -> tuple[list[float], list[float]]:
         """The domain (lower, upper corner, m) a fluid particle may not leave: ``domain_lower`` /
         ``domain_upper`` where given, else the bounding box of the blocks, the walls and the

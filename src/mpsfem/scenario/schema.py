@@ -78,28 +78,14 @@ class Scenario(Section):
         if corot:
             mapping.large_rotation = True
 
-    def mass_ratios(self) -> dict[str, tuple[float, float]]:
-        """Each member's mass ratio (rho_s h) / (rho_w H) and the H it takes (m): the member's
-        mass per area of its mid-surface (a beam: density x area / width) over that of the
-        water, H being the fluid blocks' extent along gravity (the initial water depth or
-        column height; the vertical axis without gravity). {} without fluid or structure."""
+    def mass_ratios(self) -> dict[str, float]:
+        """Each member's mass ratio (rho_s h) / (rho_w H): its mass per area
+        (``mass_per_area``) over that of the water, H = ``fluid.water_height`` (the initial
+        depth or column height). {} without fluid or structure."""
         if self.fluid is None or self.structure is None:
             return {}
-        g = [abs(c) for c in self.fluid.gravity]
-        ax = g.index(max(g)) if max(g) > 0 else self.fluid.dim - 1
-        H = max(b.upper[ax] for b in self.fluid.blocks) - min(
-            b.lower[ax] for b in self.fluid.blocks
-        )
-        out = {}
-        for m in self.structure.members:
-            rho = m.material.density
-            if getattr(m, "width", None) is not None:  # a beam: mass per length over its width
-                area = m.area if m.area is not None else m.width * m.thickness
-                per_area = rho * area / m.width
-            else:
-                per_area = rho * m.thickness
-            out[m.name] = (per_area / (self.fluid.density * H), H)
-        return out
+        water = self.fluid.density * self.fluid.water_height
+        return {m.name: m.mass_per_area / water for m in self.structure.members}
 
     def _light_member_advice(self) -> None:
         """Warn (:class:`AddedMassWarning`) where a member's mass ratio lies below what the
@@ -114,8 +100,9 @@ class Scenario(Section):
             return
         ratios = self.mass_ratios()
         safeguards = self.coupling.convergence.accept_unconverged == "best"
+        H = self.fluid.water_height
         for m in self.structure.members:
-            ratio, H = ratios[m.name]
+            ratio = ratios[m.name]
             if ratio >= limit * (1.0 - 1e-9):
                 continue
             if method == "mps" and m.fictitious_mass > 0.0:

@@ -395,6 +395,16 @@ class BeamMember(_MemberCommon):
         """Largest extent of the member, m (its length)."""
         return self.length
 
+    @property
+    def area_per_width(self) -> float:
+        """Cross-section area per metre of width, A / b (m^2/m): the 2D model's section."""
+        return (self.area if self.area is not None else self.width * self.thickness) / self.width
+
+    @property
+    def mass_per_area(self) -> float:
+        """Mass per area of the mid-line's surface, rho A / b (kg/m^2)."""
+        return self.material.density * self.area_per_width
+
 
 class PlateMember(_MemberCommon):
     """Kirchhoff plate in a 3D scene: ElementQuadBFS (rectangles) or ElementTriMorley (any outline)."""
@@ -595,6 +605,11 @@ class PlateMember(_MemberCommon):
         """Largest extent of the planform, m (its longest vertex-to-vertex distance)."""
         pts = self.local_outline
         return max(math.dist(p, q) for p in pts for q in pts)
+
+    @property
+    def mass_per_area(self) -> float:
+        """Mass per area of the mid-surface, rho h (kg/m^2)."""
+        return self.material.density * self.thickness
 
 
 Member = Annotated[BeamMember | PlateMember, Field(discriminator="type")]

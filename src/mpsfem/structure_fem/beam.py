@@ -45,7 +45,7 @@ def beam_section(cfg) -> tuple[float, float, float]:
     # the section (A, I) describes the member's whole width b; the 2D model, like every 2D
     # force and energy it exchanges, is per metre of width: A / b, I / b
     b = cfg.width
-    area = (cfg.area if cfg.area is not None else b * cfg.thickness) / b
+    area = cfg.area_per_width
     inertia = (
         cfg.second_moment if cfg.second_moment is not None else b * cfg.thickness**3 / 12.0
     ) / b
