@@ -85,3 +85,63 @@ def test_bad_parameters():
             0.5,
             1.5,
         )
+
+
+def _wall_impulse(r, ramp, distance=0.5 * L0, e=0.2, speed=2.0):
+    """Velocity change of a fluid particle approaching a wall particle at distance r (m)."""
+    pos = np.array([[0.0, 0.0], [r, 0.0]])
+    vel = np.array([[speed, 0.0], [0.0, 0.0]])
+    kind = np.array([FLUID, WALL], np.int8)
+    nb = build_neighbours(pos, 2.1 * L0)
+    out = vel.copy()
+    collide(pos, out, kind, nb.indptr, nb.indices, distance, e, ramp=ramp)
+    return out[0, 0] - speed
+
+
+def test_ramp_zero_is_the_hard_threshold():
+    """ramp = 0 (the default) keeps the hard threshold: the full impulse -(1 + e) a just
+    inside the distance, none at or beyond it."""
+    d = 0.5 * L0
+    assert _wall_impulse(d * (1 - 1e-9), 0.0) == pytest.approx(-1.2 * 2.0, rel=1e-15)
+    assert _wall_impulse(d * (1 + 1e-9), 0.0) == 0.0
+
+
+@pytest.mark.parametrize("ramp", [0.1, 0.5])
+def test_ramp_makes_the_impulse_continuous_in_distance(ramp):
+    """With a ramp the impulse is full below (1 - ramp) d, falls linearly to zero at d
+    (collision.ramp_weight), and so changes by at most (1 + e) a / (ramp d) per metre: a
+    displacement of 1e-7 m moves it by a bounded amount instead of the whole impulse."""
+    d = 0.5 * L0
+    full = -1.2 * 2.0
+    assert _wall_impulse(0.5 * (1 - ramp) * d, ramp) == pytest.approx(full, rel=1e-15)
+    assert _wall_impulse((1 - ramp) * d, ramp) == pytest.approx(full, rel=1e-12)
+    for share in (0.25, 0.5, 0.75):
+        r = (1 - ramp * share) * d  # share of the way from d back to the ramp's inner end
+        assert _wall_impulse(r, ramp) == pytest.approx(share * full, rel=1e-9)
+    assert abs(_wall_impulse(d * (1 - 1e-9), ramp)) < 1e-7
+    slope = abs(full) / (ramp * d)
+    rs = np.linspace(0.3 * d, 0.999 * d, 200)
+    dv = np.array([_wall_impulse(r, ramp) for r in rs])
+    assert np.max(np.abs(np.diff(dv)) / np.diff(rs)) <= slope * (1 + 1e-9)
+
+
+@pytest.mark.parametrize("ramp", [0.0, 0.3])
+def test_ramp_keeps_pairs_conserving_momentum(ramp):
+    """A ramp scales both particles' changes of a fluid pair alike: momentum is kept, and
+    the relative normal velocity becomes -(e w + w - 1) a with w the ramp's share."""
+    rng = np.random.default_rng(11)
+    pos = rng.uniform(0, 20 * L0, size=(800, 2))
+    vel = rng.normal(size=(800, 2))
+    kind = np.zeros(800, np.int8)
+    nb = build_neighbours(pos, 2.1 * L0)
+    out = vel.copy()
+    collide(pos, out, kind, nb.indptr, nb.indices, 0.8 * L0, 0.2, ramp=ramp)
+    assert np.any(out != vel)
+    np.testing.assert_allclose(out.sum(axis=0), vel.sum(axis=0), atol=1e-11)
+
+
+def test_bad_ramp():
+    pos = np.zeros((1, 2))
+    with pytest.raises(ValueError, match="ramp"):
+        collide(pos, pos.copy(), np.zeros(1, np.int8), np.zeros(2, np.int64),
+                np.zeros(0, np.int32), 0.5, 0.2, ramp=1.0)  # fmt: skip

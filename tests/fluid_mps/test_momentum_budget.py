@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 from mpsfem.coupler.coupling_scheme import create_scheme
+from mpsfem.fluid_mps.collision import collide
 from mpsfem.fluid_mps.momentum_budget import (
     booking_targets,
     collision_exchange,
@@ -81,6 +82,19 @@ def test_conservative_gradient_closes_the_budget(tmp_path, gradient):
     assert np.allclose(parts, b["patch_exchange"], rtol=0, atol=1e-12 * impulse)
 
 
+def test_collision_ramp_keeps_the_budget_closed(tmp_path):
+    """With the collision ramp (fluid.collision.ramp) the walls are booked the faded impulse
+    the fluid loses: under the conservative gradient the budget still closes to round-off, and
+    the collision stage differs from the hard threshold's."""
+    sets = ["fluid.pressure.gradient=tanaka", "fluid.boundary_force=momentum_exchange"]
+    b = budget_run(tmp_path, "ramp", [*sets, "fluid.collision.ramp=0.5"])
+    hard = budget_run(tmp_path, "hard", sets)
+    impulse = np.abs(b["patch_reported"].sum(axis=0)).max()
+    assert np.abs(b["patch_collision"]).max() > 0.0
+    assert np.abs(b["residual"].sum(axis=0)).max() <= 1e-9 * impulse
+    assert not np.array_equal(b["collision"], hard["collision"])
+
+
 def test_reported_force_models(tmp_path):
     """'pressure_and_contact' reports eq. 2-51 plus the viscous and collision exchange;
     'pressure_integral' eq. 2-51 alone (same run: the models only change what is reported in a
@@ -115,6 +129,29 @@ def test_collision_impulse_on_a_wall():
     collision_exchange(pos, vel, kind, nb.indptr, nb.indices, 0.005, 0.2, visit, target, 1,
                        mass, out)  # fmt: skip
     np.testing.assert_allclose(out, [[mass * 1.2 * 2.0, 0.0]], rtol=1e-15)
+
+
+@pytest.mark.parametrize("ramp", [0.0, 0.5])
+def test_collision_impulse_with_a_ramp_is_what_the_fluid_loses(ramp):
+    """At 0.0045 m of a 0.005 m distance with ramp 0.5 the pair carries (0.005 - 0.0045) /
+    0.0025 = 0.2 of the impulse; the wall is booked m times the fluid particle's velocity
+    change, whatever the ramp."""
+    pos = np.array([[0.0, 0.0], [0.0045, 0.0]])
+    vel = np.array([[2.0, 0.0], [0.0, 0.0]])
+    kind = np.array([0, 1], dtype=np.int8)
+    nb = build_neighbours(pos, 0.01)
+    visit = np.zeros(2, dtype=np.int8)
+    touches_boundary(kind, nb.indptr, nb.indices, visit)
+    target = booking_targets(kind, np.full(2, -1, dtype=np.int32))
+    out = np.zeros((1, 2))
+    mass = 0.25
+    collision_exchange(pos, vel, kind, nb.indptr, nb.indices, 0.005, 0.2, visit, target, 1,
+                       mass, out, ramp)  # fmt: skip
+    after = vel.copy()
+    collide(pos, after, kind, nb.indptr, nb.indices, 0.005, 0.2, ramp=ramp)
+    share = 1.0 if ramp == 0.0 else 0.2
+    np.testing.assert_allclose(out, [[mass * 1.2 * 2.0 * share, 0.0]], rtol=1e-12)
+    np.testing.assert_allclose(out[0], -mass * (after[0] - vel[0]), rtol=1e-12)
 
 
 def test_dummies_are_booked_on_their_pressure_particle():

@@ -9,6 +9,14 @@ inelastically with restitution coefficient ``restitution`` (0 .. 1), normal dire
 - any wall or structure j (WALL, DUMMY, STRUCTURE, STRUCTURE_DUMMY; prescribed motion, infinite
   mass): u_i -= (1 + e) * a * e_ij, i.e. the normal velocity relative to the wall becomes -e a.
 
+With a ramp (``ramp`` > 0, a fraction of ``distance``) the impulse of a pair fades linearly to
+zero between (1 - ramp) ``distance`` and ``distance``: w(r) = min(1, (distance - r) / (ramp
+distance)). The hard threshold (ramp = 0, the default) makes a pair's impulse jump from zero to
+(1 + e) a m as it crosses ``distance``; a member's load, which holds the impulses its particles
+receive, then jumps with a displacement of any size, so a coupling window's fixed point may not
+exist (docs/coupler.md, "Contact that fades in"). With the ramp the impulse is continuous in the
+positions.
+
 All pairs use the velocities from before the call (Jacobi style): the changes of each particle are
 summed over its own neighbours in a fixed order and applied afterwards, in parallel over i with no
 write races, so results are bit-identical for any thread count. Only FLUID velocities change. The
@@ -42,9 +50,21 @@ def approach_speed(i, j, pos, vel, d2max):
     return a, r
 
 
+@njit(cache=True, inline="always")
+def ramp_weight(r, distance, ramp):
+    """Share w of a colliding pair's impulse at distance r (m): 1 up to (1 - ramp) distance,
+    falling linearly to 0 at distance; 1 everywhere when ramp = 0 (the hard threshold)."""
+    if ramp > 0.0:
+        inner = (1.0 - ramp) * distance
+        if r > inner:
+            return (distance - r) / (ramp * distance)
+    return 1.0
+
+
 @njit(cache=True, parallel=True)
-def collision_velocity_change(pos, vel, kind, indptr, indices, distance, restitution, dv):
-    """dv[i] = velocity change of FLUID particle i from all its collisions (0 for others).
+def collision_velocity_change(pos, vel, kind, indptr, indices, distance, restitution, ramp, dv):
+    """dv[i] = velocity change of FLUID particle i from all its collisions (0 for others);
+    ``ramp``: see :func:`ramp_weight` (0: the hard threshold).
 
     Returns nothing; dv has the shape of vel."""
     n, dim = pos.shape
@@ -60,6 +80,8 @@ def collision_velocity_change(pos, vel, kind, indptr, indices, distance, restitu
             if a <= 0.0:
                 continue  # separating, or not within the distance
             f = (1.0 + restitution) * a / r
+            if ramp > 0.0:
+                f *= ramp_weight(r, distance, ramp)
             if kind[j] == 0:
                 f *= 0.5
             for d in range(dim):
@@ -77,10 +99,11 @@ class _Work:
     buf = np.empty((0, 0))
 
 
-def collide(pos, vel, kind, indptr, indices, distance, restitution, work=None):
+def collide(pos, vel, kind, indptr, indices, distance, restitution, work=None, ramp=0.0):
     """Apply the collision model to ``vel`` in place (FLUID rows only).
 
-    ``distance`` is absolute (e.g. 0.5 l0); ``restitution`` in [0, 1]. ``work`` is an optional
+    ``distance`` is absolute (e.g. 0.5 l0); ``restitution`` in [0, 1]; ``ramp`` in [0, 1), the
+    share of ``distance`` over which a pair's impulse fades out (:func:`ramp_weight`). ``work`` is an optional
     (N, dim) float64 scratch array; without it a module-level buffer is reused (grown when
     needed), so repeated calls do not allocate. Returns the velocity change array (a view of the
     scratch buffer, valid until the next call)."""
@@ -88,10 +111,12 @@ def collide(pos, vel, kind, indptr, indices, distance, restitution, work=None):
         raise ValueError(f"restitution must be in [0, 1], got {restitution!r}")
     if not distance > 0.0:
         raise ValueError(f"collision distance must be positive, got {distance!r}")
+    if not 0.0 <= ramp < 1.0:
+        raise ValueError(f"collision ramp must be in [0, 1), got {ramp!r}")
     if work is None:
         if _Work.buf.shape != vel.shape:
             _Work.buf = np.empty(vel.shape)
         work = _Work.buf
-    collision_velocity_change(pos, vel, kind, indptr, indices, distance, restitution, work)
+    collision_velocity_change(pos, vel, kind, indptr, indices, distance, restitution, ramp, work)
     _add(vel, work)
     return work

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
-from mpsfem.fluid_mps.collision import approach_speed
+from mpsfem.fluid_mps.collision import approach_speed, ramp_weight
 from mpsfem.fluid_mps.kernels import weight
 from mpsfem.fluid_mps.operators import (
     corrected_vector,
@@ -190,12 +190,13 @@ def viscous_exchange(pos, vel, kind, indptr, indices, re, wcode, visit, target, 
 
 @njit(cache=True)
 def collision_exchange(pos, vel, kind, indptr, indices, distance, restitution, visit, target,
-                       offset, mass, out):  # fmt: skip
-    """out[target[j] - offset] += m (1 + e) a_ij e_ij for every colliding pair of a FLUID particle i (with
+                       offset, mass, out, ramp=0.0):  # fmt: skip
+    """out[target[j] - offset] += m (1 + e) w a_ij e_ij for every colliding pair of a FLUID particle i (with
     ``visit[i]``) and a boundary particle j (collision.py: closer than ``distance``,
-    approaching, a_ij = (u_i - u_j) . e_ij > 0): the impulse the boundary receives, N s (N s/m in
-    2D), the reaction to the fluid particle's velocity change. ``pos`` and ``vel`` as the
-    collision model saw them. Sequential; ``out`` is not cleared here."""
+    approaching, a_ij = (u_i - u_j) . e_ij > 0; w the ramp's share, 1 without one): the impulse
+    the boundary receives, N s (N s/m in 2D), the reaction to the fluid particle's velocity
+    change. ``pos`` and ``vel`` as the collision model saw them. Sequential; ``out`` is not
+    cleared here."""
     n, dim = pos.shape
     d2max = distance * distance
     for i in range(n):
@@ -209,6 +210,8 @@ def collision_exchange(pos, vel, kind, indptr, indices, distance, restitution, v
             if a <= 0.0:
                 continue
             f = mass * (1.0 + restitution) * a / r
+            if ramp > 0.0:
+                f *= ramp_weight(r, distance, ramp)
             t = target[j] - offset
             for d in range(dim):
                 out[t, d] += f * (pos[j, d] - pos[i, d])
@@ -348,15 +351,17 @@ class MomentumBudget:
             self.ledger[row] += now - self._mark
             self._mark[:] = now
 
-    def collision(self, pos, vel_before, kind, nb, distance: float, restitution: float) -> None:
+    def collision(
+        self, pos, vel_before, kind, nb, distance: float, restitution: float, ramp: float = 0.0
+    ) -> None:
         """The collision model's impulse on each boundary particle (``pos``, ``vel_before``: as
-        the model saw them; ``nb`` the list it read)."""
+        the model saw them; ``nb`` the list it read; ``ramp`` its fade-out share)."""
         if not self.needs_contact_pairs:
             return
         touches_boundary(kind, nb.indptr, nb.indices, self.visit)
         collision_exchange(pos, vel_before, kind, nb.indptr, nb.indices, distance, restitution,
                            self.visit, self.target, self.offset, self.mass,
-                           self.collision_impulse)  # fmt: skip
+                           self.collision_impulse, ramp)  # fmt: skip
         self._collided = True
 
     def pressure(self, args: tuple, nb, scratch: np.ndarray, kind: np.ndarray) -> None:

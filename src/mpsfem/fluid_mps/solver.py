@@ -540,10 +540,11 @@ class FluidSolver:
                 pairs.indices,
                 col.distance * self.l0,
                 col.restitution,
+                ramp=col.ramp,
             )
             budget.collision(
                 self.pos, self.vel_before, self.kind, pairs, col.distance * self.l0,
-                col.restitution,
+                col.restitution, col.ramp,
             )  # fmt: skip
             budget.stage(COLLISION, self.vel, self.kind)
             time_integration.shift_by_velocity_change(

@@ -314,6 +314,15 @@ class CollisionSection(Section):
         "L/40 grows voids and stops; docs/validation.md)",
     )
     restitution: float = Field(0.2, ge=0.0, le=1.0, description="restitution coefficient")
+    ramp: float = Field(
+        0.0,
+        ge=0.0,
+        lt=1.0,
+        description="share of distance over which a pair's impulse fades out, in [0, 1): full "
+        "below (1 - ramp) distance, none at distance; 0 (default): the hard threshold, whose "
+        "jump makes a member's contact load discontinuous in its displacement (an implicit "
+        'window then may have no fixed point; docs/coupler.md, "Contact that fades in")',
+    )
 
 
 def _check_box(lower: Vector, upper: Vector) -> None:
