@@ -197,6 +197,7 @@ def light_overrides(
     acceleration: str = "aitken",
     kinematics: str = "linear",
     safeguards: bool = False,
+    collision_ramp: float = 0.0,
 ) -> list[str]:
     """The light section, the fictitious mass (``mf_factor`` x the estimate), Aitken and the
     convergence measure (rtol relative to the whole displacement or to the window's motion);
@@ -210,8 +211,11 @@ def light_overrides(
     ("corotational": large rotations, the runs past the crest rotate 0.5 rad); ``safeguards``
     what took the obstacle at mass ratio 1e-4 to its end (docs/validation_coupling_stress.md):
     coupling.convergence.accept_unconverged = "best", retreat_predictor = true and the HHT
-    integrator with alpha = -0.3."""
+    integrator with alpha = -0.3; ``collision_ramp`` fluid.collision.ramp (a contact load
+    continuous in the member's displacement; docs/coupler.md, "Contact that fades in")."""
     extra = []
+    if collision_ramp > 0.0:
+        extra.append(f"fluid.collision.ramp={float(collision_ramp)!r}")
     if safeguards:
         extra += [
             'coupling.convergence.accept_unconverged="best"',
@@ -263,6 +267,7 @@ def run_path(
     kinematics: str = "linear",
     branched_from: float | None = None,
     safeguards: bool = False,
+    collision_ramp: float = 0.0,
 ) -> Path:
     """The results file of a run. Names without ``_ft``: runs of the code before the
     force-error criterion and the wetted-node M_f (issue 21, task H1); with ``_pf``: the
@@ -270,7 +275,8 @@ def run_path(
     wet set grown inside windows (fictitious_wet_update = "grow", task H5); with ``_frz``: surface
     flags frozen in a window; with ``_acc<kind>``: an acceleration other than Aitken (task H3);
     with ``_corot``: a co-rotational member; with ``_sg``: the obstacle's safeguards (best
-    iterate, retreating predictor, HHT -0.3; :func:`light_overrides`); with ``_from<t>``: a ``--branch-from`` run, continued
+    iterate, retreating predictor, HHT -0.3; :func:`light_overrides`); with ``_ramp<r>``: the
+    collision ramp r; with ``_from<t>``: a ``--branch-from`` run, continued
     from another run's state at t s (runs of task H3 before this token carry no such mark)."""
     wm = "wm" if relative_to == "window_motion" else ""
     if max_iterations != 30:  # the scenario's
@@ -289,6 +295,8 @@ def run_path(
         wm += "_corot"
     if safeguards:
         wm += "_sg"
+    if collision_ramp > 0.0:
+        wm += f"_ramp{collision_ramp:g}"
     if force_tolerance is not None:
         wm += f"_ft{force_tolerance if force_tolerance == 'off' else f'{float(force_tolerance):g}'}"
     if end_time is not None:
@@ -302,7 +310,7 @@ def run_path(
 
 NAME = re.compile(
     r"bottom_slamming_light_(?P<l0>[0-9.e-]+)_mf(?P<mf>[0-9.e-]+)_rtol(?P<rtol>[0-9.e-]+)(?P<wm>(wm)?)(?:it(?P<maxit>[0-9]+))?"
-    r"(?P<pf>_pf)?(?:_wp(?P<wp>[0-9.e-]+))?(?P<grow>_grow)?(?P<frz>_frz)?(?:_acc(?P<acc>[a-z-]+))?(?P<corot>_corot)?(?P<sg>_sg)?(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?(?:_from(?P<frm>[0-9.e-]+))?_"
+    r"(?P<pf>_pf)?(?:_wp(?P<wp>[0-9.e-]+))?(?P<grow>_grow)?(?P<frz>_frz)?(?:_acc(?P<acc>[a-z-]+))?(?P<corot>_corot)?(?P<sg>_sg)?(?:_ramp(?P<ramp>[0-9.e-]+))?(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?(?:_from(?P<frm>[0-9.e-]+))?_"
     r"AH(?P<a>[0-9.]+)_DH(?P<d>[0-9.]+)\.h5$"
 )
 
@@ -370,6 +378,7 @@ class LightResult:
     acceleration: str = "aitken"
     kinematics: str = "linear"  # the member's
     safeguards: bool = False  # --safeguards (file name _sg)
+    collision_ramp: float = 0.0  # --collision-ramp (file name _ramp<r>)
     branched_from_s: float = math.nan  # --branch-from: the time of the state it continued
     # the start of the wet split (s): WET_FROM at D/H = 0.06, else the first wet set
     # (:func:`wet_from`)
@@ -479,6 +488,7 @@ def analyse_light(path: Path) -> LightResult:
         acceleration=m["acc"] or "aitken",
         kinematics="corotational" if m["corot"] else "linear",
         safeguards=bool(m["sg"]),
+        collision_ramp=float(m["ramp"] or 0.0),
         branched_from_s=float(m["frm"]) if m["frm"] else math.nan,
         rigid_peak_same_l0=same,
         rigid_peak_smooth_same_l0=same_s,
@@ -683,6 +693,7 @@ def report() -> int:
             r.setdefault("acceleration", "aitken")
             r.setdefault("kinematics", "linear")
             r.setdefault("safeguards", False)
+            r.setdefault("collision_ramp", 0.0)
             r.setdefault("branched_from_s", math.nan)
             for k in ("return_peak", "return_peak_time_s", "return_peak_smooth",
                       "return_peak_smooth_time_s", "mid_back_at_rest_s"):  # fmt: skip
@@ -794,6 +805,8 @@ def _in_table_setting(row: dict, safeguards: bool = False) -> bool:
     """A row of the MF table's setting at :data:`MF_TABLE_L0`, run from rest (not branched);
     ``safeguards``: the same setting with ``--safeguards``, the table's fallback."""
     if row["l0_label"] != MF_TABLE_L0 or math.isfinite(_num(row.get("branched_from_s"))):
+        return False
+    if _num(row.get("collision_ramp") or 0.0) != 0.0:  # a column absent: the hard threshold
         return False
     for key, want in (MF_TABLE_SETTING | {"safeguards": safeguards}).items():
         have = row.get(key, False if isinstance(want, bool) else "")  # a switch absent: off
@@ -1097,6 +1110,13 @@ def main(argv: list[str] | None = None) -> int:
         "column safeguards)",
     )
     ap.add_argument(
+        "--collision-ramp",
+        type=float,
+        default=0.0,
+        help="fluid.collision.ramp, in [0, 1) (default 0: the hard threshold; file name "
+        "_ramp<r>, CSV column collision_ramp)",
+    )
+    ap.add_argument(
         "--branch-from",
         type=Path,
         default=None,
@@ -1158,9 +1178,10 @@ def main(argv: list[str] | None = None) -> int:
                         wp, wu = args.wet_pressure, args.wet_update
                         fz, acc = args.freeze_surface, args.acceleration
                         kin, sg = args.kinematics, args.safeguards
+                        ramp = args.collision_ramp
                         out = run_path(
                             args.l0, case, f, rtol, rel, its, ft, args.end_time, mm, wp, wu, fz,
-                            acc, kin, branched, safeguards=sg,
+                            acc, kin, branched, safeguards=sg, collision_ramp=ramp,
                         )  # fmt: skip
                         overrides = case_overrides("elastic", case, spacing) + light_overrides(
                             f,
@@ -1176,6 +1197,7 @@ def main(argv: list[str] | None = None) -> int:
                             acc,
                             kin,
                             safeguards=sg,
+                            collision_ramp=ramp,
                         )
                         tag = f"[light {case.label()} mf {f:g} rtol {rtol:g} ft {ft}]"
                         if args.branch_from is not None:
@@ -1189,7 +1211,7 @@ def main(argv: list[str] | None = None) -> int:
                             at = args.branch_at
                             base = run_path(
                                 args.l0, case, f, rtols[0], rel, its, ft0, at, mm, wp,
-                                kinematics=kin, safeguards=sg,
+                                kinematics=kin, safeguards=sg, collision_ramp=ramp,
                             )  # fmt: skip
                             base_overrides = case_overrides(
                                 "elastic", case, spacing
@@ -1204,6 +1226,7 @@ def main(argv: list[str] | None = None) -> int:
                                 wp,
                                 kinematics=kin,
                                 safeguards=sg,
+                                collision_ramp=ramp,
                             )
                             base_overrides.append(f"output.checkpoint_interval={args.branch_at!r}")
                             case_runner.branch_case(

@@ -33,7 +33,11 @@ bsl = load("bottom_slamming_light")
             {"kinematics": "corotational", "safeguards": True, "force_tolerance": "0.05"},
             {"corot": "_corot", "sg": "_sg", "ft": "0.05"},
         ),
-        ({"kinematics": "corotational"}, {"corot": "_corot", "sg": None}),
+        ({"kinematics": "corotational"}, {"corot": "_corot", "sg": None, "ramp": None}),
+        (
+            {"kinematics": "corotational", "safeguards": True, "collision_ramp": 0.1},
+            {"corot": "_corot", "sg": "_sg", "ramp": "0.1"},
+        ),
     ],
 )
 def test_run_path_names_parse_back_to_their_settings(kw, expect):
