@@ -68,6 +68,11 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
   from the free surface): ``--only obstacle_ratio --ratios 0.103,0.0001,0.01 --out
   benchmarks/results/coupling_stress_suction.csv``, and the H2 setting's row appended to
   coupling_stress_shaped.csv (docs/fluid.md, "Suction at structure members").
+* ``--set fluid.collision.ramp=0.1`` (a collision impulse continuous in the pair distance, so a
+  member's contact load is continuous in its displacement): H2's ``obstacle_shaped`` setting at
+  1e-2 (L/20 and L/40), 1e-3 and 1e-4 to 0.3 s, rows appended to coupling_stress_shaped.csv;
+  ``--only obstacle_ratio --ratios 0.01`` with it in coupling_stress_ramp.csv
+  (docs/validation_coupling_stress.md, "A collision that fades in").
 * finer spacings at mass ratio 1e-4 / 1e-2: ``--set fluid.spacing=0.00365`` (L/40) or
   ``0.001825`` (L/80) on ``--only obstacle_ratio`` (rows in
   benchmarks/results/coupling_stress_fine.csv) and on H2's ``obstacle_shaped`` setting (rows
