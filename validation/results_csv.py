@@ -34,3 +34,10 @@ def read_csv(path: Path) -> list[dict[str, str]]:
     """Rows of a study CSV as dicts of strings; lines starting with '#' are comments."""
     with path.open(newline="") as f:
         return list(csv.DictReader(line for line in f if not line.startswith("#")))
+
+
+def print_rows(rows: Sequence[dict]) -> None:
+    """Print each row as one ``key=value`` line, floats to 4 digits (a study's summary)."""
+    for r in rows:
+        cells = [f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in r.items()]
+        print(", ".join(cells))

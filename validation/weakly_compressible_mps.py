@@ -40,7 +40,7 @@ import dam_break_wall_gauge as gauge  # noqa: E402
 import piston_added_mass as piston  # noqa: E402
 from dam_break import L, comparison, front_curve, references  # noqa: E402
 from momentum_budget import ringing  # noqa: E402
-from results_csv import write_csv  # noqa: E402
+from results_csv import print_rows, write_csv  # noqa: E402
 
 ROOT = case_runner.ROOT
 RESULTS_DIR = ROOT / "validation" / "results"
@@ -236,9 +236,7 @@ def main(argv: list[str] | None = None) -> int:
             "samples over 0.12-0.25 s and tip peak; piston under 2 m at 75 Hz, dt 2e-4 s"
         ),
     )
-    for r in rows:
-        cells = [f"{k}={r[k]:.4g}" if isinstance(r[k], float) else f"{k}={r[k]}" for k in r]
-        print(", ".join(cells))
+    print_rows(rows)
     return 0
 
 
