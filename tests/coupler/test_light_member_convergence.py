@@ -33,7 +33,10 @@ sweeps (IQN-IMVJ's defaults, rtol 1e-3, at most 30 iterations, self-weight off).
   ramp the same run accepts 5 windows unconverged, whose loads jump between two levels as a
   fluid particle crosses the collision distance (docs/coupler.md, "Contact that fades in").
   The tip's peak is checked loosely (25-50 mm: the ramp-0 variants read 36.6-39.7 mm, the
-  ramps 0.1-0.5 34.3-37.9 mm). About 75 s.
+  ramps 0.1-0.5 34.3-37.9 mm). About 75 s. And at mass ratio 1e-3 with the force tolerance
+  5e-2 and 60 iterations allowed: every window converged (measured 3.27 per window, one window
+  35; tip peak 36.7 mm). Without the ramp, at 30 iterations, 14 windows stay unconverged.
+  About 70 s.
 """
 
 from __future__ import annotations
@@ -64,14 +67,14 @@ COMMON = [
 def converged_run(
     tmp_path, scene: Path, sets: list[str], end: float, probe: str, accel: str = "iqn-imvj"
 ) -> tuple:
-    """Run ``scene`` coupled to ``end`` (s) with ``sets``, :data:`COMMON` and the accelerator
-    ``accel`` (its defaults); check issue 21's target (every window converged, at most 5
+    """Run ``scene`` coupled to ``end`` (s) with :data:`COMMON`, the accelerator ``accel`` (its
+    defaults) and ``sets`` (last: they override the common keys); check issue 21's target (every window converged, at most 5
     iterations per window on average) and return the windows' count and the probe's (time,
     value)."""
     out = tmp_path / "run.h5"
     common = [*COMMON, f'coupling.acceleration={{kind = "{accel}"}}']
     run_coupled(
-        load_scenario(scene, [*sets, *common]), out, end, progress=False, log=lambda m: None
+        load_scenario(scene, [*common, *sets]), out, end, progress=False, log=lambda m: None
     )
     with h5py.File(out, "r") as h5:
         its = h5["coupling/iterations"][:]
@@ -135,8 +138,21 @@ def test_obstacle_at_mass_ratio_1e_4_converges_every_window_at_l40_with_safeguar
 
 
 @pytest.mark.slow
-def test_mps_obstacle_at_mass_ratio_1e_2_converges_every_window_with_the_collision_ramp(tmp_path):
-    density = 1e-2 * 1000.0 * H_WATER / H_PLATE
+@pytest.mark.parametrize(
+    "ratio, extra",
+    [
+        (1e-2, []),
+        (
+            1e-3,
+            [
+                "coupling.convergence.fictitious_force_tolerance=0.05",
+                "coupling.convergence.max_iterations=60",
+            ],
+        ),
+    ],
+)
+def test_mps_obstacle_light_converges_every_window_with_the_collision_ramp(tmp_path, ratio, extra):
+    density = ratio * 1000.0 * H_WATER / H_PLATE
     sets = [
         "fluid.spacing=0.0073",
         "fluid.surface.freeze_in_coupling_window=true",
@@ -149,6 +165,6 @@ def test_mps_obstacle_at_mass_ratio_1e_2_converges_every_window_with_the_collisi
         "coupling.convergence.max_displacement=0.08",
     ]
     scene = ROOT / "scenarios" / "dam_break_elastic_obstacle_2d.toml"
-    windows, t, tip = converged_run(tmp_path, scene, sets, 0.3, "tip", accel="aitken")
+    windows, t, tip = converged_run(tmp_path, scene, [*sets, *extra], 0.3, "tip", accel="aitken")
     assert windows == 1200 and t[-1] == pytest.approx(0.3, abs=1e-9)
     assert 0.025 < tip[:, 0].max() < 0.050
