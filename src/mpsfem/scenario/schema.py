@@ -28,8 +28,8 @@ class AddedMassWarning(UserWarning):
 #: mass ratios (rho_s h) / (rho_w H) below which the stress sweeps saw a fluid method's defaults
 #: fail (docs/coupler.md, "Light members: what to set, by mass ratio"): under MPS the plate
 #: converged down to 1e-2 (the obstacle at 1e-2 needed the shaped fictitious mass already) and
-#: neither case below; under δ-SPH both converged down to 1e-3, and at 1e-4 the obstacle
-#: needed the safeguards
+#: below it only with a fictitious mass (the obstacle to 1e-3 with the collision ramp as well);
+#: under δ-SPH both converged down to 1e-3, and at 1e-4 the obstacle needed the safeguards
 LIGHT_MEMBER_RATIO = {"mps": 1e-2, "delta-sph": 1e-3}
 
 #: a displacement probe may lie at most this fraction of its member's extent (a beam's length, a
@@ -110,9 +110,10 @@ class Scenario(Section):
             if method == "delta-sph" and safeguards:
                 continue
             remedy = (
-                "a fictitious mass (structure.members.N.fictitious_mass; under MPS no setting "
-                "converged on the dam-break obstacle below 1e-2, where δ-SPH did: to 1e-3 "
-                "with its defaults, at 1e-4 with its safeguards)"
+                "a fictitious mass (structure.members.N.fictitious_mass; on the dam-break "
+                "obstacle under MPS the shaped one with fluid.collision.ramp = 0.1 converged "
+                "down to 1e-3, and no setting below, where δ-SPH converged to 1e-3 with its "
+                "defaults and at 1e-4 with its safeguards)"
                 if method == "mps"
                 else 'the safeguards (coupling.convergence.accept_unconverged = "best", '
                 "retreat_predictor, the HHT scheme) and a member several spacings thick (3.3 "
