@@ -56,7 +56,7 @@ def ramp_weight(r, distance, ramp):
     falling linearly to 0 at distance; 1 everywhere when ramp = 0 (the hard threshold)."""
     if ramp > 0.0:
         inner = (1.0 - ramp) * distance
-        if r > inner:
+        if r > inner:  # linear fade, ours (docs/fluid.md, "A collision that fades in")
             return (distance - r) / (ramp * distance)
     return 1.0
 
@@ -103,9 +103,9 @@ def collide(pos, vel, kind, indptr, indices, distance, restitution, work=None, r
     """Apply the collision model to ``vel`` in place (FLUID rows only).
 
     ``distance`` is absolute (e.g. 0.5 l0); ``restitution`` in [0, 1]; ``ramp`` in [0, 1), the
-    share of ``distance`` over which a pair's impulse fades out (:func:`ramp_weight`). ``work`` is an optional
-    (N, dim) float64 scratch array; without it a module-level buffer is reused (grown when
-    needed), so repeated calls do not allocate. Returns the velocity change array (a view of the
+    share of ``distance`` over which a pair's impulse fades out (:func:`ramp_weight`). ``work``
+    is an optional (N, dim) float64 scratch array; without it a module-level buffer is reused
+    (grown when needed), so repeated calls do not allocate. Returns the velocity change array (a view of the
     scratch buffer, valid until the next call)."""
     if not 0.0 <= restitution <= 1.0:
         raise ValueError(f"restitution must be in [0, 1], got {restitution!r}")
