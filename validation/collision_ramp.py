@@ -103,19 +103,20 @@ def results_path(case: str, ramp: float) -> Path:
     return RESULTS_DIR / f"collision_ramp_{case}_r{ramp:g}.h5"
 
 
-def _attrs(path: Path) -> tuple[int, float]:
+def run_row(path: Path) -> dict:
+    """The run's status, its last coupling window's end (s; NaN for a fluid-only run), its
+    fluid steps and wall time (s)."""
     with h5py.File(path, "r") as h5:
-        return int(h5.attrs.get("steps", -1)), float(h5.attrs.get("wall_time", np.nan))
+        t = h5["coupling/time"][:] if "coupling/time" in h5 else np.full(1, np.nan)
+        return {
+            "status": str(h5.attrs.get("status", "unknown")),
+            "t_end_s": float(t[-1]),
+            "steps": int(h5.attrs.get("steps", -1)),
+            "wall_time_s": float(h5.attrs.get("wall_time", np.nan)),
+        }
 
 
-def _status(path: Path) -> tuple[str, float]:
-    """(status, last coupling window's end time, s) of a results file."""
-    with h5py.File(path, "r") as h5:
-        t = h5["coupling/time"][:] if "coupling/time" in h5 else np.zeros(1)
-        return str(h5.attrs.get("status", "unknown")), float(t[-1])
-
-
-def gauge_row(path: Path, n: int, refs: dict) -> dict:
+def gauge_row(path: Path, refs: dict) -> dict:
     stats = gauge.gauge_statistics(*gauge.read_gauge(path))
     front = comparison(*front_curve(path), refs)
     return {
@@ -128,14 +129,17 @@ def gauge_row(path: Path, n: int, refs: dict) -> dict:
     }
 
 
-def gate_row(path: Path) -> dict:
+def member_row(path: Path, force_probe: str | None = None) -> dict:
+    """The member's tip (the ``tip`` probe: peak dx and its time, peak dy, mm), the coupling
+    windows' iterations and unconverged count, and with ``force_probe`` its peak and ringing over
+    :data:`IMPACT`."""
     with h5py.File(path, "r") as h5:
         t = h5["probes/tip/time"][:]
         tip = h5["probes/tip/value"][:]
         it = h5["coupling/iterations"][:]
         conv = h5["coupling/converged"][:]
     k = int(np.argmax(tip[:, 0]))
-    return {
+    row = {
         "tip_peak_mm": 1e3 * float(tip[k, 0]),
         "tip_peak_time_s": float(t[k]),
         "tip_dy_peak_mm": 1e3 * float(tip[:, 1].max()),
@@ -143,25 +147,9 @@ def gate_row(path: Path) -> dict:
         "iterations_max": int(it.max()),
         "not_converged": int((conv == 0).sum()),
     }
-
-
-def obstacle_row(path: Path) -> dict:
-    peak, ring = ringing(path, "obstacle_force", *IMPACT)
-    with h5py.File(path, "r") as h5:
-        t = h5["probes/tip/time"][:]
-        tip = h5["probes/tip/value"][:, 0]
-        it = h5["coupling/iterations"][:]
-        conv = h5["coupling/converged"][:]
-    k = int(np.argmax(tip))
-    return {
-        "tip_peak_mm": 1e3 * float(tip[k]),
-        "tip_peak_time_s": float(t[k]),
-        "force_peak_n_m": peak,
-        "ringing": ring,
-        "iterations_mean": float(it.mean()),
-        "iterations_max": int(it.max()),
-        "not_converged": int((conv == 0).sum()),
-    }
+    if force_probe is not None:
+        row["force_peak_n_m"], row["ringing"] = ringing(path, force_probe, *IMPACT)
+    return row
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -193,15 +181,11 @@ def main(argv: list[str] | None = None) -> int:
             # a run that stopped (the gate without the ramp) is analysed up to its stop
             if not case_runner.analysable(case_runner.read_status(path)):
                 continue
-            row = {"case": case, "resolution_L_over_l0": n, "ramp": ramp}
-            row["status"], row["t_end_s"] = _status(path)
+            row = {"case": case, "resolution_L_over_l0": n, "ramp": ramp, **run_row(path)}
             if case.startswith("gauge"):
-                row.update(gauge_row(path, n, refs))
-            elif case.startswith("gate"):
-                row.update(gate_row(path))
-            else:
-                row.update(obstacle_row(path))
-            row["steps"], row["wall_time_s"] = _attrs(path)
+                row.update(gauge_row(path, refs))
+            else:  # the gate has no force probe of the obstacle's
+                row.update(member_row(path, None if case.startswith("gate") else "obstacle_force"))
             rows[(case, ramp)] = row
     if not rows:
         print("nothing to analyse")

@@ -53,7 +53,8 @@ def approach_speed(i, j, pos, vel, d2max):
 @njit(cache=True, inline="always")
 def ramp_weight(r, distance, ramp):
     """Share w of a colliding pair's impulse at distance r (m): 1 up to (1 - ramp) distance,
-    falling linearly to 0 at distance; 1 everywhere when ramp = 0 (the hard threshold)."""
+    falling linearly to 0 at distance; exactly 1 everywhere when ramp = 0 (the hard threshold:
+    the impulse keeps its bits)."""
     if ramp > 0.0:
         inner = (1.0 - ramp) * distance
         if r > inner:  # linear fade, ours (docs/fluid.md, "A collision that fades in")
@@ -79,9 +80,7 @@ def collision_velocity_change(pos, vel, kind, indptr, indices, distance, restitu
             a, r = approach_speed(i, j, pos, vel, d2max)
             if a <= 0.0:
                 continue  # separating, or not within the distance
-            f = (1.0 + restitution) * a / r
-            if ramp > 0.0:
-                f *= ramp_weight(r, distance, ramp)
+            f = (1.0 + restitution) * a / r * ramp_weight(r, distance, ramp)
             if kind[j] == 0:
                 f *= 0.5
             for d in range(dim):
@@ -105,8 +104,8 @@ def collide(pos, vel, kind, indptr, indices, distance, restitution, work=None, r
     ``distance`` is absolute (e.g. 0.5 l0); ``restitution`` in [0, 1]; ``ramp`` in [0, 1), the
     share of ``distance`` over which a pair's impulse fades out (:func:`ramp_weight`). ``work``
     is an optional (N, dim) float64 scratch array; without it a module-level buffer is reused
-    (grown when needed), so repeated calls do not allocate. Returns the velocity change array (a view of the
-    scratch buffer, valid until the next call)."""
+    (grown when needed), so repeated calls do not allocate. Returns the velocity change array
+    (a view of the scratch buffer, valid until the next call)."""
     if not 0.0 <= restitution <= 1.0:
         raise ValueError(f"restitution must be in [0, 1], got {restitution!r}")
     if not distance > 0.0:

@@ -209,9 +209,7 @@ def collision_exchange(pos, vel, kind, indptr, indices, distance, restitution, v
             a, r = approach_speed(i, j, pos, vel, d2max)
             if a <= 0.0:
                 continue
-            f = mass * (1.0 + restitution) * a / r
-            if ramp > 0.0:
-                f *= ramp_weight(r, distance, ramp)
+            f = mass * (1.0 + restitution) * a / r * ramp_weight(r, distance, ramp)
             t = target[j] - offset
             for d in range(dim):
                 out[t, d] += f * (pos[j, d] - pos[i, d])
