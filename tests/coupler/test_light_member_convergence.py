@@ -68,9 +68,9 @@ def converged_run(
     tmp_path, scene: Path, sets: list[str], end: float, probe: str, accel: str = "iqn-imvj"
 ) -> tuple:
     """Run ``scene`` coupled to ``end`` (s) with :data:`COMMON`, the accelerator ``accel`` (its
-    defaults) and ``sets`` (last: they override the common keys); check issue 21's target (every window converged, at most 5
-    iterations per window on average) and return the windows' count and the probe's (time,
-    value)."""
+    defaults) and ``sets`` (last: they override the common keys); check issue 21's target
+    (every window converged, at most 5 iterations per window on average) and return the
+    windows' count and the probe's (time, value)."""
     out = tmp_path / "run.h5"
     common = [*COMMON, f'coupling.acceleration={{kind = "{accel}"}}']
     run_coupled(

@@ -138,6 +138,15 @@ def test_ramp_keeps_pairs_conserving_momentum(ramp):
     collide(pos, out, kind, nb.indptr, nb.indices, 0.8 * L0, 0.2, ramp=ramp)
     assert np.any(out != vel)
     np.testing.assert_allclose(out.sum(axis=0), vel.sum(axis=0), atol=1e-11)
+    # one pair at 0.95 of the distance: w = 0.05 / ramp (1 without a ramp)
+    pair = np.array([[0.0, 0.0], [0.95 * 0.8 * L0, 0.0]])
+    v = np.array([[1.0, 0.0], [-1.0, 0.0]])  # approaching at a = 2 m/s
+    nb = build_neighbours(pair, 2.1 * L0)
+    after = v.copy()
+    collide(pair, after, np.zeros(2, np.int8), nb.indptr, nb.indices, 0.8 * L0, 0.2, ramp=ramp)
+    w = 0.05 / ramp if ramp > 0.0 else 1.0
+    rel = after[0, 0] - after[1, 0]
+    assert rel == pytest.approx(-(0.2 * w + w - 1.0) * 2.0, rel=1e-12)
 
 
 def test_bad_ramp():
