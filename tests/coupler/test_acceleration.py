@@ -213,3 +213,47 @@ def test_iterations_converged_is_a_no_op_for_relaxation(kind):
     x = np.ones(6)
     acc.iterations_converged(x, A @ x + b)
     assert acc.state_dict() == state
+
+
+def _aitken_factors(acc, A, b, x0, max_it=400, tol=1e-10):
+    """Fixed-point iterations under ``acc`` (Aitken); returns (x, the factors applied)."""
+    x, factors = x0.copy(), []
+    acc.start_window()
+    for _ in range(max_it):
+        xt = A @ x + b
+        if np.linalg.norm(xt - x) <= tol * np.linalg.norm(xt):
+            break
+        x, _ = acc.compute(x, xt)
+        factors.append(acc.omega)
+    return x, np.array(factors)
+
+
+def test_aitken_bounds_that_never_bind_change_nothing():
+    """relaxation_bounds wide enough never to bind: the same iterates, bit for bit, as none."""
+    A, b, _ = problem(n=12, lam_max=20.0)
+    x0, w0 = _aitken_factors(make("aitken"), A, b, np.zeros(12))
+    x1, w1 = _aitken_factors(make("aitken", relaxation_bounds=[-1e6, 1e6]), A, b, np.zeros(12))
+    assert np.array_equal(x0, x1) and np.array_equal(w0, w1)
+
+
+def test_aitken_factor_is_clipped_into_its_bounds():
+    """Every factor applied lies in [lo, hi]; the free factors of the same problem leave that
+    interval (so the bound acts), and the clipped iteration still converges: on eigenvalues
+    in [-20, -0.5] every factor below 2 / 21 contracts (constant relaxation's limit)."""
+    A, b, xs = problem(n=12, lam_max=20.0)
+    _, free = _aitken_factors(make("aitken"), A, b, np.zeros(12))
+    lo, hi = 0.02, 0.06
+    assert free.min() < lo or free.max() > hi
+    x, w = _aitken_factors(make("aitken", relaxation_bounds=[lo, hi]), A, b, np.zeros(12))
+    assert w.min() >= lo and w.max() <= hi
+    np.testing.assert_allclose(x, xs, rtol=1e-8)
+
+
+@pytest.mark.parametrize(
+    "bounds", [[0.5, 0.1], [0.1], [-1.0, -0.5], [0.0, float("inf")], [float("nan"), 1.0]]
+)
+def test_aitken_bounds_refuse_what_is_not_an_interval(bounds):
+    from pydantic import ValidationError
+
+    with pytest.raises(ValidationError, match="relaxation_bounds"):
+        make("aitken", relaxation_bounds=bounds)
