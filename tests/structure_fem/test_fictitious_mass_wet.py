@@ -48,6 +48,18 @@ def test_wet_nodes_widen_by_one_element():
     assert np.flatnonzero(wet_nodes([f], cells, 11)).tolist() == [3, 4, 5]
     assert np.flatnonzero(wet_nodes([f], cells, 11, margin=2)).tolist() == [2, 3, 4, 5, 6]
     assert not wet_nodes([np.zeros((11, 2))], cells, 11).any()
+    assert np.flatnonzero(wet_nodes([f], cells, 11, margin=0)).tolist() == [4]
+
+
+def test_wet_nodes_widen_each_member_by_its_own_margin():
+    """Two members (nodes 0-10 and 11-21), one loaded node each: margins 0 and 2."""
+    cells = [np.c_[np.arange(10), np.arange(1, 11)], np.c_[np.arange(11, 21), np.arange(12, 22)]]
+    f = np.zeros((22, 2))
+    f[[4, 15], 1] = 1.0
+    assert np.flatnonzero(wet_nodes([f], cells, 22, margin=[0, 2])).tolist() == [
+        4, 13, 14, 15, 16, 17
+    ]  # fmt: skip
+    assert np.array_equal(wet_nodes([f], cells, 22, margin=[1, 1]), wet_nodes([f], cells, 22))
 
 
 def test_a_dry_member_moves_exactly_as_without_fictitious_mass():
@@ -176,6 +188,25 @@ def test_reported_force_error_is_the_residual_of_the_true_equation(nodes):
     # free y dof (clamped, simply supported): 9 y dofs either way
     assert rows.size == 9
     assert A > 0.0
+
+
+def test_wet_margin_zero_keeps_the_fictitious_mass_on_loaded_nodes_only():
+    """fictitious_wet_margin = 0: the window's set is the loaded nodes (2 .. 8), not their
+    neighbours too (1 .. 9, the default margin of one element)."""
+    f = np.zeros((11, 2))
+    f[2:9, 1] = 1.0
+    got = {}
+    for margin in (1, 0):
+        st = beam(2.0 * MASS, fictitious_mass_nodes="wet", fictitious_wet_margin=margin)
+        st.write("forces", f)
+        st.checkpoint()
+        st.set_iterate(np.zeros((11, 2)), DT)
+        st.write("forces", f)
+        st.advance(DT)
+        got[margin] = np.flatnonzero(st.fictitious_nodes).tolist()
+    assert got == {1: list(range(1, 10)), 0: list(range(2, 9))}
+    with pytest.raises(ValueError, match="fictitious_wet_margin"):
+        beam(MASS, fictitious_wet_margin=-1)
 
 
 def test_keys_are_validated():

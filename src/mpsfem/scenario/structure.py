@@ -243,6 +243,17 @@ class _MemberCommon(Section):
             "marks the whole member wet."
         ),
     )
+    fictitious_wet_margin: int = Field(
+        1,
+        ge=0,
+        description=(
+            'With fictitious_mass_nodes = "wet": the elements (>= 0) by which the wet set is '
+            "widened around the nodes whose load exceeds fictitious_wet_pressure; 1 (default, the "
+            "behaviour before this key): the nodes next to a wet one carry M_f too, ready for a "
+            "wetting front that moves in the window; 0: only loaded nodes, so no node carries "
+            "M_f that the fluid does not load (docs/coupler.md, 'Which nodes are wet')."
+        ),
+    )
     fictitious_wet_update: Literal["window", "grow"] = Field(
         "window",
         description=(

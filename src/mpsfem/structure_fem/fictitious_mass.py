@@ -90,13 +90,13 @@ def wet_nodes(
     loads: list[np.ndarray],
     cells: list[np.ndarray],
     n_points: int,
-    margin: int = 1,
+    margin: int | list[int] = 1,
     threshold: np.ndarray | None = None,
 ) -> np.ndarray:
     """Nodes (bool, (n_points,)) on which any of the nodal loads (each (n_points, dim), N) is
     nonzero (with ``threshold``, (n_points,) in N: whose magnitude exceeds it), widened
     `margin` times by the nodes of every cell (rows of global node indices) holding one of
-    them."""
+    them; ``margin`` a list: one count per array of ``cells`` (a member's own margin)."""
     wet = np.zeros(n_points, dtype=bool)
     for f in loads:
         f = np.asarray(f)
@@ -104,11 +104,13 @@ def wet_nodes(
             wet |= np.any(f != 0.0, axis=1)
         else:
             wet |= np.linalg.norm(f, axis=1) > threshold
-    for _ in range(int(margin)):
+    margins = [int(margin)] * len(cells) if np.isscalar(margin) else [int(m) for m in margin]
+    for k in range(max(margins, default=0)):
         grown = wet.copy()
-        for c in cells:
-            hit = wet[c].any(axis=1)
-            grown[c[hit].reshape(-1)] = True
+        for c, m in zip(cells, margins, strict=True):
+            if m > k:
+                hit = wet[c].any(axis=1)
+                grown[c[hit].reshape(-1)] = True
         wet = grown
     return wet
 

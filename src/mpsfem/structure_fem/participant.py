@@ -218,6 +218,8 @@ class StructureParticipant:
                 if cfg.fictitious_mass_nodes == "wet" and cfg.fictitious_wet_update == "grow":
                     self._fm_grow[sysm.node_slices[m.name]] = True
         self._fm_cells = [m.connectivity + sysm.node_slices[m.name].start for m in sysm.models]
+        # elements by which each member's wet set is widened (fictitious_wet_margin)
+        self._fm_margins = [cfg.fictitious_wet_margin for cfg in section.members]
         self._fm_measure = np.concatenate(
             [tributary_measure(m.nodes, m.connectivity) for m in sysm.models]
         )
@@ -336,7 +338,8 @@ class StructureParticipant:
 
     def _decide_fictitious_nodes(self) -> None:
         """The window's wet set (members with fictitious_mass_nodes = "wet"): nodes with load at
-        the checkpoint or in the forces now written, plus one element around them."""
+        the checkpoint or in the forces now written, widened by each member's
+        fictitious_wet_margin (elements; default one)."""
         self._fm_pending = False
         if not self._fm_if_wet.any():
             return
@@ -344,6 +347,7 @@ class StructureParticipant:
             [self._fm_load_start, self._forces],
             self._fm_cells,
             self.system.n_points,
+            margin=self._fm_margins,
             threshold=self._fm_threshold,
         )
         nodes = self._fm_always | (wet & self._fm_if_wet)
@@ -358,7 +362,11 @@ class StructureParticipant:
         nodes' a^{k-1} is the previous iterate's acceleration, as for every wet node (the
         IterationHistory keeps it over all dofs)."""
         wet = wet_nodes(
-            [self._forces], self._fm_cells, self.system.n_points, threshold=self._fm_threshold
+            [self._forces],
+            self._fm_cells,
+            self.system.n_points,
+            margin=self._fm_margins,
+            threshold=self._fm_threshold,
         )
         nodes = self._fm_nodes | (wet & self._fm_grow)
         if not np.array_equal(nodes, self._fm_nodes):
