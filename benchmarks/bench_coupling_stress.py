@@ -73,6 +73,12 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
   1e-2 (L/20 and L/40), 1e-3 and 1e-4 to 0.3 s, rows appended to coupling_stress_shaped.csv;
   ``--only obstacle_ratio --ratios 0.01`` with it in coupling_stress_ramp.csv
   (docs/validation_coupling_stress.md, "A collision that fades in").
+* ``--set "coupling.acceleration.relaxation_bounds=[0.05,1.5]"`` (a floor under Aitken's factor,
+  which collapses toward zero in the windows the 1e-4 obstacle leaves unconverged) and
+  ``--set fluid.pressure.tol=5e-7`` / ``2e-6`` (other realisations of the same flow): H2's
+  ``obstacle_shaped`` setting at 1e-4 with the ramp 0.5, the bounds none, [0.02, 1.5],
+  [0.05, 1.5], [0.05, 20] and [0.1, 1.5]; at 1e-2 and 1e-3 with the ramp 0.1; rows appended to
+  coupling_stress_shaped.csv (docs/validation_coupling_stress.md, "Aitken's collapse").
 * finer spacings at mass ratio 1e-4 / 1e-2: ``--set fluid.spacing=0.00365`` (L/40) or
   ``0.001825`` (L/80) on ``--only obstacle_ratio`` (rows in
   benchmarks/results/coupling_stress_fine.csv) and on H2's ``obstacle_shaped`` setting (rows

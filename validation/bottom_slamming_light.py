@@ -198,6 +198,7 @@ def light_overrides(
     kinematics: str = "linear",
     safeguards: bool = False,
     collision_ramp: float = 0.0,
+    wet_margin: int = 1,
 ) -> list[str]:
     """The light section, the fictitious mass (``mf_factor`` x the estimate), Aitken and the
     convergence measure (rtol relative to the whole displacement or to the window's motion);
@@ -212,8 +213,12 @@ def light_overrides(
     what took the obstacle at mass ratio 1e-4 to its end (docs/validation_coupling_stress.md):
     coupling.convergence.accept_unconverged = "best", retreat_predictor = true and the HHT
     integrator with alpha = -0.3; ``collision_ramp`` fluid.collision.ramp (a contact load
-    continuous in the member's displacement; docs/coupler.md, "Contact that fades in")."""
+    continuous in the member's displacement; docs/coupler.md, "Contact that fades in");
+    ``wet_margin`` the member's fictitious_wet_margin (elements around the loaded nodes that
+    carry M_f too; 1 the schema's default)."""
     extra = []
+    if wet_margin != 1:
+        extra.append(f"structure.members.0.fictitious_wet_margin={int(wet_margin)}")
     if collision_ramp > 0.0:
         extra.append(f"fluid.collision.ramp={float(collision_ramp)!r}")
     if safeguards:
@@ -268,6 +273,7 @@ def run_path(
     branched_from: float | None = None,
     safeguards: bool = False,
     collision_ramp: float = 0.0,
+    wet_margin: int = 1,
 ) -> Path:
     """The results file of a run. Names without ``_ft``: runs of the code before the
     force-error criterion and the wetted-node M_f (issue 21, task H1); with ``_pf``: the
@@ -276,7 +282,8 @@ def run_path(
     flags frozen in a window; with ``_acc<kind>``: an acceleration other than Aitken (task H3);
     with ``_corot``: a co-rotational member; with ``_sg``: the obstacle's safeguards (best
     iterate, retreating predictor, HHT -0.3; :func:`light_overrides`); with ``_ramp<r>``: the
-    collision ramp r; with ``_from<t>``: a ``--branch-from`` run, continued
+    collision ramp r; with ``_mg<k>``: the wet margin k elements (fictitious_wet_margin; 1 the
+    default, no token); with ``_from<t>``: a ``--branch-from`` run, continued
     from another run's state at t s (runs of task H3 before this token carry no such mark)."""
     wm = "wm" if relative_to == "window_motion" else ""
     if max_iterations != 30:  # the scenario's
@@ -297,6 +304,8 @@ def run_path(
         wm += "_sg"
     if collision_ramp > 0.0:
         wm += f"_ramp{collision_ramp:g}"
+    if wet_margin != 1:
+        wm += f"_mg{int(wet_margin)}"
     if force_tolerance is not None:
         wm += f"_ft{force_tolerance if force_tolerance == 'off' else f'{float(force_tolerance):g}'}"
     if end_time is not None:
@@ -310,7 +319,7 @@ def run_path(
 
 NAME = re.compile(
     r"bottom_slamming_light_(?P<l0>[0-9.e-]+)_mf(?P<mf>[0-9.e-]+)_rtol(?P<rtol>[0-9.e-]+)(?P<wm>(wm)?)(?:it(?P<maxit>[0-9]+))?"
-    r"(?P<pf>_pf)?(?:_wp(?P<wp>[0-9.e-]+))?(?P<grow>_grow)?(?P<frz>_frz)?(?:_acc(?P<acc>[a-z-]+))?(?P<corot>_corot)?(?P<sg>_sg)?(?:_ramp(?P<ramp>[0-9.e-]+))?(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?(?:_from(?P<frm>[0-9.e-]+))?_"
+    r"(?P<pf>_pf)?(?:_wp(?P<wp>[0-9.e-]+))?(?P<grow>_grow)?(?P<frz>_frz)?(?:_acc(?P<acc>[a-z-]+))?(?P<corot>_corot)?(?P<sg>_sg)?(?:_ramp(?P<ramp>[0-9.e-]+))?(?:_mg(?P<mg>[0-9]+))?(?:_ft(?P<ft>off|[0-9.e-]+))?(?:_end(?P<end>[0-9.e-]+))?(?:_from(?P<frm>[0-9.e-]+))?_"
     r"AH(?P<a>[0-9.]+)_DH(?P<d>[0-9.]+)\.h5$"
 )
 
@@ -379,6 +388,7 @@ class LightResult:
     kinematics: str = "linear"  # the member's
     safeguards: bool = False  # --safeguards (file name _sg)
     collision_ramp: float = 0.0  # --collision-ramp (file name _ramp<r>)
+    wet_margin: int = 1  # --wet-margin (file name _mg<k>)
     branched_from_s: float = math.nan  # --branch-from: the time of the state it continued
     # the start of the wet split (s): WET_FROM at D/H = 0.06, else the first wet set
     # (:func:`wet_from`)
@@ -489,6 +499,7 @@ def analyse_light(path: Path) -> LightResult:
         kinematics="corotational" if m["corot"] else "linear",
         safeguards=bool(m["sg"]),
         collision_ramp=float(m["ramp"] or 0.0),
+        wet_margin=int(m["mg"]) if m["mg"] else 1,
         branched_from_s=float(m["frm"]) if m["frm"] else math.nan,
         rigid_peak_same_l0=same,
         rigid_peak_smooth_same_l0=same_s,
@@ -694,6 +705,7 @@ def report() -> int:
             r.setdefault("kinematics", "linear")
             r.setdefault("safeguards", False)
             r.setdefault("collision_ramp", 0.0)
+            r.setdefault("wet_margin", 1)
             r.setdefault("branched_from_s", math.nan)
             for k in ("return_peak", "return_peak_time_s", "return_peak_smooth",
                       "return_peak_smooth_time_s", "mid_back_at_rest_s"):  # fmt: skip
@@ -808,6 +820,8 @@ def _in_table_setting(row: dict, safeguards: bool = False) -> bool:
         return False
     if _num(row.get("collision_ramp") or 0.0) != 0.0:  # a column absent: the hard threshold
         return False
+    if row.get("wet_margin") not in (None, "") and _num(row["wet_margin"]) != 1:
+        return False  # a column absent: the default margin
     for key, want in (MF_TABLE_SETTING | {"safeguards": safeguards}).items():
         have = row.get(key, False if isinstance(want, bool) else "")  # a switch absent: off
         if isinstance(want, bool):
@@ -1117,6 +1131,13 @@ def main(argv: list[str] | None = None) -> int:
         "_ramp<r>, CSV column collision_ramp)",
     )
     ap.add_argument(
+        "--wet-margin",
+        type=int,
+        default=1,
+        help="structure.members.0.fictitious_wet_margin, elements >= 0 (default 1, the "
+        "schema's; file name _mg<k>, CSV column wet_margin)",
+    )
+    ap.add_argument(
         "--branch-from",
         type=Path,
         default=None,
@@ -1178,10 +1199,10 @@ def main(argv: list[str] | None = None) -> int:
                         wp, wu = args.wet_pressure, args.wet_update
                         fz, acc = args.freeze_surface, args.acceleration
                         kin, sg = args.kinematics, args.safeguards
-                        ramp = args.collision_ramp
+                        ramp, mg = args.collision_ramp, args.wet_margin
                         out = run_path(
                             args.l0, case, f, rtol, rel, its, ft, args.end_time, mm, wp, wu, fz,
-                            acc, kin, branched, safeguards=sg, collision_ramp=ramp,
+                            acc, kin, branched, safeguards=sg, collision_ramp=ramp, wet_margin=mg,
                         )  # fmt: skip
                         overrides = case_overrides("elastic", case, spacing) + light_overrides(
                             f,
@@ -1198,6 +1219,7 @@ def main(argv: list[str] | None = None) -> int:
                             kin,
                             safeguards=sg,
                             collision_ramp=ramp,
+                            wet_margin=mg,
                         )
                         tag = f"[light {case.label()} mf {f:g} rtol {rtol:g} ft {ft}]"
                         if args.branch_from is not None:
@@ -1212,6 +1234,7 @@ def main(argv: list[str] | None = None) -> int:
                             base = run_path(
                                 args.l0, case, f, rtols[0], rel, its, ft0, at, mm, wp,
                                 kinematics=kin, safeguards=sg, collision_ramp=ramp,
+                                wet_margin=mg,
                             )  # fmt: skip
                             base_overrides = case_overrides(
                                 "elastic", case, spacing
@@ -1227,6 +1250,7 @@ def main(argv: list[str] | None = None) -> int:
                                 kinematics=kin,
                                 safeguards=sg,
                                 collision_ramp=ramp,
+                                wet_margin=mg,
                             )
                             base_overrides.append(f"output.checkpoint_interval={args.branch_at!r}")
                             case_runner.branch_case(

@@ -38,6 +38,11 @@ bsl = load("bottom_slamming_light")
             {"kinematics": "corotational", "safeguards": True, "collision_ramp": 0.1},
             {"corot": "_corot", "sg": "_sg", "ramp": "0.1"},
         ),
+        ({"kinematics": "corotational"}, {"corot": "_corot", "mg": None}),
+        (
+            {"kinematics": "corotational", "wet_margin": 0, "force_tolerance": "0.05"},
+            {"corot": "_corot", "mg": "0", "ft": "0.05"},
+        ),
     ],
 )
 def test_run_path_names_parse_back_to_their_settings(kw, expect):
