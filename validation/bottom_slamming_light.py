@@ -1183,6 +1183,8 @@ def main(argv: list[str] | None = None) -> int:
         cases = parse_cases(args.cases)
     except ValueError as exc:
         ap.error(str(exc))
+    if args.wet_margin < 0:
+        ap.error(f"--wet-margin {args.wet_margin}: elements >= 0")
     if not l0 > 0.0 or any(f <= 0.0 for f in factors) or any(not 0.0 < r < 1.0 for r in rtols):
         ap.error(f"--l0 {args.l0}, --mf {args.mf}, --rtol {args.rtol}: need l0 > 0, mf > 0, "
                  "0 < rtol < 1")  # fmt: skip
