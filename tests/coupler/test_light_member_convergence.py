@@ -26,6 +26,14 @@ sweeps (IQN-IMVJ's defaults, rtol 1e-3, at most 30 iterations, self-weight off).
   converged to 0.3 s (measured 3.58 iterations per window, at most 23; tip peak 31.5 mm). At
   L/20 no setting tried reaches 0.3 s (docs/validation_coupling_stress.md, "Under the δ-SPH
   fluid"). About 8 min.
+* Slow: the same obstacle at mass ratio 1e-4 and l0 = L/20, where IQN-IMVJ stops under every
+  setting tried, with Aitken, the shaped fictitious mass (potential flow, c = 0.25, wet
+  threshold 1 Pa), the force tolerance 5e-2, the safeguards, 100 iterations allowed and a
+  floor under Aitken's factor (``coupling.acceleration.relaxation_bounds = [0.05, 20]``,
+  docs/coupler.md, "Aitken's collapse"): every window converged to 0.3 s (measured 1.98
+  iterations per window, at most 27; tip peak 23.1 mm). Without the floor 8-15 windows stay
+  unconverged (docs/validation_coupling_stress.md, "Under δ-SPH: Aitken with a floor"). About
+  40 s.
 * Slow: the MPS obstacle (the scenario itself) at mass ratio 1e-2 and l0 = L/20 with the shaped
   fictitious mass (potential flow, c = 0.25, wet threshold 1 Pa), Aitken, surface flags frozen
   in the window and the collision ramp 0.1 (``fluid.collision.ramp``): every window converged
@@ -132,6 +140,31 @@ def test_obstacle_at_mass_ratio_1e_4_converges_every_window_at_l40_with_safeguar
         "structure.time.hht_alpha=-0.3",
     ]
     windows, t, tip = converged_run(tmp_path, SCENE, sets, 0.3, "tip")
+    assert windows == 1200 and t[-1] == pytest.approx(0.3, abs=1e-9)
+    assert np.isfinite(tip).all()
+    assert 0.010 < np.abs(tip[:, 0]).max() < 0.040
+
+
+@pytest.mark.slow
+def test_obstacle_at_mass_ratio_1e_4_converges_every_window_at_l20_with_aitken_floor(tmp_path):
+    density = 1e-4 * 1000.0 * H_WATER / H_PLATE
+    sets = [
+        "fluid.spacing=0.0073",
+        "structure.members.0.self_weight=false",
+        f"structure.members.0.material.density={density!r}",
+        'structure.members.0.fictitious_mass_model="potential_flow"',
+        "structure.members.0.fictitious_mass=0.25",
+        "structure.members.0.fictitious_wet_pressure=1.0",
+        "coupling.convergence.fictitious_force_tolerance=0.05",
+        "coupling.convergence.max_iterations=100",
+        "coupling.convergence.max_displacement=0.08",
+        'coupling.convergence.accept_unconverged="best"',
+        "coupling.convergence.retreat_predictor=true",
+        'structure.time.scheme="hht"',
+        "structure.time.hht_alpha=-0.3",
+        "coupling.acceleration.relaxation_bounds=[0.05, 20.0]",
+    ]
+    windows, t, tip = converged_run(tmp_path, SCENE, sets, 0.3, "tip", accel="aitken")
     assert windows == 1200 and t[-1] == pytest.approx(0.3, abs=1e-9)
     assert np.isfinite(tip).all()
     assert 0.010 < np.abs(tip[:, 0]).max() < 0.040
