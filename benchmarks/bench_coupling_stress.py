@@ -93,7 +93,9 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
   ``--end-time`` runs every selected run to another end (the obstacle's to 0.3 s, past its
   first tip peak). Rows: benchmarks/results/coupling_stress_sph.csv (``--out``), with the
   overrides in their settings column; docs/validation_coupling_stress.md, "Under the δ-SPH
-  fluid".
+  fluid" (and "Under δ-SPH: Aitken with a floor": ``--acceleration aitken`` with the shaped
+  fictitious mass and ``coupling.acceleration.relaxation_bounds`` through ``--set``, realisations
+  by ``fluid.sph.cfl``).
 * ``mock_fictitious`` (``--only mock_fictitious``, its own CSV
   benchmarks/results/coupling_stress_mock_fictitious.csv; see :func:`mock_sweep`): the FEM beam
   against the added-mass mock at added / structure mass 1e4, with and without fictitious mass.

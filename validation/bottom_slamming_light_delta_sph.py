@@ -18,11 +18,15 @@ with MF against the δ-SPH rigid plate of the same spacing and the iteration cou
 first contact. Runs (``--runs``): ``rigid`` (force probe: the first layer's pressure
 integral), ``rigid_x`` (its pair exchange, fluid.boundary_force = "momentum_exchange": the
 measure the member's load is; MF divides by it); ``mf0.3``, ``mf1`` (the light plate); ``heavy``
-(the scenario's own section, 15.6 kg/m^2, Aitken, no M_f). Writes
+(the scenario's own section, 15.6 kg/m^2, Aitken, no M_f); ``imvj...`` (IQN-IMVJ without M_f,
+IMVJ_RUNS); ``ait_corot_sg...`` (Aitken with the MPS MF table's shaped M_f, the safeguards and a
+floor under Aitken's factor, AITKEN_RUNS). Writes
 validation/results/bottom_slamming_light_delta_sph.csv.
 
     NUMBA_NUM_THREADS=1 python validation/bottom_slamming_light_delta_sph.py --runs rigid
     NUMBA_NUM_THREADS=1 python validation/bottom_slamming_light_delta_sph.py --runs mf0.3
+    NUMBA_NUM_THREADS=1 python validation/bottom_slamming_light_delta_sph.py \
+        --runs ait_corot_sg_floor20 --end-time 2.73
     python validation/bottom_slamming_light_delta_sph.py --analyse-only
 """
 
@@ -78,7 +82,21 @@ IMVJ_RUNS = (
     "imvj_corot_sg_rate_fend",
     "imvj_corot_sg_rate_shift",
 )
-RUNS = ("rigid", "rigid_x", "mf0.3", "mf1", "heavy", "rigid_xw", *IMVJ_RUNS)
+#: the Aitken runs with the MPS runs' shaped fictitious mass (issue 21, 2026-11-28): "ait_corot_sg"
+#: (co-rotational member, the safeguards, potential-flow M_f factor 0.35 on nodes loaded above
+#: 3 Pa, force tolerance 5e-2, at most 100 iterations: the MPS MF table's setting) plus any of
+#: "_floor20" / "_floor15" (a floor under Aitken's factor, coupling.acceleration.relaxation_bounds
+#: = [0.05, 20] / [0.05, 1.5]: what converged the δ-SPH obstacle at mass ratio 1e-4, L/20) and
+#: "_ft01" (the force tolerance 1e-2, the schema's default), in this order
+AITKEN_RUNS = (
+    "ait_corot_sg",
+    "ait_corot_sg_floor20",
+    "ait_corot_sg_floor15",
+    "ait_corot_sg_floor20_ft01",
+)
+#: the Aitken runs' floors: tag -> relaxation_bounds (the tag goes into the file name's prefix)
+FLOORS = {"floor20": "[0.05, 20.0]", "floor15": "[0.05, 1.5]"}
+RUNS = ("rigid", "rigid_x", "mf0.3", "mf1", "heavy", "rigid_xw", *IMVJ_RUNS, *AITKEN_RUNS)
 #: the default c0 of this case, 10 x 2 sqrt(g H) with H = 0.114 m (fluid.sph.sound_speed's
 #: default; the "_c2" runs double it)
 SOUND_SPEED = 20.0 * math.sqrt(9.81 * 0.114)
@@ -102,7 +120,7 @@ MF_REFERENCE = {
     "mf0.3": "rigid_x",
     "mf1": "rigid_x",
     "heavy": "rigid_x",
-    **{run: "rigid_xw" for run in IMVJ_RUNS},
+    **{run: "rigid_xw" for run in (*IMVJ_RUNS, *AITKEN_RUNS)},
 }
 #: the rigid plate's force as its pair exchange (fluid.boundary_force = "momentum_exchange"),
 #: the measure the coupled member's load is (docs/fluid_sph.md, "Coupled to a structure"); the
@@ -152,6 +170,13 @@ def run_path(run: str, end_time: float, ft: str = "0.01") -> Path:
             f"dsph_wetted_{pre}bottom_slamming_light_{L0}_mf0_rtol0.001_acciqn-imvj{mid}_ftoff_"
             f"end{end_time:g}_{CASE.label()}.h5"
         )
+    if run in AITKEN_RUNS:  # wetted walls, the MPS MF table's keys (NAME's tokens) and a floor
+        tags = run.split("_")[1:]
+        pre = "".join(f"{t}_" for t in FLOORS if t in tags)
+        return RESULTS_DIR / (
+            f"dsph_wetted_{pre}bottom_slamming_light_{L0}_mf0.35_rtol0.001it100_pf_wp3_corot_sg_"
+            f"ft{aitken_force_tolerance(run)}_end{end_time:g}_{CASE.label()}.h5"
+        )
     if run == "heavy":
         return RESULTS_DIR / f"dsph_bottom_slamming_heavy_{L0}_end{end_time:g}_{CASE.label()}.h5"
     f = float(run.removeprefix("mf"))
@@ -159,6 +184,11 @@ def run_path(run: str, end_time: float, ft: str = "0.01") -> Path:
         f"dsph_bottom_slamming_light_{L0}_mf{f:g}_rtol0.001_ft{ft}_end{end_time:g}_"
         f"{CASE.label()}.h5"
     )
+
+
+def aitken_force_tolerance(run: str) -> str:
+    """The force tolerance of an Aitken run: 0.01 with the tag "_ft01", else 0.05."""
+    return "0.01" if "ft01" in run.split("_") else "0.05"
 
 
 def overrides(run: str, spacing: float, end_time: float, ft: str = "0.01") -> list[str]:
@@ -184,6 +214,25 @@ def overrides(run: str, spacing: float, end_time: float, ft: str = "0.01") -> li
                 light = [o for o in light if not o.startswith(SAFEGUARD_SCHEME)]
             light += extra
         return case_overrides("elastic", CASE, spacing) + light + [WETTED]
+    if run in AITKEN_RUNS:  # the MPS MF table's setting (potential-flow M_f 0.35, 3 Pa) with
+        # the safeguards, wetted walls, and a floor under Aitken's factor if tagged
+        light = light_overrides(
+            0.35,
+            1e-3,
+            max_iterations=100,
+            force_tolerance=aitken_force_tolerance(run),
+            end_time=end_time,
+            model="potential_flow",
+            wet_pressure=3.0,
+            kinematics="corotational",
+            safeguards=True,
+        )
+        floors = [
+            f"coupling.acceleration.relaxation_bounds={FLOORS[t]}"
+            for t in run.split("_")[1:]
+            if t in FLOORS
+        ]
+        return case_overrides("elastic", CASE, spacing) + light + floors + [WETTED]
     if run == "heavy":  # the scenario's section, Aitken as the light runs, no M_f
         return case_overrides("elastic", CASE, spacing) + [
             f"run.end_time={end_time!r}",
