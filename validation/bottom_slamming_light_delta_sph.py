@@ -87,15 +87,23 @@ IMVJ_RUNS = (
 #: 3 Pa, force tolerance 5e-2, at most 100 iterations: the MPS MF table's setting) plus any of
 #: "_floor20" / "_floor15" (a floor under Aitken's factor, coupling.acceleration.relaxation_bounds
 #: = [0.05, 20] / [0.05, 1.5]: what converged the δ-SPH obstacle at mass ratio 1e-4, L/20) and
-#: "_ft01" (the force tolerance 1e-2, the schema's default), in this order
+#: "_ft01" (the force tolerance 1e-2, the schema's default) and "_cfl06" (fluid.sph.cfl = 0.6
+#: instead of RK4's 0.8: five fluid steps a window instead of four, another realisation of the
+#: same physics), in this order
 AITKEN_RUNS = (
     "ait_corot_sg",
     "ait_corot_sg_floor20",
     "ait_corot_sg_floor15",
     "ait_corot_sg_floor20_ft01",
+    "ait_corot_sg_floor20_cfl06",
 )
-#: the Aitken runs' floors: tag -> relaxation_bounds (the tag goes into the file name's prefix)
-FLOORS = {"floor20": "[0.05, 20.0]", "floor15": "[0.05, 1.5]"}
+#: the Aitken runs' prefix tags: tag -> the override it adds (the tag goes into the file name's
+#: prefix): the floors under Aitken's factor, and a shorter fluid step
+AITKEN_TAGS = {
+    "floor20": "coupling.acceleration.relaxation_bounds=[0.05, 20.0]",
+    "floor15": "coupling.acceleration.relaxation_bounds=[0.05, 1.5]",
+    "cfl06": "fluid.sph.cfl=0.6",
+}
 RUNS = ("rigid", "rigid_x", "mf0.3", "mf1", "heavy", "rigid_xw", *IMVJ_RUNS, *AITKEN_RUNS)
 #: the default c0 of this case, 10 x 2 sqrt(g H) with H = 0.114 m (fluid.sph.sound_speed's
 #: default; the "_c2" runs double it)
@@ -172,7 +180,7 @@ def run_path(run: str, end_time: float, ft: str = "0.01") -> Path:
         )
     if run in AITKEN_RUNS:  # wetted walls, the MPS MF table's keys (NAME's tokens) and a floor
         tags = run.split("_")[1:]
-        pre = "".join(f"{t}_" for t in FLOORS if t in tags)
+        pre = "".join(f"{t}_" for t in AITKEN_TAGS if t in tags)
         return RESULTS_DIR / (
             f"dsph_wetted_{pre}bottom_slamming_light_{L0}_mf0.35_rtol0.001it100_pf_wp3_corot_sg_"
             f"ft{aitken_force_tolerance(run)}_end{end_time:g}_{CASE.label()}.h5"
@@ -215,7 +223,7 @@ def overrides(run: str, spacing: float, end_time: float, ft: str = "0.01") -> li
             light += extra
         return case_overrides("elastic", CASE, spacing) + light + [WETTED]
     if run in AITKEN_RUNS:  # the MPS MF table's setting (potential-flow M_f 0.35, 3 Pa) with
-        # the safeguards, wetted walls, and a floor under Aitken's factor if tagged
+        # the safeguards, wetted walls, and each tag's override (a floor, a shorter step)
         light = light_overrides(
             0.35,
             1e-3,
@@ -227,12 +235,8 @@ def overrides(run: str, spacing: float, end_time: float, ft: str = "0.01") -> li
             kinematics="corotational",
             safeguards=True,
         )
-        floors = [
-            f"coupling.acceleration.relaxation_bounds={FLOORS[t]}"
-            for t in run.split("_")[1:]
-            if t in FLOORS
-        ]
-        return case_overrides("elastic", CASE, spacing) + light + floors + [WETTED]
+        tagged = [AITKEN_TAGS[t] for t in run.split("_")[1:] if t in AITKEN_TAGS]
+        return case_overrides("elastic", CASE, spacing) + light + tagged + [WETTED]
     if run == "heavy":  # the scenario's section, Aitken as the light runs, no M_f
         return case_overrides("elastic", CASE, spacing) + [
             f"run.end_time={end_time!r}",
