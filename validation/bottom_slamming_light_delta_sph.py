@@ -19,14 +19,14 @@ first contact. Runs (``--runs``): ``rigid`` (force probe: the first layer's pres
 integral), ``rigid_x`` (its pair exchange, fluid.boundary_force = "momentum_exchange": the
 measure the member's load is; MF divides by it); ``mf0.3``, ``mf1`` (the light plate); ``heavy``
 (the scenario's own section, 15.6 kg/m^2, Aitken, no M_f); ``imvj...`` (IQN-IMVJ without M_f,
-IMVJ_RUNS); ``ait_corot_sg...`` (Aitken with the MPS MF table's shaped M_f, the safeguards and a
-floor under Aitken's factor, AITKEN_RUNS). Writes
+IMVJ_RUNS); ``ait_corot_sg...`` (Aitken with the MPS MF table's shaped M_f and the safeguards;
+tagged, a floor under Aitken's factor or a shorter fluid step; AITKEN_RUNS). Writes
 validation/results/bottom_slamming_light_delta_sph.csv.
 
     NUMBA_NUM_THREADS=1 python validation/bottom_slamming_light_delta_sph.py --runs rigid
     NUMBA_NUM_THREADS=1 python validation/bottom_slamming_light_delta_sph.py --runs mf0.3
     NUMBA_NUM_THREADS=1 python validation/bottom_slamming_light_delta_sph.py \
-        --runs ait_corot_sg_floor20 --end-time 2.73
+        --runs ait_corot_sg --end-time 2.73
     python validation/bottom_slamming_light_delta_sph.py --analyse-only
 """
 

@@ -126,44 +126,43 @@ def test_obstacle_at_mass_ratio_1e_3_converges_every_window_under_delta_sph(tmp_
     assert 0.010 < np.abs(tip[:, 0]).max() < 0.040
 
 
-@pytest.mark.slow
-def test_obstacle_at_mass_ratio_1e_4_converges_every_window_at_l40_with_safeguards(tmp_path):
-    density = 1e-4 * 1000.0 * H_WATER / H_PLATE
-    sets = [
-        "fluid.spacing=0.00365",
-        "structure.members.0.self_weight=false",
-        f"structure.members.0.material.density={density!r}",
-        "coupling.convergence.max_displacement=0.08",
-        'coupling.convergence.accept_unconverged="best"',
-        "coupling.convergence.retreat_predictor=true",
-        'structure.time.scheme="hht"',
-        "structure.time.hht_alpha=-0.3",
-    ]
-    windows, t, tip = converged_run(tmp_path, SCENE, sets, 0.3, "tip")
-    assert windows == 1200 and t[-1] == pytest.approx(0.3, abs=1e-9)
-    assert np.isfinite(tip).all()
-    assert 0.010 < np.abs(tip[:, 0]).max() < 0.040
+#: the coupling safeguards: the best iterate of an unconverged window, a retreating predictor,
+#: the member's highest modes damped
+SAFEGUARDS = [
+    'coupling.convergence.accept_unconverged="best"',
+    "coupling.convergence.retreat_predictor=true",
+    'structure.time.scheme="hht"',
+    "structure.time.hht_alpha=-0.3",
+]
+#: Aitken with the shaped fictitious mass and a floor under its factor (L/20)
+AITKEN_FLOOR = [
+    'structure.members.0.fictitious_mass_model="potential_flow"',
+    "structure.members.0.fictitious_mass=0.25",
+    "structure.members.0.fictitious_wet_pressure=1.0",
+    "coupling.convergence.max_iterations=100",
+    "coupling.acceleration.relaxation_bounds=[0.05, 20.0]",
+]
 
 
 @pytest.mark.slow
-def test_obstacle_at_mass_ratio_1e_4_converges_every_window_at_l20_with_aitken_floor(tmp_path):
+@pytest.mark.parametrize(
+    "spacing, accel, extra",
+    [("0.00365", "iqn-imvj", []), ("0.0073", "aitken", AITKEN_FLOOR)],
+    ids=["l40_imvj_safeguards", "l20_aitken_floor"],
+)
+def test_obstacle_at_mass_ratio_1e_4_converges_every_window_under_delta_sph(
+    tmp_path, spacing, accel, extra
+):
     density = 1e-4 * 1000.0 * H_WATER / H_PLATE
     sets = [
-        "fluid.spacing=0.0073",
+        f"fluid.spacing={spacing}",
         "structure.members.0.self_weight=false",
         f"structure.members.0.material.density={density!r}",
-        'structure.members.0.fictitious_mass_model="potential_flow"',
-        "structure.members.0.fictitious_mass=0.25",
-        "structure.members.0.fictitious_wet_pressure=1.0",
-        "coupling.convergence.max_iterations=100",
         "coupling.convergence.max_displacement=0.08",
-        'coupling.convergence.accept_unconverged="best"',
-        "coupling.convergence.retreat_predictor=true",
-        'structure.time.scheme="hht"',
-        "structure.time.hht_alpha=-0.3",
-        "coupling.acceleration.relaxation_bounds=[0.05, 20.0]",
+        *SAFEGUARDS,
+        *extra,
     ]
-    windows, t, tip = converged_run(tmp_path, SCENE, sets, 0.3, "tip", accel="aitken")
+    windows, t, tip = converged_run(tmp_path, SCENE, sets, 0.3, "tip", accel=accel)
     assert windows == 1200 and t[-1] == pytest.approx(0.3, abs=1e-9)
     assert np.isfinite(tip).all()
     assert 0.010 < np.abs(tip[:, 0]).max() < 0.040
