@@ -87,15 +87,16 @@ IMVJ_RUNS = (
 #: 3 Pa, force tolerance 5e-2, at most 100 iterations: the MPS MF table's setting) plus any of
 #: "_floor20" / "_floor15" (a floor under Aitken's factor, coupling.acceleration.relaxation_bounds
 #: = [0.05, 20] / [0.05, 1.5]: what converged the δ-SPH obstacle at mass ratio 1e-4, L/20) and
-#: "_ft01" (the force tolerance 1e-2, the schema's default) and "_cfl06" (fluid.sph.cfl = 0.6
-#: instead of RK4's 0.8: five fluid steps a window instead of four, another realisation of the
-#: same physics), in this order
+#: "_ft01" (the force tolerance 1e-2, the schema's default) and "_cfl06" / "_cfl05"
+#: (fluid.sph.cfl = 0.6 / 0.5 instead of RK4's 0.8: five / six fluid steps a window instead of
+#: four, other realisations of the same physics), in this order
 AITKEN_RUNS = (
     "ait_corot_sg",
     "ait_corot_sg_floor20",
     "ait_corot_sg_floor15",
     "ait_corot_sg_floor20_ft01",
     "ait_corot_sg_floor20_cfl06",
+    "ait_corot_sg_floor20_cfl05",
 )
 #: the Aitken runs' prefix tags: tag -> the override it adds (the tag goes into the file name's
 #: prefix): the floors under Aitken's factor, and a shorter fluid step
@@ -103,6 +104,7 @@ AITKEN_TAGS = {
     "floor20": "coupling.acceleration.relaxation_bounds=[0.05, 20.0]",
     "floor15": "coupling.acceleration.relaxation_bounds=[0.05, 1.5]",
     "cfl06": "fluid.sph.cfl=0.6",
+    "cfl05": "fluid.sph.cfl=0.5",
 }
 RUNS = ("rigid", "rigid_x", "mf0.3", "mf1", "heavy", "rigid_xw", *IMVJ_RUNS, *AITKEN_RUNS)
 #: the default c0 of this case, 10 x 2 sqrt(g H) with H = 0.114 m (fluid.sph.sound_speed's
