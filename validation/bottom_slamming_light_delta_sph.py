@@ -89,7 +89,8 @@ IMVJ_RUNS = (
 #: = [0.05, 20] / [0.05, 1.5]: what converged the δ-SPH obstacle at mass ratio 1e-4, L/20) and
 #: "_ft01" (the force tolerance 1e-2, the schema's default) and "_cfl06" / "_cfl05"
 #: (fluid.sph.cfl = 0.6 / 0.5 instead of RK4's 0.8: five / six fluid steps a window instead of
-#: four, other realisations of the same physics), in this order
+#: four, other realisations of the same physics; the floors and steps are PREFIX_TAGS), in this
+#: order
 AITKEN_RUNS = (
     "ait_corot_sg",
     "ait_corot_sg_floor20",
@@ -98,20 +99,13 @@ AITKEN_RUNS = (
     "ait_corot_sg_floor20_cfl06",
     "ait_corot_sg_floor20_cfl05",
 )
-#: the Aitken runs' prefix tags: tag -> the override it adds (the tag goes into the file name's
-#: prefix): the floors under Aitken's factor, and a shorter fluid step
-AITKEN_TAGS = {
-    "floor20": "coupling.acceleration.relaxation_bounds=[0.05, 20.0]",
-    "floor15": "coupling.acceleration.relaxation_bounds=[0.05, 1.5]",
-    "cfl06": "fluid.sph.cfl=0.6",
-    "cfl05": "fluid.sph.cfl=0.5",
-}
 RUNS = ("rigid", "rigid_x", "mf0.3", "mf1", "heavy", "rigid_xw", *IMVJ_RUNS, *AITKEN_RUNS)
 #: the default c0 of this case, 10 x 2 sqrt(g H) with H = 0.114 m (fluid.sph.sound_speed's
 #: default; the "_c2" runs double it)
 SOUND_SPEED = 20.0 * math.sqrt(9.81 * 0.114)
-#: the run tags that go into the results file's name before "bottom_slamming", in this order,
-#: and the overrides each adds (a tag with a structure scheme replaces the safeguards' HHT)
+#: the run tags (IQN-IMVJ and Aitken runs alike) that go into the results file's name before
+#: "bottom_slamming", in this order, and the overrides each adds (a tag with a structure scheme
+#: replaces the safeguards' HHT)
 PREFIX_TAGS = {
     "rate": ['coupling.interface_velocity="displacement_rate"'],
     "c2": [f"fluid.sph.sound_speed={2.0 * SOUND_SPEED!r}"],
@@ -120,6 +114,10 @@ PREFIX_TAGS = {
     "ga0": ['structure.time.scheme="generalized_alpha"', "structure.time.rho_inf=0.0"],
     "fend": ['coupling.force_sampling="end"'],
     "shift": ['fluid.sph.shifting="delta_plus"'],
+    "floor20": ["coupling.acceleration.relaxation_bounds=[0.05, 20.0]"],
+    "floor15": ["coupling.acceleration.relaxation_bounds=[0.05, 1.5]"],
+    "cfl06": ["fluid.sph.cfl=0.6"],
+    "cfl05": ["fluid.sph.cfl=0.5"],
 }
 #: the safeguards' structure-scheme overrides (light_overrides) that a scheme tag replaces
 SAFEGUARD_SCHEME = ("structure.time.scheme", "structure.time.hht_alpha")
@@ -173,18 +171,14 @@ def run_path(run: str, end_time: float, ft: str = "0.01") -> Path:
         return RESULTS_DIR / f"dsph_bottom_slamming_{run}_{L0}_end{end_time:g}_{CASE.label()}.h5"
     if run in IMVJ_RUNS:  # no M_f, IQN-IMVJ, wetted walls (the prefix keeps NAME's pattern;
         # "_corot" and "_sg" are NAME's own tags, PREFIX_TAGS go into the prefix)
-        tags = run.split("_")[1:]
-        pre = "".join(f"{t}_" for t in PREFIX_TAGS if t in tags)
-        mid = "".join(f"_{t}" for t in ("corot", "sg") if t in tags)
+        mid = "".join(f"_{t}" for t in ("corot", "sg") if t in run.split("_"))
         return RESULTS_DIR / (
-            f"dsph_wetted_{pre}bottom_slamming_light_{L0}_mf0_rtol0.001_acciqn-imvj{mid}_ftoff_"
+            f"dsph_wetted_{prefix(run)}bottom_slamming_light_{L0}_mf0_rtol0.001_acciqn-imvj{mid}_ftoff_"
             f"end{end_time:g}_{CASE.label()}.h5"
         )
     if run in AITKEN_RUNS:  # wetted walls, the MPS MF table's keys (NAME's tokens) and a floor
-        tags = run.split("_")[1:]
-        pre = "".join(f"{t}_" for t in AITKEN_TAGS if t in tags)
         return RESULTS_DIR / (
-            f"dsph_wetted_{pre}bottom_slamming_light_{L0}_mf0.35_rtol0.001it100_pf_wp3_corot_sg_"
+            f"dsph_wetted_{prefix(run)}bottom_slamming_light_{L0}_mf0.35_rtol0.001it100_pf_wp3_corot_sg_"
             f"ft{aitken_force_tolerance(run)}_end{end_time:g}_{CASE.label()}.h5"
         )
     if run == "heavy":
@@ -194,6 +188,25 @@ def run_path(run: str, end_time: float, ft: str = "0.01") -> Path:
         f"dsph_bottom_slamming_light_{L0}_mf{f:g}_rtol0.001_ft{ft}_end{end_time:g}_"
         f"{CASE.label()}.h5"
     )
+
+
+def prefix(run: str) -> str:
+    """The results file's prefix of a run's PREFIX_TAGS ("rate_c075_", ...; "" for none)."""
+    tags = run.split("_")[1:]
+    return "".join(f"{t}_" for t in PREFIX_TAGS if t in tags)
+
+
+def with_tags(run: str, light: list[str]) -> list[str]:
+    """``light`` with the overrides of the run's PREFIX_TAGS added (a structure scheme's
+    replacing the safeguards' HHT)."""
+    tags = run.split("_")[1:]
+    for tag, extra in PREFIX_TAGS.items():
+        if tag not in tags:
+            continue
+        if any(o.startswith("structure.time.scheme") for o in extra):  # replaces the HHT
+            light = [o for o in light if not o.startswith(SAFEGUARD_SCHEME)]
+        light = light + extra
+    return light
 
 
 def aitken_force_tolerance(run: str) -> str:
@@ -217,13 +230,7 @@ def overrides(run: str, spacing: float, end_time: float, ft: str = "0.01") -> li
             kinematics="corotational" if "corot" in tags else "linear",
             safeguards="sg" in tags,
         )
-        for tag, extra in PREFIX_TAGS.items():
-            if tag not in tags:
-                continue
-            if any(o.startswith("structure.time.scheme") for o in extra):  # replaces the HHT
-                light = [o for o in light if not o.startswith(SAFEGUARD_SCHEME)]
-            light += extra
-        return case_overrides("elastic", CASE, spacing) + light + [WETTED]
+        return case_overrides("elastic", CASE, spacing) + with_tags(run, light) + [WETTED]
     if run in AITKEN_RUNS:  # the MPS MF table's setting (potential-flow M_f 0.35, 3 Pa) with
         # the safeguards, wetted walls, and each tag's override (a floor, a shorter step)
         light = light_overrides(
@@ -237,8 +244,7 @@ def overrides(run: str, spacing: float, end_time: float, ft: str = "0.01") -> li
             kinematics="corotational",
             safeguards=True,
         )
-        tagged = [AITKEN_TAGS[t] for t in run.split("_")[1:] if t in AITKEN_TAGS]
-        return case_overrides("elastic", CASE, spacing) + light + tagged + [WETTED]
+        return case_overrides("elastic", CASE, spacing) + with_tags(run, light) + [WETTED]
     if run == "heavy":  # the scenario's section, Aitken as the light runs, no M_f
         return case_overrides("elastic", CASE, spacing) + [
             f"run.end_time={end_time!r}",

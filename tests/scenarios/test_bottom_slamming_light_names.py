@@ -55,6 +55,35 @@ def test_run_path_names_parse_back_to_their_settings(kw, expect):
         assert m[group] == value, (group, path.name)
 
 
+dsph = load("bottom_slamming_light_delta_sph")
+
+
+@pytest.mark.parametrize("run", dsph.AITKEN_RUNS)
+def test_delta_sph_aitken_names_parse_back_to_their_settings(run):
+    """The δ-SPH study's Aitken runs: the MPS MF table's keys read back from the name (its report
+    analyses them with NAME), the force tolerance of the "_ft01" tag, and each prefix tag in
+    the name and, as its override, in the run's settings; no two runs share a file."""
+    path = dsph.run_path(run, 2.73)
+    m = bsl.NAME.search(path.name)
+    assert m is not None, path.name
+    assert (m["mf"], m["maxit"], m["pf"], m["wp"], m["corot"], m["sg"]) == (
+        "0.35",
+        "100",
+        "_pf",
+        "3",
+        "_corot",
+        "_sg",
+    )
+    assert m["ft"] == ("0.01" if run.endswith("_ft01") else "0.05")
+    sets = dsph.overrides(run, 0.0057, 2.73)
+    in_name = path.name.split("bottom_slamming_light")[0].removeprefix("dsph_wetted_").split("_")
+    for tag, extra in dsph.PREFIX_TAGS.items():
+        tagged = tag in run.split("_")
+        assert (tag in in_name) is tagged, (tag, path.name)
+        assert all(o in sets for o in extra) is tagged, (tag, sets)
+    assert len({dsph.run_path(r, 2.73) for r in dsph.AITKEN_RUNS}) == len(dsph.AITKEN_RUNS)
+
+
 def test_wet_split_starts_at_the_first_wet_set_away_from_dh_006():
     """D/H = 0.06 keeps the fixed WET_FROM of every earlier row; another clearance starts at the
     end of the first window with a finite fictitious force error (a nonempty wet set)."""
