@@ -32,8 +32,9 @@ validation/results/delta_sph_obstacle.csv and prints the table.
 
 ``--cases`` picks the cases to run; the CSV lists every case, reading the others' results files.
 Cases ``*_stiff`` give the plate E = 2e11 Pa (a member that does not move: the fluid's own load
-noise, issue 20), ``mps20_stiff_*`` with switches of the pressure equation, the surface and the
-step. Cases ``dsph*_h2`` widen the δ-SPH kernel to h = 2 l0. Cases ``mps*_suction`` let the water pull on the plate (``fluid.pressure.structure_suction``,
+noise, issue 20), ``mps20_stiff_*`` with switches of the pressure equation, the surface, the
+step, the CG tolerance, the collision model and the wall model (``*_layer``: the thesis's
+pressure layer, also on the elastic plate and at L/40). Cases ``dsph*_h2`` widen the δ-SPH kernel to h = 2 l0. Cases ``mps*_suction`` let the water pull on the plate (``fluid.pressure.structure_suction``,
 docs/fluid.md). ``--noise-map`` re-runs --cases in process and writes the ringing node by node
 (delta_sph_obstacle_noise.csv; ``noise_map``).
 """
@@ -124,6 +125,39 @@ CASES = {
     "mps20_stiff_g0.05": ("mps", 20, 0.3, (*STIFF, "fluid.pressure.gamma=0.05")),
     "mps20_stiff_density": ("mps", 20, 0.3, (*STIFF, 'fluid.surface.detector="density"')),
     "mps20_stiff_pzero": ("mps", 20, 0.3, (*STIFF, 'fluid.surface.pressure="zero"')),
+    # further switches on the stiff plate (2026-11-28): the CG tolerance (is the face's
+    # coherent jump an unconverged smooth mode?), Khayyer & Gotoh's HS + ECS and HL, the
+    # dynamic stabilisation, the thesis's wall model, no negative-pressure clamp near members
+    "mps20_stiff_tol1e-9": ("mps", 20, 0.3, (*STIFF, "fluid.pressure.tol=1e-9")),
+    "mps20_stiff_hsecs": (
+        "mps",
+        20,
+        0.3,
+        (
+            *STIFF,
+            'fluid.pressure.source_term="higher_order"',
+            "fluid.pressure.error_compensation=true",
+        ),
+    ),
+    "mps20_stiff_hl": ("mps", 20, 0.3, (*STIFF, 'fluid.pressure.laplacian="higher_order"')),
+    "mps20_stiff_ds": ("mps", 20, 0.3, (*STIFF, "fluid.pressure.dynamic_stabilization=0.8")),
+    "mps20_stiff_layer": ("mps", 20, 0.3, (*STIFF, 'fluid.pressure.wall_model="pressure_layer"')),
+    "mps20_stiff_nocoll": ("mps", 20, 0.3, (*STIFF, "fluid.collision.enabled=false")),
+    "mps20_stiff_nocoll_ds": (
+        "mps",
+        20,
+        0.3,
+        (*STIFF, "fluid.collision.enabled=false", "fluid.pressure.dynamic_stabilization=0.8"),
+    ),
+    "mps40_stiff_layer": ("mps", 40, 0.3, (*STIFF, 'fluid.pressure.wall_model="pressure_layer"')),
+    "mps20_layer": ("mps", 20, 0.3, ('fluid.pressure.wall_model="pressure_layer"',)),
+    "mps20_stiff_layer_tol5e-7": (
+        "mps",
+        20,
+        0.3,
+        (*STIFF, 'fluid.pressure.wall_model="pressure_layer"', "fluid.pressure.tol=5e-7"),
+    ),
+    "mps20_stiff_tol5e-7": ("mps", 20, 0.3, (*STIFF, "fluid.pressure.tol=5e-7")),
     "mps20_suction": ("mps", 20, 0.3, SUCTION),
     "mps40_suction": ("mps", 40, 0.3, SUCTION),
     "dsph20_h2": ("delta-sph", 20, 0.3, WIDE),
