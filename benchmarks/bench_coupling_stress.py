@@ -79,6 +79,13 @@ Sweeps (each row one coupled MPS run; every other setting is the scenario's own)
   ``obstacle_shaped`` setting at 1e-4 with the ramp 0.5, the bounds none, [0.02, 1.5],
   [0.05, 1.5], [0.05, 20] and [0.1, 1.5]; at 1e-2 and 1e-3 with the ramp 0.1; rows appended to
   coupling_stress_shaped.csv (docs/validation_coupling_stress.md, "Aitken's collapse").
+* the same 1e-4 setting with the load as a pair exchange (``--set
+  'fluid.pressure.gradient="tanaka"' --set fluid.pressure.pressure_courant=0.25 --set
+  'fluid.boundary_force="momentum_exchange"'``) and weakly compressible (``--set
+  fluid.pressure.compressibility=K --set fluid.pressure.shifting=0.1``, K 8.75e-7 / 1.7e-6 /
+  3.5e-6, with the bounds [0.05, 1.5] or [0.05, 20]); rows appended to
+  coupling_stress_shaped.csv (docs/validation_coupling_stress.md, "Weakly compressible MPS at
+  mass ratio 1e-4").
 * finer spacings at mass ratio 1e-4 / 1e-2: ``--set fluid.spacing=0.00365`` (L/40) or
   ``0.001825`` (L/80) on ``--only obstacle_ratio`` (rows in
   benchmarks/results/coupling_stress_fine.csv) and on H2's ``obstacle_shaped`` setting (rows
