@@ -31,7 +31,8 @@ validation/results/collision_ramp.csv (rows of cases whose results file is not h
 and prints the table.
 
     python validation/collision_ramp.py [--threads 1] [--analyse-only] [--retry-failed]
-        [--ramps 0.1] [--cases gauge40 obstacle20 obstacle40 stiff20 gate3_rtol1e-4]
+        [--ramps 0.1] [--cases gauge40 obstacle20 obstacle40 stiff20 gate3_rtol1e-4
+        gate3_rtol1e-4_wc]
 """
 
 from __future__ import annotations
@@ -70,6 +71,20 @@ CASES = {
             "coupling.convergence.relative_tolerance=0.0001",
             "run.end_time=0.4",
             "output.snapshot_interval=0",
+        ],
+    ),
+    # the same, weakly compressible (issue 21: c = 10 u_max = 16.6 m/s for the 0.14 m column,
+    # with particle shifting; docs/validation.md, "Rubber gate")
+    "gate3_rtol1e-4_wc": (
+        GATE,
+        0,
+        [
+            "fluid.spacing=0.003",
+            "coupling.convergence.relative_tolerance=0.0001",
+            "run.end_time=0.4",
+            "output.snapshot_interval=0",
+            "fluid.pressure.compressibility=3.6e-6",
+            "fluid.pressure.shifting=0.1",
         ],
     ),
 }
