@@ -112,8 +112,10 @@ class Scenario(Section):
             remedy = (
                 "a fictitious mass (structure.members.N.fictitious_mass; on the dam-break "
                 "obstacle under MPS the shaped one with fluid.collision.ramp = 0.1 converged "
-                "down to 1e-3, and no setting below, where δ-SPH converged to 1e-3 with its "
-                "defaults and at 1e-4 with its safeguards)"
+                "down to 1e-3, and at 1e-4 only with the water weakly compressible "
+                "(fluid.pressure.compressibility at a sound speed of 10 u_max, shifting 0.1) "
+                "and coupling.acceleration.relaxation_bounds = [0.05, 20]; δ-SPH converged to "
+                "1e-3 with its defaults and at 1e-4 with its safeguards)"
                 if method == "mps"
                 else 'the safeguards (coupling.convergence.accept_unconverged = "best", '
                 "retreat_predictor, the HHT scheme) and a member several spacings thick (3.3 "
