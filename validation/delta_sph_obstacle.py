@@ -95,6 +95,15 @@ SUCTION = ("fluid.pressure.structure_suction=true",)
 #: a wider δ-SPH kernel, h = 2 l0 (default 1.3 l0): more neighbours, a smoother pressure (issue
 #: 20, the ringing)
 WIDE = ("fluid.sph.smoothing_ratio=2.0",)
+#: the thesis's wall model: the pressure layer solved in the pressure equation (issue 20)
+LAYER = 'fluid.pressure.wall_model="pressure_layer"'
+
+
+def stiff20(*sets: str) -> tuple:
+    """A case of the stiff plate (:data:`STIFF`) under MPS at L/20 to 0.3 s with ``sets``."""
+    return ("mps", 20, 0.3, (*STIFF, *sets))
+
+
 #: key -> (fluid method, L / l0, end time in s[, extra --set overrides])
 CASES = {
     "dsph20": ("delta-sph", 20, 0.3),
@@ -119,45 +128,30 @@ CASES = {
     "dsph40_stiff": ("delta-sph", 40, 0.3, STIFF),
     # the stiff plate at L/20 under switches that change the pressure equation's per-step
     # source, the surface and the step count: does any of them take the noise away?
-    "mps20_stiff_c0.05": ("mps", 20, 0.3, (*STIFF, "fluid.time_step.courant=0.05")),
-    "mps20_stiff_c0.2": ("mps", 20, 0.3, (*STIFF, "fluid.time_step.courant=0.2")),
-    "mps20_stiff_g0.001": ("mps", 20, 0.3, (*STIFF, "fluid.pressure.gamma=0.001")),
-    "mps20_stiff_g0.05": ("mps", 20, 0.3, (*STIFF, "fluid.pressure.gamma=0.05")),
-    "mps20_stiff_density": ("mps", 20, 0.3, (*STIFF, 'fluid.surface.detector="density"')),
-    "mps20_stiff_pzero": ("mps", 20, 0.3, (*STIFF, 'fluid.surface.pressure="zero"')),
+    "mps20_stiff_c0.05": stiff20("fluid.time_step.courant=0.05"),
+    "mps20_stiff_c0.2": stiff20("fluid.time_step.courant=0.2"),
+    "mps20_stiff_g0.001": stiff20("fluid.pressure.gamma=0.001"),
+    "mps20_stiff_g0.05": stiff20("fluid.pressure.gamma=0.05"),
+    "mps20_stiff_density": stiff20('fluid.surface.detector="density"'),
+    "mps20_stiff_pzero": stiff20('fluid.surface.pressure="zero"'),
     # further switches on the stiff plate (2026-11-28): the CG tolerance (is the face's
     # coherent jump an unconverged smooth mode?), Khayyer & Gotoh's HS + ECS and HL, the
-    # dynamic stabilisation, the thesis's wall model, no negative-pressure clamp near members
-    "mps20_stiff_tol1e-9": ("mps", 20, 0.3, (*STIFF, "fluid.pressure.tol=1e-9")),
-    "mps20_stiff_hsecs": (
-        "mps",
-        20,
-        0.3,
-        (
-            *STIFF,
-            'fluid.pressure.source_term="higher_order"',
-            "fluid.pressure.error_compensation=true",
-        ),
+    # dynamic stabilisation, the thesis's wall model, the collision model off
+    "mps20_stiff_tol1e-9": stiff20("fluid.pressure.tol=1e-9"),
+    "mps20_stiff_hsecs": stiff20(
+        'fluid.pressure.source_term="higher_order"', "fluid.pressure.error_compensation=true"
     ),
-    "mps20_stiff_hl": ("mps", 20, 0.3, (*STIFF, 'fluid.pressure.laplacian="higher_order"')),
-    "mps20_stiff_ds": ("mps", 20, 0.3, (*STIFF, "fluid.pressure.dynamic_stabilization=0.8")),
-    "mps20_stiff_layer": ("mps", 20, 0.3, (*STIFF, 'fluid.pressure.wall_model="pressure_layer"')),
-    "mps20_stiff_nocoll": ("mps", 20, 0.3, (*STIFF, "fluid.collision.enabled=false")),
-    "mps20_stiff_nocoll_ds": (
-        "mps",
-        20,
-        0.3,
-        (*STIFF, "fluid.collision.enabled=false", "fluid.pressure.dynamic_stabilization=0.8"),
+    "mps20_stiff_hl": stiff20('fluid.pressure.laplacian="higher_order"'),
+    "mps20_stiff_ds": stiff20("fluid.pressure.dynamic_stabilization=0.8"),
+    "mps20_stiff_layer": stiff20(LAYER),
+    "mps20_stiff_nocoll": stiff20("fluid.collision.enabled=false"),
+    "mps20_stiff_nocoll_ds": stiff20(
+        "fluid.collision.enabled=false", "fluid.pressure.dynamic_stabilization=0.8"
     ),
-    "mps40_stiff_layer": ("mps", 40, 0.3, (*STIFF, 'fluid.pressure.wall_model="pressure_layer"')),
-    "mps20_layer": ("mps", 20, 0.3, ('fluid.pressure.wall_model="pressure_layer"',)),
-    "mps20_stiff_layer_tol5e-7": (
-        "mps",
-        20,
-        0.3,
-        (*STIFF, 'fluid.pressure.wall_model="pressure_layer"', "fluid.pressure.tol=5e-7"),
-    ),
-    "mps20_stiff_tol5e-7": ("mps", 20, 0.3, (*STIFF, "fluid.pressure.tol=5e-7")),
+    "mps40_stiff_layer": ("mps", 40, 0.3, (*STIFF, LAYER)),
+    "mps20_layer": ("mps", 20, 0.3, (LAYER,)),
+    "mps20_stiff_layer_tol5e-7": stiff20(LAYER, "fluid.pressure.tol=5e-7"),
+    "mps20_stiff_tol5e-7": stiff20("fluid.pressure.tol=5e-7"),
     "mps20_suction": ("mps", 20, 0.3, SUCTION),
     "mps40_suction": ("mps", 40, 0.3, SUCTION),
     "dsph20_h2": ("delta-sph", 20, 0.3, WIDE),
