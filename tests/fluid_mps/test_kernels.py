@@ -2,7 +2,11 @@ import numpy as np
 import pytest
 
 from mpsfem.fluid_mps.kernels import IMPROVED, ORIGINAL, weight, weight_code, weight_py
-from mpsfem.fluid_mps.lattice import lattice_constants, lattice_offsets
+from mpsfem.fluid_mps.lattice import (
+    lattice_constants,
+    lattice_offsets,
+    uniaxial_density_response,
+)
 
 
 def test_improved_and_original_values():
@@ -55,3 +59,15 @@ def test_lattice_bad_input():
         lattice_constants(1, 1.0, 2.1)
     with pytest.raises(ValueError, match="unknown weight"):
         lattice_constants(2, 1.0, 2.1, "cubic")
+
+
+def test_uniaxial_density_response_2d_original_known_value():
+    # w = re/r - 1, w' = -re/r^2; compressed by eps along y, r_j shrinks by eps y_j^2 / r_j:
+    # dn/deps = sum_j re y_j^2 / r_j^3 = 2 (2.1) + 4 (2.1) / (2 sqrt2) + 2 (2.1) 4 / 8
+    n0, _ = lattice_constants(2, 1.0, 2.1, "original")
+    expect = (2 * 2.1 + 4 * 2.1 / (2 * np.sqrt(2)) + 2 * 2.1 * 4 / 8) / n0
+    assert uniaxial_density_response(2, 1.0, 2.1, "original") == pytest.approx(expect, rel=1e-8)
+    # scale free, and the kernel sum over-reads a continuum's strain in 2D (s > 1)
+    s = uniaxial_density_response(2, 0.004, 2.1 * 0.004, "improved")
+    assert s == pytest.approx(uniaxial_density_response(2, 1.0, 2.1, "improved"), rel=1e-8)
+    assert 1.3 < s < 1.4

@@ -40,9 +40,14 @@ from mpsfem.fluid_mps import (
 )
 from mpsfem.fluid_mps.collision import collide
 from mpsfem.fluid_mps.dummy_pressure import dummy_sources, extrapolate_dummy_pressure
-from mpsfem.fluid_mps.geometry import ExternalPatch, build_particles, hydrostatic_pressure
+from mpsfem.fluid_mps.geometry import (
+    ExternalPatch,
+    build_particles,
+    compress_still_water,
+    hydrostatic_pressure,
+)
 from mpsfem.fluid_mps.kernels import weight_code
-from mpsfem.fluid_mps.lattice import lattice_constants
+from mpsfem.fluid_mps.lattice import lattice_constants, uniaxial_density_response
 from mpsfem.fluid_mps.momentum_budget import (
     COLLISION,
     PRESSURE,
@@ -146,8 +151,18 @@ class FluidSolver:
         n = len(self.pos)
         self.n = n
         self.p = np.zeros(n)
+        #: m: how far the compressed start lowered the deepest column's top (0 = off)
+        self.compressed_drop = 0.0
         if spec.hydrostatic_start:
-            self.p[:] = hydrostatic_pressure(self.pos, self.kind, self.gravity, self.rho, l0)
+            kappa = 0.0
+            if spec.pressure.compressed_start:  # the lattice's strain under p: kappa p / s
+                kappa = spec.pressure.compressibility / uniaxial_density_response(
+                    self.dim, l0, spec.kernel.re_density * l0, spec.kernel.weight
+                )
+            self.compressed_drop = compress_still_water(
+                self.pos, self.kind, self.gravity, self.rho, l0, kappa
+            )
+            self.p[:] = hydrostatic_pressure(self.pos, self.kind, self.gravity, self.rho, l0, kappa)
 
         k = spec.kernel
         self.wcode = weight_code(k.weight)

@@ -122,6 +122,15 @@ class PressureSection(Section):
         "Dp/Dt and still water is compressed by kappa p (sound speed 1 / sqrt(rho kappa): 1e-6 "
         "gives 31.6 m/s; docs/fluid.md); 0 = incompressible",
     )
+    compressed_start: bool = Field(
+        False,
+        description="with compressibility > 0 and hydrostatic_start: still water starts in its "
+        "compressed equilibrium, each lattice column's layers moved down (its bottom and mass "
+        "kept) so that the layer under pressure p is compressed by 1 + kappa p, and the pressure "
+        "that of the compressed column (fluid_mps/geometry.py). Off: the water starts on the "
+        "uncompressed lattice, settles by about kappa rho g H^2 / 2 and breathes in its "
+        "quarter-wave mode, period 4 H / c (docs/fluid.md)",
+    )
     source_term: Literal["thesis_mixed", "higher_order"] = Field(
         "thesis_mixed",
         description="velocity part of the source term: 'thesis_mixed', the divergence of u* "
@@ -810,6 +819,15 @@ class FluidSection(Section):
                 "needs wall_model = 'neumann', source_term = 'thesis_mixed' and laplacian = "
                 f"'standard' (given {pr.wall_model!r}, {pr.source_term!r}, {pr.laplacian!r}): the "
                 "other models' wall terms do not carry the walls' acceleration",
+                True,
+            )
+        if pr.compressed_start and (pr.compressibility == 0.0 or not self.hydrostatic_start):
+            raise InvalidValue(
+                "pressure.compressed_start",
+                "needs fluid.pressure.compressibility > 0 and fluid.hydrostatic_start = true "
+                f"(given compressibility = {pr.compressibility:g}, hydrostatic_start = "
+                f"{str(self.hydrostatic_start).lower()}): only weakly compressible still water "
+                "has a compressed equilibrium to start from",
                 True,
             )
         if pr.buried_walls != "dry" and pr.wall_model != "neumann":
