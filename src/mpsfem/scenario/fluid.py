@@ -126,10 +126,10 @@ class PressureSection(Section):
         False,
         description="with compressibility > 0 and hydrostatic_start: still water starts in its "
         "compressed equilibrium, each lattice column's layers moved down (its bottom and mass "
-        "kept) so that the layer under pressure p is compressed by 1 + kappa p, and the pressure "
-        "that of the compressed column (fluid_mps/geometry.py). Off: the water starts on the "
-        "uncompressed lattice, settles by about kappa rho g H^2 / 2 and breathes in its "
-        "quarter-wave mode, period 4 H / c (docs/fluid.md)",
+        "kept) so that the layer under pressure p reads the number density n0 (1 + kappa p), "
+        "and the pressure that of the compressed column (fluid_mps/geometry.py). Off: the water "
+        "starts on the uncompressed lattice, settles by about kappa rho g H^2 / (2 s), s = 1.34 "
+        "in 2D, and breathes in its quarter-wave mode, period 4 H / c (docs/fluid.md)",
     )
     source_term: Literal["thesis_mixed", "higher_order"] = Field(
         "thesis_mixed",

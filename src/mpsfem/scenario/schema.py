@@ -110,7 +110,9 @@ class Scenario(Section):
             if method == "delta-sph" and safeguards:
                 continue
             remedy = (
-                "a fictitious mass (structure.members.N.fictitious_mass; on the dam-break "
+                'under water at rest, a static start (structure.initial_state = "static": the '
+                "hydrostatic plate then converged down to 1e-4 with the defaults); under an "
+                "impact, a fictitious mass (structure.members.N.fictitious_mass; on the dam-break "
                 "obstacle under MPS the shaped one with fluid.collision.ramp = 0.1 converged "
                 "down to 1e-3, and at 1e-4 only with the water weakly compressible "
                 "(fluid.pressure.compressibility at a sound speed of 10 u_max, shifting 0.1) "
