@@ -82,46 +82,41 @@ def test_hydrostatic_start():
     np.testing.assert_allclose(p[floor], 1000 * 9.81 * 0.55)
 
 
-def test_compressed_start_keeps_mass_and_matches_the_linear_equation_of_state():
-    """Still water 0.5 m deep compressed with kappa' = 2e-5 1/Pa: each column keeps its bottom
-    and its particles; its top drops by H - ln(1 + a H) / a (a = kappa' rho g), a H^2 / 2 (1 - 2 a H / 3) to
-    O((a H)^2);
-    the pressure at the moved particles is the weight of the water above them, rho g (H - h) at
-    their old heights (the l0/2 top rule costs O(a l0^2)); every layer is compressed by
-    1 + kappa' p; floor walls carry the whole column's weight."""
-    kappa, rho, g, H, l0 = 2e-5, 1000.0, 9.81, 0.5, 0.1
+def test_compressed_start_compresses_each_layer_by_its_equilibrium_pressure():
+    """Still water 0.5 m deep compressed with k = 2e-5 1/Pa: each column keeps its bottom and
+    its particles; its top drops by D - D', D' = (sqrt(1 + 2 a D) - 1) / a (a = k rho g), a D^2
+    / 2 (1 - a D) to O((a D)^2); the starting pressure stays linear in height, rho g (H' - h)
+    (MPS's momentum equation carries the reference density), and every pair of neighbouring
+    layers is compressed by 1 + k p at its mid-height; the floor carries the compressed
+    column. The top is read as the highest particle plus l0/2, an O(a l0^2) error in p."""
+    k, rho, g, H, l0 = 2e-5, 1000.0, 9.81, 0.5, 0.1
     fluid = load_scenario_text(SCENE).scenario.fluid
     ps = build_particles(fluid)
     f = ps.kind == FLUID
     old = ps.pos.copy()
     gravity = np.array([0.0, -g])
-    drop = compress_still_water(ps.pos, ps.kind, gravity, rho, l0, kappa)
-    a = kappa * rho * g
-    assert drop == pytest.approx(H - np.log1p(a * H) / a, rel=1e-12)
-    assert drop == pytest.approx(a * H**2 / 2 * (1 - 2 * a * H / 3), rel=(a * H) ** 2)
+    drop = compress_still_water(ps.pos, ps.kind, gravity, rho, l0, k)
+    a = k * rho * g
+    assert drop == pytest.approx(H - (np.sqrt(1 + 2 * a * H) - 1) / a, rel=1e-12)
+    assert drop == pytest.approx(a * H**2 / 2 * (1 - a * H), rel=2 * (a * H) ** 2)
     np.testing.assert_array_equal(ps.pos[~f], old[~f])  # walls stay
     np.testing.assert_array_equal(ps.pos[f, 0], old[f, 0])  # only heights change
     assert ps.pos[f, 1].min() < old[f, 1].min()  # the bottom layer too, towards the floor
-    p = hydrostatic_pressure(ps.pos, ps.kind, gravity, rho, l0, kappa)
-    np.testing.assert_allclose(p[f], rho * g * (H - old[f, 1]), rtol=0, atol=rho * g * a * l0**2)
-    # the spacing between neighbouring layers is l0 / (1 + kappa' p) at their mid-pressure
+    top = H - drop
+    p = hydrostatic_pressure(ps.pos, ps.kind, gravity, rho, l0)
+    np.testing.assert_allclose(
+        p[f], rho * g * (top - ps.pos[f, 1]), rtol=0, atol=rho * g * a * l0**2
+    )
     col = f & np.isclose(old[:, 0], 0.05)
-    y_old, y_new = old[col, 1], ps.pos[col, 1]
-    order = np.argsort(y_old)
-    gap = np.diff(y_new[order])
-    p_mid = rho * g * (H - 0.5 * (y_old[order][1:] + y_old[order][:-1]))
-    np.testing.assert_allclose(gap, l0 / (1 + kappa * p_mid), rtol=1e-4)
+    y = np.sort(ps.pos[col, 1])
+    p_mid = rho * g * (top - 0.5 * (y[1:] + y[:-1]))
+    np.testing.assert_allclose(np.diff(y), l0 / (1 + k * p_mid), rtol=1e-12)
     floor = (ps.kind == WALL) & np.isclose(ps.pos[:, 1], -0.05) & (ps.pos[:, 0] < 1.0)
-    # the floor's layer lies l0/2 below the column's bottom: p_b (1 + a l0 / 2) + rho g l0 / 2
-    np.testing.assert_allclose(p[floor], rho * g * (H + 0.05) + a * rho * g * H * 0.05, rtol=1e-3)
-    # kappa = 0: the particles stay and the pressure is the incompressible one, bit for bit
+    np.testing.assert_allclose(p[floor], rho * g * (top + 0.05), rtol=0, atol=rho * g * a * l0**2)
+    # k = 0: nothing moves
     ps0 = build_particles(fluid)
     assert compress_still_water(ps0.pos, ps0.kind, gravity, rho, l0, 0.0) == 0.0
     np.testing.assert_array_equal(ps0.pos, old)
-    np.testing.assert_array_equal(
-        hydrostatic_pressure(ps0.pos, ps0.kind, gravity, rho, l0, 0.0),
-        hydrostatic_pressure(ps0.pos, ps0.kind, gravity, rho, l0),
-    )
 
 
 # spacing 0.1: the tank's left wall at -0.263 l0 off the fluid's lattice, a paddle 1.7368 l0

@@ -500,34 +500,17 @@ def _columns(pos: np.ndarray, kind: np.ndarray, up: np.ndarray, l0: float):
     return h, horiz, fluid, inv, top + 0.5 * l0, bottom - 0.5 * l0
 
 
-def _column_pressure(depth, p_bottom, rise, rho_g, kappa):
-    """Still water's pressure (Pa) at ``depth`` (m) below its column's top, or, compressed
-    (kappa > 0, 1/Pa), at ``rise`` (m) above the column's bottom where it is ``p_bottom``."""
-    if kappa == 0.0:
-        return rho_g * depth
-    # dp/dh = -rho0 (1 + kappa p) g, the linear equation of state n = n0 (1 + kappa p)
-    return ((1.0 + kappa * p_bottom) * np.exp(-kappa * rho_g * rise) - 1.0) / kappa
-
-
 def hydrostatic_pressure(
-    pos: np.ndarray,
-    kind: np.ndarray,
-    gravity: np.ndarray,
-    rho: float,
-    l0: float,
-    compressibility: float = 0.0,
+    pos: np.ndarray, kind: np.ndarray, gravity: np.ndarray, rho: float, l0: float
 ) -> np.ndarray:
     """Initial pressure p = rho |g| (h_top - h) of still water (Pa).
 
     ``h`` is the height against gravity; ``h_top`` is the top of the fluid column the particle
     belongs to (highest fluid particle of the same lattice column plus l0/2). Wall pressure
     particles within 2 l0 of the fluid take the column of the nearest fluid particle across the
-    horizontal axes; other wall and dummy particles get 0.
-
-    ``compressibility`` kappa (1/Pa) > 0: the positions are those :func:`compress_still_water`
-    gave, and the pressure is that of the compressed column, p(h) = ((1 + kappa p_b)
-    exp(-kappa rho |g| (h - h_b)) - 1) / kappa from its bottom h_b (pressure p_b, the weight of
-    the whole column); it equals rho |g| (h_top - h) at the particles' uncompressed heights.
+    horizontal axes; other wall and dummy particles get 0. A column that
+    :func:`compress_still_water` moved gets its equilibrium pressure too: MPS's momentum
+    equation carries the reference density, so still water's pressure is linear in height.
     """
     g = float(np.linalg.norm(gravity))
     p = np.zeros(len(pos))
@@ -536,15 +519,8 @@ def hydrostatic_pressure(
     up = -np.asarray(gravity, dtype=np.float64) / g
     if not (kind == FLUID).any():
         return p
-    h, horiz, fluid, inv, top, bottom = _columns(pos, kind, up, l0)
-    kappa = float(compressibility)
-    rho_g = rho * g
-    if kappa > 0.0:  # the column's top before compression: same mass, p_b its weight
-        top = bottom + (np.expm1(kappa * rho_g * (top - bottom)) / (kappa * rho_g))
-    p_bottom = rho_g * (top - bottom)
-    p[fluid] = _column_pressure(
-        top[inv] - h[fluid], p_bottom[inv], h[fluid] - bottom[inv], rho_g, kappa
-    )
+    h, horiz, fluid, inv, top, _ = _columns(pos, kind, up, l0)
+    p[fluid] = rho * g * (top[inv] - h[fluid])
     wall = np.flatnonzero(kind == WALL)
     if wall.size:
         from scipy.spatial import cKDTree
@@ -553,11 +529,7 @@ def hydrostatic_pressure(
         dist, _ = cKDTree(pos[fluid]).query(pos[wall])
         wall = wall[dist < 2.0 * l0]
         _, nearest = cKDTree(horiz[fluid]).query(horiz[wall])
-        c = inv[nearest]
-        p[wall] = np.maximum(
-            _column_pressure(top[c] - h[wall], p_bottom[c], h[wall] - bottom[c], rho_g, kappa),
-            0.0,
-        )
+        p[wall] = rho * g * np.maximum(top[inv[nearest]] - h[wall], 0.0)
     return np.maximum(p, 0.0)
 
 
@@ -567,29 +539,33 @@ def compress_still_water(
     gravity: np.ndarray,
     rho: float,
     l0: float,
-    compressibility: float,
+    strain_per_pa: float,
 ) -> float:
     """Move still water into its compressed equilibrium under gravity, in place.
 
-    Each lattice column keeps its bottom (lowest fluid particle less l0/2) and its mass; the
-    layer at uncompressed height h carries p = rho |g| (h_top - h) and is compressed by
-    1 + kappa p (the weakly compressible MPS's equation of state, pressure_poisson.py), so it
-    moves to h_b + ln((1 + kappa p_b) / (1 + kappa p)) / (kappa rho |g|), p_b the weight of
-    the whole column (Pa). Only heights change. Returns the largest drop of a column's top (m),
-    about kappa rho |g| H^2 / 2 for a column H deep.
+    Weakly compressible MPS (pressure_poisson.py) holds still water at p = rho |g| (H' - h), H'
+    the compressed column's top (its momentum equation carries the reference density rho), with
+    every layer compressed by 1 + k p, k = ``strain_per_pa`` (1/Pa). Each lattice column keeps
+    its bottom h_b (lowest fluid particle less l0/2) and its particles; the layer at
+    uncompressed height z moves to h_b + u with z - h_b = u + a (D' u - u^2 / 2), a = k rho
+    |g|, D' = (sqrt(1 + 2 a D) - 1) / a the compressed depth of a column D deep. Only heights
+    change. Returns the largest drop of a column's top D - D' (m), a D^2 / 2 (1 - a D) to
+    O((a D)^2).
     """
     g = float(np.linalg.norm(gravity))
-    kappa = float(compressibility)
-    if g == 0.0 or kappa <= 0.0 or not (kind == FLUID).any():
+    k = float(strain_per_pa)
+    if g == 0.0 or k <= 0.0 or not (kind == FLUID).any():
         return 0.0
     up = -np.asarray(gravity, dtype=np.float64) / g
     h, _, fluid, inv, top, bottom = _columns(pos, kind, up, l0)
-    a = kappa * rho * g
-    hf = h[fluid]
-    rise = np.log1p(a * (top[inv] - bottom[inv])) - np.log1p(a * (top[inv] - hf))
-    pos[fluid] += np.outer(bottom[inv] + rise / a - hf, up)
+    a = k * rho * g
     depth = top - bottom
-    return float(np.max(depth - np.log1p(a * depth) / a))
+    compressed = np.sqrt(1.0 + 2.0 * a * depth) - 1.0  # a D'
+    hf = h[fluid]
+    b = 1.0 + compressed[inv]  # the quadratic a/2 u^2 - (1 + a D') u + (z - h_b) = 0
+    u = (b - np.sqrt(b * b - 2.0 * a * (hf - bottom[inv]))) / a
+    pos[fluid] += np.outer(bottom[inv] + u - hf, up)
+    return float(np.max(depth - compressed / a))
 
 
 def check_bounds(pos: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> None:

@@ -46,9 +46,10 @@ def uniaxial_density_response(dim: int, l0: float, re: float, weight="improved")
     compression by eps along one axis (dimensionless).
 
     A continuum's density rises by eps; the kernel sum rises by s eps, s = (1 / n0) sum_j
-    -w'(r_j) (r_j . e)^2 / r_j (1.42 in 2D at re = 2.1 l0 with either weight), so still water
-    whose number density reads n0 (1 + kappa p) is compressed by kappa p / s. Central difference
-    over eps = +-1e-6 of the offsets within re (1 + 1e-3), those that enter the radius included.
+    -w'(r_j) (r_j . e)^2 / r_j (in 2D at re = 2.1 l0: 1.34 with the improved weight, 1.42 with
+    the original), so still water whose number density reads n0 (1 + kappa p) is compressed by
+    kappa p / s. Central difference over eps = +-1e-6 of the offsets within re (1 + 1e-3), those
+    that enter the radius included.
     """
     pts = lattice_offsets(dim, l0, re * (1.0 + 1e-3))
     n0 = lattice_constants(dim, l0, re, weight)[0]

@@ -162,7 +162,7 @@ class FluidSolver:
             self.compressed_drop = compress_still_water(
                 self.pos, self.kind, self.gravity, self.rho, l0, kappa
             )
-            self.p[:] = hydrostatic_pressure(self.pos, self.kind, self.gravity, self.rho, l0, kappa)
+            self.p[:] = hydrostatic_pressure(self.pos, self.kind, self.gravity, self.rho, l0)
 
         k = spec.kernel
         self.wcode = weight_code(k.weight)
