@@ -110,8 +110,8 @@ class Scenario(Section):
             if method == "delta-sph" and safeguards:
                 continue
             remedy = (
-                'under water at rest, a static start (structure.initial_state = "static": the '
-                "hydrostatic plate then converged down to 1e-4 with the defaults); under an "
+                'a static start under water at rest (structure.initial_state = "static": the '
+                "hydrostatic plate then converged down to 1e-4 with the defaults) and, under an "
                 "impact, a fictitious mass (structure.members.N.fictitious_mass; on the dam-break "
                 "obstacle under MPS the shaped one with fluid.collision.ramp = 0.1 converged "
                 "down to 1e-3, and at 1e-4 only with the water weakly compressible "
