@@ -32,7 +32,7 @@ and prints the table.
 
     python validation/collision_ramp.py [--threads 1] [--analyse-only] [--retry-failed]
         [--ramps 0.1] [--cases gauge40 obstacle20 obstacle40 stiff20 gate3_rtol1e-4
-        gate3_rtol1e-4_wc]
+        gate3_rtol1e-4_wc gate3_rtol1e-4_wc_cs]
 """
 
 from __future__ import annotations
@@ -79,6 +79,12 @@ CASES = {
         [*GATE3_RTOL1E4, "fluid.pressure.compressibility=3.6e-6", "fluid.pressure.shifting=0.1"],
     ),
 }
+# and started in its compressed equilibrium (fluid.pressure.compressed_start; docs/fluid.md)
+CASES["gate3_rtol1e-4_wc_cs"] = (
+    GATE,
+    0,
+    [*CASES["gate3_rtol1e-4_wc"][2], "fluid.pressure.compressed_start=true"],
+)
 IMPACT = (0.12, 0.25)
 COLUMNS = [
     "case",
