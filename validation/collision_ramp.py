@@ -64,6 +64,8 @@ GATE3_RTOL1E4 = [
     "run.end_time=0.4",
     "output.snapshot_interval=0",
 ]
+#: the same, weakly compressible
+GATE3_WC = [*GATE3_RTOL1E4, "fluid.pressure.compressibility=3.6e-6", "fluid.pressure.shifting=0.1"]
 #: case key -> (scenario, L / l0, overrides besides the ramp)
 CASES = {
     "gauge40": (gauge.SCENARIO, 40, gauge.overrides(40, 0.2)),
@@ -73,18 +75,10 @@ CASES = {
     "gate3_rtol1e-4": (GATE, 0, GATE3_RTOL1E4),
     # the same, weakly compressible (issue 21: c = 10 u_max = 16.6 m/s for the 0.14 m column,
     # with particle shifting; docs/validation.md, "Rubber gate")
-    "gate3_rtol1e-4_wc": (
-        GATE,
-        0,
-        [*GATE3_RTOL1E4, "fluid.pressure.compressibility=3.6e-6", "fluid.pressure.shifting=0.1"],
-    ),
+    "gate3_rtol1e-4_wc": (GATE, 0, GATE3_WC),
+    # and started in its compressed equilibrium (fluid.pressure.compressed_start; docs/fluid.md)
+    "gate3_rtol1e-4_wc_cs": (GATE, 0, [*GATE3_WC, "fluid.pressure.compressed_start=true"]),
 }
-# and started in its compressed equilibrium (fluid.pressure.compressed_start; docs/fluid.md)
-CASES["gate3_rtol1e-4_wc_cs"] = (
-    GATE,
-    0,
-    [*CASES["gate3_rtol1e-4_wc"][2], "fluid.pressure.compressed_start=true"],
-)
 IMPACT = (0.12, 0.25)
 COLUMNS = [
     "case",

@@ -154,13 +154,13 @@ class FluidSolver:
         #: m: how far the compressed start lowered the deepest column's top (0 = off)
         self.compressed_drop = 0.0
         if spec.hydrostatic_start:
-            kappa = 0.0
-            if spec.pressure.compressed_start:  # the lattice's strain under p: kappa p / s
-                kappa = spec.pressure.compressibility / uniaxial_density_response(
+            strain_per_pa = 0.0  # the lattice's strain under p: kappa p / s
+            if spec.pressure.compressed_start:
+                strain_per_pa = spec.pressure.compressibility / uniaxial_density_response(
                     self.dim, l0, spec.kernel.re_density * l0, spec.kernel.weight
                 )
             self.compressed_drop = compress_still_water(
-                self.pos, self.kind, self.gravity, self.rho, l0, kappa
+                self.pos, self.kind, self.gravity, self.rho, l0, strain_per_pa
             )
             self.p[:] = hydrostatic_pressure(self.pos, self.kind, self.gravity, self.rho, l0)
 
