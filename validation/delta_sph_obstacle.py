@@ -33,7 +33,8 @@ validation/results/delta_sph_obstacle.csv and prints the table.
 ``--cases`` picks the cases to run; the CSV lists every case, reading the others' results files.
 Cases ``*_stiff`` give the plate E = 2e11 Pa (a member that does not move: the fluid's own load
 noise, issue 20), ``mps20_stiff_*`` with switches of the pressure equation, the surface, the
-step, the CG tolerance, the collision model and the wall model (``*_layer``: the thesis's
+step, the CG tolerance, the collision model (off, its distance), the viscosity, the pressure
+equation's Laplacian radius and the wall model (``*_layer``: the thesis's
 pressure layer, also on the elastic plate and at L/40). Cases ``dsph*_h2`` widen the δ-SPH kernel to h = 2 l0. Cases ``mps*_suction`` let the water pull on the plate (``fluid.pressure.structure_suction``,
 docs/fluid.md). ``--noise-map`` re-runs --cases in process and writes the ringing node by node
 (delta_sph_obstacle_noise.csv; ``noise_map``).
@@ -152,6 +153,20 @@ CASES = {
     "mps20_layer": ("mps", 20, 0.3, (LAYER,)),
     "mps20_stiff_layer_tol5e-7": stiff20(LAYER, "fluid.pressure.tol=5e-7"),
     "mps20_stiff_tol5e-7": stiff20("fluid.pressure.tol=5e-7"),
+    # a viscosity of δ-SPH's artificial one, nu = alpha h c0 / 8 (alpha 0.02, h 1.3 l0, c0
+    # 33.8 m/s: 8e-4 m^2/s at L/20), and a quarter of it: is the white noise MPS's undamped
+    # particle-scale velocity? (2026-11-28, twenty-first session)
+    "mps20_stiff_nu8e-4": stiff20("fluid.viscosity=8e-4"),
+    "mps20_stiff_nu2e-4": stiff20("fluid.viscosity=2e-4"),
+    # the collision model's reach: each step kicks every approaching pair inside it by a fixed
+    # share of its approach speed (a fixed impulse per step, as the noise's growth with the
+    # step count reads)
+    "mps20_stiff_cd0.6": stiff20("fluid.collision.distance=0.6"),
+    "mps20_stiff_cd0.7": stiff20("fluid.collision.distance=0.7"),
+    # the pressure equation's Laplacian on a shorter radius (4.01 l0 by default; the divergence
+    # and the gradient are on 2.1 l0): the projection's overshoot on particle-scale modes
+    "mps20_stiff_rp3.1": stiff20("fluid.kernel.re_pressure=3.1"),
+    "mps20_stiff_rp2.1": stiff20("fluid.kernel.re_pressure=2.1"),
     "mps20_suction": ("mps", 20, 0.3, SUCTION),
     "mps40_suction": ("mps", 40, 0.3, SUCTION),
     "dsph20_h2": ("delta-sph", 20, 0.3, WIDE),

@@ -390,13 +390,16 @@ def test_obstacle_ringing_is_the_fluids():
     from results_csv import read_csv
 
     rows = {r["case"]: r for r in read_csv(ROOT / "validation/results/delta_sph_obstacle.csv")}
-    stiff = [k for k in rows if "_stiff" in k and "_nocoll" not in k]
-    assert len(stiff) == 17 and all(rows[k]["status"] == "finished" for k in stiff)
+    stopped = ("mps20_stiff_nocoll", "mps20_stiff_nocoll_ds", "mps20_stiff_cd0.6")
+    stiff = [k for k in rows if "_stiff" in k and k not in stopped]
+    assert len(stiff) == 22 and all(rows[k]["status"] == "finished" for k in stiff)
     for k in stiff:
         assert float(rows[k]["tip_peak_mm"]) < 0.01  # a member that does not move
-    # without the collision model the MPS run cannot go on (its time step collapses)
+    # without the collision model the MPS run cannot go on (its time step collapses), and with
+    # the collision distance 0.6 l0 a particle is thrown out of the tank
     for k in ("mps20_stiff_nocoll", "mps20_stiff_nocoll_ds"):
         assert rows[k]["status"].startswith("failed: FluidRunError: time step")
+    assert rows["mps20_stiff_cd0.6"]["status"].startswith("failed: FluidRunError: fluid particle")
     for n in (20, 40):
         elastic = float(rows[f"mps{n}"]["ringing_mean"])
         assert float(rows[f"mps{n}_stiff"]["ringing_mean"]) > 0.8 * elastic
@@ -410,6 +413,42 @@ def test_obstacle_ringing_is_the_fluids():
         assert abs(float(noise[k]["residual_lag1_autocorrelation"])) < 0.3
         assert float(noise[k]["variance_ratio"]) > 2.0
     assert float(noise["dsph40_stiff"]["residual_lag1_autocorrelation"]) > 0.5
+
+
+@pytest.mark.slow
+def test_mps_load_noise_is_the_divergence_share():
+    """docs/fluid.md, "Where the per-step noise comes from" (validation/mps_pressure_split.py,
+    delta_sph_obstacle_pressure_split.csv: the stiff obstacle at L/20 at the Courant numbers
+    0.05, 0.1 and 0.2). The pressure equation's three parts sum to its right-hand side exactly
+    (the split is the solve's own); the member's force jumps more from step to step the shorter
+    the step (measured 381, 325, 216 N/m); the velocity divergence's share carries the total's
+    jumps in every band (correlation above 0.85; measured 0.886-0.974); the correction leaves
+    most of the interior divergence (above 0.8; measured 0.84-0.96), and the first-order
+    consistent divergence of the same velocities is larger than MPS's (noise, not the
+    operator's error on a smooth flow); near the plate the clamped mean stays within 5 % while
+    the solved mean moves by more than 5 kPa (measured 2607-2665 Pa; -4510 to +1721 Pa)."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "validation"))
+    from results_csv import read_csv
+
+    path = ROOT / "validation/results/delta_sph_obstacle_pressure_split.csv"
+    rows = {r["case"]: {k: float(v) for k, v in r.items() if k != "case"} for r in read_csv(path)}
+    key = "mps20_stiff+fluid.time_step.courant="
+    order = [rows[key + "0.05"], rows["mps20_stiff"], rows[key + "0.2"]]
+    assert [r["dt_mean_s"] for r in order] == sorted(r["dt_mean_s"] for r in order)
+    jumps = [r["force_step_jump_rms"] for r in order]
+    assert jumps == sorted(jumps, reverse=True)
+    for r in order:
+        assert r["split_error_max"] < 1e-10
+        for band in ("near", "mid", "far"):
+            assert r[f"{band}_divergence_jump_corr"] > 0.85
+        assert r["interior_div_left_share"] > 0.8
+        assert r["interior_div_ustar_corrected"] > r["interior_div_ustar"]
+    clamped = [r["near_clamped_mean"] for r in order]
+    solved = [r["near_solved_mean"] for r in order]
+    assert max(clamped) < 1.05 * min(clamped)
+    assert max(solved) - min(solved) > 5000.0
 
 
 @pytest.mark.slow
