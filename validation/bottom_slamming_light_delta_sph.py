@@ -20,13 +20,17 @@ integral), ``rigid_x`` (its pair exchange, fluid.boundary_force = "momentum_exch
 measure the member's load is; MF divides by it); ``mf0.3``, ``mf1`` (the light plate); ``heavy``
 (the scenario's own section, 15.6 kg/m^2, Aitken, no M_f); ``imvj...`` (IQN-IMVJ without M_f,
 IMVJ_RUNS); ``ait_corot_sg...`` (Aitken with the MPS MF table's shaped M_f and the safeguards;
-tagged, a floor under Aitken's factor or a shorter fluid step; AITKEN_RUNS). Writes
+tagged, a floor under Aitken's factor or a shorter fluid step; AITKEN_RUNS). The case is A/H =
+0.3 and D/H = 0.06 unless ``--amplitude`` / ``--clearance`` say otherwise (the MF table's A/H
+0.2-0.5; the iteration counts of the wet windows start at :func:`wet_from`). Writes
 validation/results/bottom_slamming_light_delta_sph.csv.
 
     NUMBA_NUM_THREADS=1 python validation/bottom_slamming_light_delta_sph.py --runs rigid
     NUMBA_NUM_THREADS=1 python validation/bottom_slamming_light_delta_sph.py --runs mf0.3
     NUMBA_NUM_THREADS=1 python validation/bottom_slamming_light_delta_sph.py \
         --runs ait_corot_sg --end-time 2.73
+    NUMBA_NUM_THREADS=1 python validation/bottom_slamming_light_delta_sph.py --amplitude 0.5 \
+        --clearance 0.1 --runs rigid_xw,ait_corot_sg_floor20 --end-time 2.5
     python validation/bottom_slamming_light_delta_sph.py --analyse-only
 """
 
@@ -256,11 +260,23 @@ def overrides(run: str, spacing: float, end_time: float, ft: str = "0.01") -> li
     )
 
 
-#: s: the wave's arrival at the plate as the MPS runs measure it (first contact 1.62-1.63 s,
-#: docs/validation_bottom_slamming_light.md). Under δ-SPH the plate's load has no sharp contact:
-#: it rises from about 1.45 s (the rigid plate's pair exchange), as the kernel (2h = 14.8 mm)
-#: reaches across the closing gap, so the iteration counts are given from this time
+#: s: the wave's arrival at the plate as the MPS runs measure it at A/H = 0.3 (first contact
+#: 1.62-1.63 s, docs/validation_bottom_slamming_light.md). Under δ-SPH the plate's load has no
+#: sharp contact: it rises from about 1.45 s (the rigid plate's pair exchange), as the kernel
+#: (2h = 14.8 mm) reaches across the closing gap, so the iteration counts are given from this
+#: time (:func:`wet_from`: shifted with the design crest for other amplitudes)
 WET_FROM = 1.62
+
+
+def wet_from(case: Case) -> float:
+    """s: :data:`WET_FROM` moved by the design crest's arrival at the plate against that of
+    A/H = 0.3 (the same clearance): 1.87, 1.62, 1.46, 1.34 s at A/H = 0.2, 0.3, 0.4, 0.5."""
+    return WET_FROM + case.crest_time - Case(0.3, case.clearance).crest_time
+
+
+def amplitude_of(results_file: str) -> float:
+    """A/H of a results file's case label (``..._AH0.30_DH0.06.h5``)."""
+    return float(results_file.split("_AH")[1].split("_")[0])
 
 
 def coupling_split(path: Path, contact: float, prefix: str = "wet") -> dict[str, float]:
@@ -315,6 +331,7 @@ def report() -> int:
             rows.append(
                 {
                     "run": run,
+                    "a_over_h": CASE.ratio,
                     "d_over_h": CASE.clearance,
                     "results_file": path.name,
                     "status": r.status,
@@ -380,6 +397,7 @@ def report() -> int:
                     "steps": r.steps,
                     "wall_time_s": r.wall_time_s,
                 }
+            row["a_over_h"] = CASE.ratio
             row["d_over_h"] = CASE.clearance
             row["results_file"] = path.name
             row["branch_at_s"] = branch_time(path) if run != "heavy" else math.nan
@@ -390,16 +408,19 @@ def report() -> int:
             row["mf_raw_vs_pressure_integral"] = row["peak_uplift"] / rigid_p
             if run != "heavy":  # the windows at the force tolerance 1e-2 (after a branch)
                 row.update(coupling_split(path, branch_time(path), "ft"))
-            row.update(coupling_split(path, WET_FROM))
+            row.update(coupling_split(path, wet_from(CASE)))
             rows.append(row)
     if CSV.is_file():  # rows whose results file is not here are kept as they were
         have = {row["results_file"] for row in rows}
-        rows = [r for r in read_csv(CSV) if r.get("results_file") not in have] + rows
+        kept = [r for r in read_csv(CSV) if r.get("results_file") not in have]
+        for r in kept:  # rows written before the column (A/H = 0.3 then)
+            r.setdefault("a_over_h", amplitude_of(r["results_file"]))
+        rows = kept + rows
     if not rows:
         print("nothing to analyse")
         return 1
     columns = [
-        "run", "d_over_h", "fictitious_mass", "status", "t_end_s", "windows", "it_per_window_mean",
+        "run", "a_over_h", "d_over_h", "fictitious_mass", "status", "t_end_s", "windows", "it_per_window_mean",
         "unconverged_windows", "branch_at_s", "ft_windows", "ft_it_mean", "ft_unconverged",
         "ft_force_error_median", "ft_force_error_p90", "wet_windows", "wet_it_mean", "wet_it_max",
         "wet_unconverged", "wet_force_error_median", "wet_force_error_p90", "dry_uplift_mean",
@@ -414,8 +435,8 @@ def report() -> int:
         CSV,
         columns=columns,
         comment="validation/bottom_slamming_light_delta_sph.py: the light plate under δ-SPH, "
-        "A/H = 0.3, D/H = 0.06 (others: d_over_h), l0 = H/20; MF against the δ-SPH rigid plate's pair exchange "
-        "(rigid_x); dry_uplift_mean: 0.5-1.0 s, still water under the plate",
+        "A/H = a_over_h, D/H = d_over_h, l0 = H/20; MF against the δ-SPH rigid plate's pair exchange "
+        "(rigid_x, or rigid_xw with wetted walls); dry_uplift_mean: 0.5-1.0 s, still water under the plate",
     )
     for row in full:
         print(
@@ -474,14 +495,21 @@ def main(argv: list[str] | None = None) -> int:
         "--clearance",
         type=float,
         default=CASE.clearance,
-        help=f"D/H of the plate (thesis: 0.03, 0.06, 0.10; default {CASE.clearance}); "
-        f"A/H = {CASE.ratio}",
+        help=f"D/H of the plate (thesis: 0.03, 0.06, 0.10; default {CASE.clearance})",
+    )
+    ap.add_argument(
+        "--amplitude",
+        type=float,
+        default=CASE.ratio,
+        help=f"A/H of the solitary wave (the MF table's: 0.2, 0.3, 0.4, 0.5; default {CASE.ratio})",
     )
     case_runner.add_run_options(ap)
     args = ap.parse_args(argv)
     if args.clearance not in (0.03, 0.06, 0.1):
         ap.error(f"--clearance {args.clearance}: one of 0.03, 0.06, 0.1 (the thesis's)")
-    CASE = Case(CASE.ratio, args.clearance)
+    if args.amplitude not in (0.2, 0.3, 0.4, 0.5):
+        ap.error(f"--amplitude {args.amplitude}: one of 0.2, 0.3, 0.4, 0.5 (the MF table's)")
+    CASE = Case(args.amplitude, args.clearance)
     runs = args.runs.split(",")
     bad = [r for r in runs if r not in RUNS]
     if bad:

@@ -290,3 +290,19 @@ def test_csv_lock_excludes_a_second_writer(tmp_path, monkeypatch):
             fcntl.flock(other, fcntl.LOCK_EX | fcntl.LOCK_NB)
     with open(lock, "w") as other:
         fcntl.flock(other, fcntl.LOCK_EX | fcntl.LOCK_NB)  # free again
+
+
+def test_delta_sph_wet_windows_start_with_the_crest():
+    """validation/bottom_slamming_light_delta_sph.py --amplitude: the wet windows of A/H = 0.3
+    start at the MPS runs' first contact (1.62 s, as before the option), those of the other
+    amplitudes by the design crest's arrival as much earlier or later (a higher wave is
+    faster); the A/H of a stored row is read back from its results file's case label."""
+    dsph = load("bottom_slamming_light_delta_sph")
+    starts = [dsph.wet_from(dsph.Case(a, 0.06)) for a in (0.2, 0.3, 0.4, 0.5)]
+    assert starts[1] == dsph.WET_FROM == 1.62
+    assert starts == sorted(starts, reverse=True)
+    for a, t in zip((0.2, 0.4, 0.5), (starts[0], starts[2], starts[3]), strict=True):
+        shift = dsph.Case(a, 0.06).crest_time - dsph.Case(0.3, 0.06).crest_time
+        assert t - 1.62 == pytest.approx(shift, abs=1e-12)
+    name = dsph.run_path("ait_corot_sg_floor20", 2.5).name.replace("AH0.30", "AH0.50")
+    assert dsph.amplitude_of(name) == 0.5
