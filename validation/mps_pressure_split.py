@@ -47,6 +47,7 @@ from results_csv import read_csv, write_csv  # noqa: E402
 
 from mpsfem.fluid_mps import operators, probes  # noqa: E402
 from mpsfem.fluid_mps.kernels import weight  # noqa: E402
+from mpsfem.fluid_mps.particle_kinds import FLUID, STRUCTURE, STRUCTURE_DUMMY  # noqa: E402
 
 CSV = obstacle.RESULTS / "delta_sph_obstacle_pressure_split.csv"
 SPAN = (0.12, 0.25)  # s: the impact, the ringing's window
@@ -131,7 +132,7 @@ class StepRecorder:
             contact += s.budget.contact_force[pt.start - o : pt.stop - o].sum(axis=0)
         pos = pend["pos"]
         flagged = s.free_surface[:o].astype(bool)
-        member = pos[(s.kind == 3) | (s.kind == 4)]
+        member = pos[(s.kind == STRUCTURE) | (s.kind == STRUCTURE_DUMMY)]
         dist = cKDTree(member).query(pos[:o])[0] / s.l0
         row = [s.t, dt, force[0], contact[0], pend["split_error"]]
         unknown, rows = pend["unknown"], pend["rows"]
@@ -151,7 +152,7 @@ class StepRecorder:
         correction's velocity changes, of u^{n+1}; the share of div u* left after the step."""
         s, ps, nb = self.s, self.ps, pend["nb"]
         o, n = s.n_fluid, len(s.kind)
-        bad = np.nonzero((s.kind != 0) | np.r_[flagged, np.zeros(n - o, bool)])[0]
+        bad = np.nonzero((s.kind != FLUID) | np.r_[flagged, np.zeros(n - o, bool)])[0]
         clear = cKDTree(pos[bad]).query(pos[:o])[0] > ps.re_density
         interior = np.r_[clear & ~flagged & (pos[:o, 1] < TOP), np.zeros(n - o, bool)]
         out = np.empty(n)
