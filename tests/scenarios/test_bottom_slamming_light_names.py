@@ -297,7 +297,6 @@ def test_delta_sph_wet_windows_start_with_the_crest():
     start at the MPS runs' first contact (1.62 s, as before the option), those of the other
     amplitudes by the design crest's arrival as much earlier or later (a higher wave is
     faster); the A/H of a stored row is read back from its results file's case label."""
-    dsph = load("bottom_slamming_light_delta_sph")
     starts = [dsph.wet_from(dsph.Case(a, 0.06)) for a in (0.2, 0.3, 0.4, 0.5)]
     assert starts[1] == dsph.WET_FROM == 1.62
     assert starts == sorted(starts, reverse=True)
