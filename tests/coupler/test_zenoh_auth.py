@@ -336,3 +336,33 @@ def test_the_fluid_the_structure_chose_is_the_one_that_connects():
     finally:
         for t in (b, s, a):
             t.close()
+
+
+def test_exit_waits_for_a_session_still_closing(monkeypatch):
+    """A zenoh session whose close outlives the shutdown's one-second moment (a loaded machine)
+    is waited for at exit, so that the close does not end during the interpreter's finalisation
+    (where zenoh's thread returning to Python aborted the process, exit -6, after a correct
+    error message); after an abort of a connected link (its peer may be frozen) it is not."""
+    import threading
+
+    import mpsfem.coupler.transport.zenoh as zt
+
+    class SlowSession:
+        def __init__(self):
+            self.done = threading.Event()
+
+        def close(self):
+            time.sleep(1.5)
+            self.done.set()
+
+    monkeypatch.setattr(zt, "_PENDING_CLOSES", [])
+    sessions = []
+    for connected, aborting in ((False, False), (True, False), (True, True)):
+        t = zt.ZenohTransport.__new__(zt.ZenohTransport)
+        t.session, t.connected, t._aborting = SlowSession(), connected, aborting
+        sessions.append(t.session)
+        t._shutdown()
+        assert t.session is None and not sessions[-1].done.is_set()
+    assert len(zt._PENDING_CLOSES) == 2  # not the aborted connected link's
+    zt._finish_closes()
+    assert sessions[0].done.is_set() and sessions[1].done.is_set()

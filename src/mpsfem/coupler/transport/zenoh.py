@@ -40,6 +40,7 @@ which starts both.
 
 from __future__ import annotations
 
+import atexit
 import ipaddress
 import json
 import os
@@ -67,6 +68,25 @@ LINK_USER = "mpsfem"
 #: that end independently of the data, and the peer's last frames (its "stop", "finalize" answer
 #: or goodbye) came up to 0.1 ms after it in 8 of 40 closes (loopback, zenoh 1.10.2, 2026-11-26)
 END_GRACE_S = 1.0
+#: seconds the process's exit waits, in all, for zenoh sessions still closing (:func:`_finish_closes`)
+EXIT_CLOSE_WAIT_S = 10.0
+#: close threads that outlived their moment in :meth:`ZenohTransport._shutdown` and that the exit
+#: waits for
+_PENDING_CLOSES: list[threading.Thread] = []
+
+
+def _finish_closes() -> None:
+    """At exit, before the interpreter finalises, wait (at most EXIT_CLOSE_WAIT_S in all) for
+    the zenoh sessions still closing. A close that ended during finalisation returned from
+    zenoh's native thread into a Python that no longer runs threads, and the process aborted
+    ("FATAL: exception not rethrown", exit -6) after its error message, seen under a loaded
+    machine where the close took over a second."""
+    deadline = time.monotonic() + EXIT_CLOSE_WAIT_S
+    for th in _PENDING_CLOSES:
+        th.join(timeout=max(0.0, deadline - time.monotonic()))
+
+
+atexit.register(_finish_closes)
 ENDPOINT_RE = re.compile(r"^tcp/(\[[0-9a-fA-F:]+\]|[A-Za-z0-9.\-]+):([0-9]{1,5})$")
 
 
@@ -127,6 +147,7 @@ class ZenohTransport(Transport):
         #: where set, says why the peer can no longer come (e.g. the structure process this
         #: run started has exited), checked while waiting for it
         self.watch: Callable[[], str | None] | None = None
+        self._aborting = False  # abort() with a connected peer: the exit does not wait the close
 
     @classmethod
     def from_config(cls, role, config) -> ZenohTransport:
@@ -346,10 +367,19 @@ class ZenohTransport(Transport):
                 pass
 
         # a graceful close flushes towards the peer and can block ~10 s when the peer is frozen:
-        # give it a moment, then leave it to the process exit
+        # give it a moment, then leave it to the process exit, which waits for it (bounded)
+        # unless this is an abort with a peer that may be frozen
         th = threading.Thread(target=close, name="mpsfem-zenoh-close", daemon=True)
         th.start()
         th.join(timeout=1.0)
+        if th.is_alive() and not (self.connected and self._aborting):
+            _PENDING_CLOSES.append(th)
+
+    def abort(self) -> None:
+        """As :meth:`Transport.abort`; the process's exit does not wait for this session's
+        close when it was connected (its peer may be frozen)."""
+        self._aborting = True
+        super().abort()
 
 
 def _tag_of(payload: bytes) -> str | None:
