@@ -94,8 +94,10 @@ IMVJ_RUNS = (
 #: "_ft01" (the force tolerance 1e-2, the schema's default) and "_cfl06" / "_cfl05"
 #: (fluid.sph.cfl = 0.6 / 0.5 instead of RK4's 0.8: five / six fluid steps a window instead of
 #: four, other realisations of the same physics; the floors and steps are PREFIX_TAGS) and
-#: "_ga0" (the structure's generalised-alpha with rho_inf = 0 in place of the safeguards' HHT:
-#: against the period-two mode that stops the runs at A/H = 0.4 and 0.5), in this order
+#: "_ga0" / "_fend" / "_w05" (the structure's generalised-alpha with rho_inf = 0 in place of the
+#: safeguards' HHT / the fluid's force at the window's end instead of its window mean / a window
+#: and structure step of 0.5 ms: against the period-two mode that stops the runs at A/H = 0.4
+#: and 0.5), in this order
 AITKEN_RUNS = (
     "ait_corot_sg",
     "ait_corot_sg_floor20",
@@ -104,6 +106,8 @@ AITKEN_RUNS = (
     "ait_corot_sg_floor20_cfl06",
     "ait_corot_sg_floor20_cfl05",
     "ait_corot_sg_floor20_ga0",
+    "ait_corot_sg_floor20_fend",
+    "ait_corot_sg_floor20_w05",
 )
 RUNS = ("rigid", "rigid_x", "mf0.3", "mf1", "heavy", "rigid_xw", *IMVJ_RUNS, *AITKEN_RUNS)
 #: the default c0 of this case, 10 x 2 sqrt(g H) with H = 0.114 m (fluid.sph.sound_speed's
