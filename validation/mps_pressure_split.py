@@ -176,7 +176,8 @@ class StepRecorder:
 def corrected_divergence(pos, vel, index, nb, re: float, wcode: int) -> np.ndarray:
     """The first-order consistent divergence tr(C_i^-1 sum_j (u_j - u_i) (x) r_ij w_ij / r_ij^2),
     C_i = sum_j r_ij (x) r_ij w_ij / r_ij^2 (exact for a linear velocity field, 1/s) of
-    particles ``index`` over their FLUID neighbours within ``re`` (m)."""
+    particles ``index`` over their neighbours within ``re`` (m): every kind counts, so pass
+    particles whose neighbours there are all fluid (the interior of :meth:`_divergences`)."""
     counts = nb.indptr[index + 1] - nb.indptr[index]
     owner = np.repeat(np.arange(index.size), counts)
     cols = np.concatenate([nb.indices[nb.indptr[i] : nb.indptr[i + 1]] for i in index])
