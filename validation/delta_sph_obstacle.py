@@ -167,6 +167,9 @@ CASES = {
     # and the gradient are on 2.1 l0): the projection's overshoot on particle-scale modes
     "mps20_stiff_rp3.1": stiff20("fluid.kernel.re_pressure=3.1"),
     "mps20_stiff_rp2.1": stiff20("fluid.kernel.re_pressure=2.1"),
+    # the source term's divergence averaged over the kernel (source_filter.py): the projection
+    # is no longer asked for particle-scale divergence (2026-11-28, twenty-second session)
+    "mps20_stiff_sfilt": stiff20('fluid.pressure.source_filter="kernel_average"'),
     "mps20_suction": ("mps", 20, 0.3, SUCTION),
     "mps40_suction": ("mps", 40, 0.3, SUCTION),
     "dsph20_h2": ("delta-sph", 20, 0.3, WIDE),

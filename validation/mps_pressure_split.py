@@ -108,7 +108,8 @@ class StepRecorder:
         unknown = np.nonzero(ps.unknown[:n] == 1)[0]
         rows = ps.row_of[unknown]
         parts = np.zeros((3, m))
-        parts[0, rows] = -(1.0 - ps.gamma) * ps.rho / dt * ps.div[unknown]  # eq. 2-23, div
+        div = ps.div if ps.source_filter == "none" else ps.div_filtered  # the source's
+        parts[0, rows] = -(1.0 - ps.gamma) * ps.rho / dt * div[unknown]  # eq. 2-23, div
         parts[1, rows] = (
             ps.gamma
             * ps.rho

@@ -38,6 +38,7 @@ from .pressure_assembly import (
     mixed_source_term,
     subtract_compressibility_source,
 )
+from .source_filter import SOURCE_FILTERS, kernel_average_divergence
 from .source_terms import (
     SOURCE_TERMS,
     add_error_compensation,
@@ -124,6 +125,9 @@ class PressureSolver:
     source_term : "thesis_mixed" (eq. 2-23 with the divergence of eq. 2-15) or "higher_order"
         (Khayyer & Gotoh 2009's HS replaces the divergence; source_terms.py).
     error_compensation : add Khayyer & Gotoh 2011's error-compensating source (source_terms.py).
+    source_filter : "none" or "kernel_average" (the divergence of eq. 2-15 averaged over each
+        fluid particle's kernel before it enters eq. 2-23; source_filter.py). Only with
+        ``source_term="thesis_mixed"``.
     laplacian : "standard" (eq. 2-16) or "higher_order" (Khayyer & Gotoh 2010 / 2012's HL, in the
         matrix and its known neighbours; higher_order_laplacian.py).
     gravity : (dim,) m/s^2, needed by the Neumann wall model's ghosts in HS, ECS and HL.
@@ -152,6 +156,7 @@ class PressureSolver:
         error_compensation=False,
         laplacian="standard",
         gravity=None,
+        source_filter="none",
         **_ignored,
     ):
         if wall_model not in WALL_MODELS:
@@ -188,6 +193,16 @@ class PressureSolver:
                 f"unknown source term {source_term!r}; allowed: {', '.join(SOURCE_TERMS)}"
             )
         self.source_term = source_term
+        if source_filter not in SOURCE_FILTERS:
+            raise ValueError(
+                f"unknown source filter {source_filter!r}; allowed: {', '.join(SOURCE_FILTERS)}"
+            )
+        if source_filter != "none" and source_term != "thesis_mixed":
+            raise ValueError(
+                f"source_filter = {source_filter!r} filters the divergence of eq. 2-15; it is "
+                f"allowed only with source_term = 'thesis_mixed', got {source_term!r}"
+            )
+        self.source_filter = source_filter
         self.error_compensation = bool(error_compensation)
         self.laplacian = laplacian
         self.lap_code = laplacian_code(laplacian)
@@ -230,6 +245,8 @@ class PressureSolver:
             self.row_of = np.empty(n, np.int64)
             self.unknown = np.empty(n, np.int8)
             self.div = np.empty(n)
+            if self.source_filter != "none":
+                self.div_filtered = np.empty(n)
             self.src = np.empty(n)
             self.x = np.empty(n)
             self.mark = np.empty(n, np.int8)
@@ -392,8 +409,20 @@ class PressureSolver:
                 self.div,
                 neumann,
             )
+            div = self.div
+            if self.source_filter == "kernel_average":
+                div = kernel_average_divergence(
+                    self.div,
+                    pos,
+                    kind,
+                    free_surface,
+                    near.indptr,
+                    near.indices,
+                    self.re_density,
+                    self.div_filtered,
+                )
             mixed_source_term(
-                self.div, number_density, kind, self.rho, dt, self.gamma, self.n0_density, self.src
+                div, number_density, kind, self.rho, dt, self.gamma, self.n0_density, self.src
             )
         if self.error_compensation:
             # the step's start is up to a step's displacement away: the PPE's longer list

@@ -239,6 +239,7 @@ class FluidSolver:
             error_compensation=spec.pressure.error_compensation,
             laplacian=spec.pressure.laplacian,
             gravity=self.gravity,
+            source_filter=spec.pressure.source_filter,
         )
         self.neumann = spec.pressure.wall_model == "neumann"
         # the structure particles' lowest pressure, Pa (fluid.pressure.structure_suction)

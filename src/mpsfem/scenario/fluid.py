@@ -144,6 +144,14 @@ class PressureSection(Section):
         "number density's error and its rate at the start of the step, each with its dynamic "
         "coefficient |error| (docs/fluid.md)",
     )
+    source_filter: Literal["none", "kernel_average"] = Field(
+        "none",
+        description="'kernel_average': the velocity divergence of eq. 2-15 enters the source "
+        "term as its Wendland-weighted average over each fluid particle and its non-surface "
+        "fluid neighbours within the density radius, so that the source does not ask the "
+        "projection for particle-scale divergence its gradient cannot remove; 'none': as is "
+        "(docs/fluid.md). Only with source_term = 'thesis_mixed'",
+    )
     laplacian: Literal["standard", "higher_order"] = Field(
         "standard",
         description="Laplacian of the pressure equation: 'standard', eq. 2-16; 'higher_order', "
@@ -820,6 +828,13 @@ class FluidSection(Section):
                 f"'standard' (given {pr.wall_model!r}, {pr.source_term!r}, {pr.laplacian!r}): the "
                 "other models' wall terms do not carry the walls' acceleration",
                 True,
+            )
+        if pr.source_filter != "none" and pr.source_term != "thesis_mixed":
+            raise InvalidValue(
+                "pressure.source_filter",
+                f"filters the divergence of eq. 2-15 and needs source_term = 'thesis_mixed' "
+                f"(given {pr.source_term!r}, whose higher-order source has no such divergence)",
+                pr.source_filter,
             )
         if pr.compressed_start and (pr.compressibility == 0.0 or not self.hydrostatic_start):
             raise InvalidValue(
