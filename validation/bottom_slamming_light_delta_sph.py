@@ -97,7 +97,9 @@ IMVJ_RUNS = (
 #: "_ga0" / "_fend" / "_w05" (the structure's generalised-alpha with rho_inf = 0 in place of the
 #: safeguards' HHT / the fluid's force at the window's end instead of its window mean / a window
 #: and structure step of 0.5 ms: against the period-two mode that stops the runs at A/H = 0.4
-#: and 0.5), in this order
+#: and 0.5), in this order; "_c075" / "_c2" (0.75 / 2 times the default sound speed: does the
+#: coupled oscillation of 0.5-0.65 kHz that the elastic runs carry, and the rigid plate does
+#: not, move with the fluid's sound speed?)
 AITKEN_RUNS = (
     "ait_corot_sg",
     "ait_corot_sg_floor20",
@@ -108,6 +110,8 @@ AITKEN_RUNS = (
     "ait_corot_sg_floor20_ga0",
     "ait_corot_sg_floor20_fend",
     "ait_corot_sg_floor20_w05",
+    "ait_corot_sg_floor20_c075",
+    "ait_corot_sg_floor20_w05_c2",
 )
 RUNS = ("rigid", "rigid_x", "mf0.3", "mf1", "heavy", "rigid_xw", *IMVJ_RUNS, *AITKEN_RUNS)
 #: the default c0 of this case, 10 x 2 sqrt(g H) with H = 0.114 m (fluid.sph.sound_speed's
