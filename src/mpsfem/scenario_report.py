@@ -74,20 +74,10 @@ def _flow_speed(scenario: Scenario) -> float:
 
 
 def sound_speed(scenario: Scenario) -> float:
-    """δ-SPH's artificial sound speed c0, m/s, as the solver sets it (fluid_sph/solver.py
-    ``_sound_speed``): fluid.sph.sound_speed, else 10 max(U, U_block, sqrt(g H)) (seed eq. 1),
-    H the tallest block, U fluid.sph.reference_speed (default 2 sqrt(g H)); 0 where the solver
-    would refuse the scenario (no gravity, no speeds)."""
-    f = scenario.fluid
-    sph = f.sph
-    if sph.sound_speed is not None:
-        return float(sph.sound_speed)
-    g = float(np.linalg.norm(f.gravity))
-    up = f.vertical_axis
-    height = max(b.upper[up] - b.lower[up] for b in f.blocks)
-    u_block = max((float(np.linalg.norm(b.velocity)) for b in f.blocks if b.velocity), default=0.0)
-    u_ref = sph.reference_speed if sph.reference_speed is not None else 2.0 * math.sqrt(g * height)
-    return 10.0 * max(u_ref, u_block, math.sqrt(g * height))  # seed eq. 1
+    """δ-SPH's artificial sound speed c0, m/s, as the solver sets it
+    (:meth:`FluidSection.sph_sound_speed`); 0 where the solver would refuse the scenario (no
+    gravity, no speeds)."""
+    return scenario.fluid.sph_sound_speed()
 
 
 def _delta_sph_time_estimate(scenario: Scenario, n_all: int) -> tuple[int, float, str]:

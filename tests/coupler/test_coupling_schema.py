@@ -199,3 +199,22 @@ def test_a_light_member_under_delta_sph_is_pointed_to_the_safeguards():
     _load_quietly(OBSTACLE_SPH, [LIGHT, "coupling.convergence.accept_unconverged=best"])
     # 1e-3 is where δ-SPH's defaults still converged: no warning there
     _load_quietly(OBSTACLE_SPH, ["structure.members.0.material.density=25.0"])  # 1.03e-3
+
+
+def test_a_light_member_under_delta_sph_in_long_windows_is_advised_on_the_window():
+    """docs/fluid_sph.md, "The coupling window against c0 / l0": with the safeguards on, the
+    obstacle at 1e-4 under δ-SPH (c0 = 33.8 m/s, l0 = 3.65 mm) in its 0.25 ms windows (2.3 l0 /
+    c0) draws no warning; in 0.5 ms windows (4.6 l0 / c0) it is told the window and the bound
+    3 l0 / c0 = 0.323 ms; a member at 1.03e-3 in the same windows is not."""
+    from mpsfem.scenario.loader import load_scenario
+
+    safe = [LIGHT, "coupling.convergence.accept_unconverged=best"]
+    sc = _load_quietly(OBSTACLE_SPH, safe)
+    assert sc.fluid.sph_sound_speed() == pytest.approx(33.8, abs=0.05)
+    with pytest.warns(
+        AddedMassWarning, match=r"'obstacle'.*window = 0\.0005 s = 4\.6 l0 / c0.*<= 0\.000323 s"
+    ):
+        load_scenario(OBSTACLE_SPH, [*safe, "coupling.window=5e-4"])
+    _load_quietly(
+        OBSTACLE_SPH, ["structure.members.0.material.density=25.0", "coupling.window=5e-4"]
+    )

@@ -306,21 +306,10 @@ class DeltaSPHSolver:
     # ------------------------------------------------------------------ set-up helpers
     def _sound_speed(self) -> float:
         """c0 (m/s): fluid.sph.sound_speed, or 10 max(U, sqrt(g H)) (seed eq. 1) with H the
-        tallest block and U fluid.sph.reference_speed (default 2 sqrt(g H), Ritter's front)."""
-        sph = self.sph
-        if sph.sound_speed is not None:
-            return float(sph.sound_speed)
-        g = float(np.linalg.norm(self.gravity))
-        up = self.spec.vertical_axis
-        height = max(b.upper[up] - b.lower[up] for b in self.spec.blocks)
-        u_block = max(
-            (float(np.linalg.norm(b.velocity)) for b in self.spec.blocks if b.velocity),
-            default=0.0,
-        )
-        u_ref = (
-            sph.reference_speed if sph.reference_speed is not None else 2.0 * math.sqrt(g * height)
-        )
-        c0 = 10.0 * max(u_ref, u_block, math.sqrt(g * height))  # seed eq. 1: c0 >= 10 max(U, ...)
+        tallest block and U fluid.sph.reference_speed (default 2 sqrt(g H), Ritter's front);
+        :meth:`FluidSection.sph_sound_speed`, which ``mpsfem validate`` and the scenario's
+        light-member advice read too."""
+        c0 = self.spec.sph_sound_speed()
         if not c0 > 0.0:
             raise ValueError(
                 "fluid.sph.sound_speed: without gravity and a reference speed the default c0 = "

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from typing import Annotated, Literal
 
+import numpy as np
 from pydantic import Field, field_validator, model_validator
 
 from mpsfem.fluid_methods import FLUID_METHODS, METHOD_TABLES
@@ -760,6 +761,25 @@ class FluidSection(Section):
         or column height."""
         up = self.vertical_axis
         return max(b.upper[up] for b in self.blocks) - min(b.lower[up] for b in self.blocks)
+
+    def sph_sound_speed(self) -> float:
+        """δ-SPH's artificial sound speed c0, m/s, as its solver sets it: fluid.sph.sound_speed,
+        else 10 max(U, U_block, sqrt(g H)) (seed eq. 1) with H the tallest block, U_block the
+        blocks' fastest initial speed and U fluid.sph.reference_speed (default 2 sqrt(g H),
+        Ritter's dam-break front); 0 without gravity and speeds (the solver refuses that)."""
+        sph = self.sph if self.sph is not None else DeltaSPHSection()
+        if sph.sound_speed is not None:
+            return float(sph.sound_speed)
+        g = float(np.linalg.norm(np.asarray(self.gravity, dtype=np.float64)))
+        up = self.vertical_axis
+        height = max(b.upper[up] - b.lower[up] for b in self.blocks)
+        u_block = max(
+            (float(np.linalg.norm(b.velocity)) for b in self.blocks if b.velocity), default=0.0
+        )
+        u_ref = (
+            sph.reference_speed if sph.reference_speed is not None else 2.0 * math.sqrt(g * height)
+        )
+        return 10.0 * max(u_ref, u_block, math.sqrt(g * height))  # seed eq. 1
 
     def domain_box(self, extra: list[list[float]] = ()) -> tuple[list[float], list[float]]:
         """The domain (lower, upper corner, m) a fluid particle may not leave: ``domain_lower`` /

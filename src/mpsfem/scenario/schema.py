@@ -31,6 +31,12 @@ class AddedMassWarning(UserWarning):
 #: below it only with a fictitious mass (the obstacle to 1e-3 with the collision ramp as well);
 #: under δ-SPH both converged down to 1e-3, and at 1e-4 the obstacle needed the safeguards
 LIGHT_MEMBER_RATIO = {"mps": 1e-2, "delta-sph": 1e-3}
+#: under δ-SPH, the coupling window times c0 / l0 above which a member lighter than
+#: LIGHT_MEMBER_RATIO is advised: the light bottom-slamming plate (mass ratio 2e-4) carries a
+#: load oscillation at 0.81 c0 / l0 that a window of 3.7 l0 / c0 put at its Nyquist frequency
+#: (the runs stopped at A/H = 0.4 and 0.5), while 1.9 and 2.8 l0 / c0 reached their ends
+#: (docs/validation_bottom_slamming_light.md, "The window against the fluid's sound speed")
+SPH_WINDOW_SOUND_LIMIT = 3.0
 
 #: a displacement probe may lie at most this fraction of its member's extent (a beam's length, a
 #: plate's longest vertex-to-vertex distance) from the member's mid-line / mid-surface
@@ -133,6 +139,37 @@ class Scenario(Section):
                 stacklevel=2,
             )
 
+    def _delta_sph_window_advice(self) -> None:
+        """Warn (:class:`AddedMassWarning`) where a δ-SPH scenario couples a member lighter than
+        LIGHT_MEMBER_RATIO implicitly in windows longer than SPH_WINDOW_SOUND_LIMIT l0 / c0."""
+        if self.coupling is None or self.coupling.scheme != "implicit":
+            return
+        fluid = self.fluid
+        if fluid.method != "delta-sph":
+            return
+        limit = LIGHT_MEMBER_RATIO["delta-sph"]
+        light = [name for name, r in self.mass_ratios().items() if r < limit * (1.0 - 1e-9)]
+        c0 = fluid.sph_sound_speed()
+        if not light or not c0 > 0.0:
+            return
+        window = self.coupling.window or self.structure.time.dt
+        number = window * c0 / fluid.spacing
+        if number <= SPH_WINDOW_SOUND_LIMIT:
+            return
+        names = ", ".join(repr(n) for n in light)
+        bound = SPH_WINDOW_SOUND_LIMIT * fluid.spacing / c0
+        warnings.warn(
+            f"structure member(s) {names}: mass ratio below {limit:g} under δ-SPH with "
+            f"coupling.window = {window:g} s = {number:.2g} l0 / c0 (c0 = {c0:.3g} m/s, l0 = "
+            f"{fluid.spacing:g} m): such a member's load oscillates at about 0.81 c0 / l0, "
+            "which a window of 3.7 l0 / c0 put at its Nyquist frequency on the light "
+            "bottom-slamming plate (the runs stopped); windows of 1.9-2.8 l0 / c0 reached their "
+            f"ends. Consider coupling.window <= {bound:.3g} s ({SPH_WINDOW_SOUND_LIMIT:g} l0 / "
+            "c0). See docs/fluid_sph.md, 'The coupling window against c0 / l0'",
+            AddedMassWarning,
+            stacklevel=2,
+        )
+
     @model_validator(mode="after")
     def _check(self) -> Scenario:
         check_limits(self)  # first: coordinates and sizes the other checks compute with
@@ -172,6 +209,7 @@ class Scenario(Section):
             self._large_rotation_link()
             if self.fluid is not None:
                 self._light_member_advice()
+                self._delta_sph_window_advice()
         if self.fluid is not None:
             walls = {w.name for w in self.fluid.walls if w.name}
             if self.structure is not None:
