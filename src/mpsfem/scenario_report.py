@@ -73,20 +73,13 @@ def _flow_speed(scenario: Scenario) -> float:
     return speed
 
 
-def sound_speed(scenario: Scenario) -> float:
-    """δ-SPH's artificial sound speed c0, m/s, as the solver sets it
-    (:meth:`FluidSection.sph_sound_speed`); 0 where the solver would refuse the scenario (no
-    gravity, no speeds)."""
-    return scenario.fluid.sph_sound_speed()
-
-
 def _delta_sph_time_estimate(scenario: Scenario, n_all: int) -> tuple[int, float, str]:
     """(steps, seconds on one thread, how dt was estimated) of a δ-SPH run: the limits of the
     solver's ``stable_dt`` with u the free-fall speed and a = |g|."""
     f = scenario.fluid
     sph = f.sph
     h = sph.smoothing_ratio * f.spacing
-    c0 = sound_speed(scenario)
+    c0 = f.sph_sound_speed()  # as the solver sets it
     speed = _flow_speed(scenario)
     cfl = sph.cfl if sph.cfl is not None else DEFAULT_CFL[sph.integrator]
     dt = f.time_step.dt_max

@@ -18,7 +18,6 @@ from mpsfem.scenario_report import (
     COST_PER_PARTICLE_RHS,
     _delta_sph_time_estimate,
     report,
-    sound_speed,
 )
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -52,7 +51,7 @@ def test_report_names_delta_sph_and_counts_its_particles(capsys):
 def test_default_sound_speed_is_the_solvers():
     for sets in ([], ["fluid.sph.reference_speed=7.5"], ["fluid.blocks.0.upper=[0.146, 0.35]"]):
         sc = load_scenario(DAM, sets).scenario
-        assert sound_speed(sc) == DeltaSPHSolver(sc.fluid).c0
+        assert sc.fluid.sph_sound_speed() == DeltaSPHSolver(sc.fluid).c0
 
 
 @pytest.mark.parametrize("c0", [40.0, 80.0, 160.0])
