@@ -108,8 +108,7 @@ class StepRecorder:
         unknown = np.nonzero(ps.unknown[:n] == 1)[0]
         rows = ps.row_of[unknown]
         parts = np.zeros((3, m))
-        div = ps.div if ps.source_filter == "none" else ps.div_filtered  # the source's
-        parts[0, rows] = -(1.0 - ps.gamma) * ps.rho / dt * div[unknown]  # eq. 2-23, div
+        parts[0, rows] = -(1.0 - ps.gamma) * ps.rho / dt * ps.source_div[unknown]  # eq. 2-23
         parts[1, rows] = (
             ps.gamma
             * ps.rho

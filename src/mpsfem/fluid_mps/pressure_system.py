@@ -421,6 +421,7 @@ class PressureSolver:
                     self.re_density,
                     self.div_filtered,
                 )
+            self.source_div = div  # the divergence eq. 2-23 used (1/s; diagnostics read it)
             mixed_source_term(
                 div, number_density, kind, self.rho, dt, self.gamma, self.n0_density, self.src
             )
